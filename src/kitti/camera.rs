@@ -1,0 +1,24 @@
+//! READ: camera images (`image_0X/data/<frame10>.png`, 8-bit; cameras 2 and 3 are colour).
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+
+/// An 8-bit RGB image (grey images are expanded).
+pub type RgbImage = image::RgbImage;
+
+/// Reads and decodes a camera PNG.
+pub fn read_image(path: &Path) -> Result<RgbImage> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode_image(&bytes, path)
+}
+
+/// Decodes PNG bytes; `path` names the file in errors.
+pub fn decode_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
+    let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
+        .map_err(|source| Error::Image { path: path.into(), source })?;
+    Ok(match img {
+        image::DynamicImage::ImageRgb8(rgb) => rgb,
+        other => other.to_rgb8(),
+    })
+}

@@ -1,0 +1,129 @@
+//! READ: velodyne scans (`velodyne_points/data/<frame10>.bin`).
+//!
+//! A scan is a flat array of little-endian float32 quadruples x, y, z, reflectance in the
+//! velodyne frame (x forward, y left, z up, metres; reflectance in [0, 1]). The order of the
+//! points matters: they are stored laser by laser, which is how [`crate::project`] recovers the
+//! rows. Non-finite points are dropped here and counted; their original indices are kept so that
+//! per-point outputs (`.label` files) still line up with the `.bin`.
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::geom::Point3;
+
+/// Bytes of one point in a `.bin`.
+pub const POINT_BYTES: usize = 16;
+
+/// One velodyne scan with its non-finite points removed.
+#[derive(Debug, Clone, Default)]
+pub struct Scan {
+    /// Finite points in file order, velodyne frame, metres.
+    pub points: Vec<Point3>,
+    /// Reflectance of each point of `points`, as stored (0..1).
+    pub reflectance: Vec<f32>,
+    /// Number of points in the file, finite or not.
+    pub file_len: usize,
+    /// File indices of the dropped (non-finite) points, ascending.
+    pub dropped: Vec<u32>,
+}
+
+impl Scan {
+    /// Decodes a scan from the bytes of a `.bin`; `path` only names the file in errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Scan> {
+        if bytes.is_empty() {
+            return Err(Error::format(path, "empty velodyne scan (0 bytes)"));
+        }
+        if bytes.len() % POINT_BYTES != 0 {
+            return Err(Error::format(
+                path,
+                format!(
+                    "{} bytes, not a multiple of {POINT_BYTES} (truncated scan? {} whole points and {} stray bytes)",
+                    bytes.len(),
+                    bytes.len() / POINT_BYTES,
+                    bytes.len() % POINT_BYTES
+                ),
+            ));
+        }
+        let n = bytes.len() / POINT_BYTES;
+        let mut points = Vec::with_capacity(n);
+        let mut reflectance = Vec::with_capacity(n);
+        let mut dropped = Vec::new();
+        for (i, chunk) in bytes.chunks_exact(POINT_BYTES).enumerate() {
+            let f = |k: usize| f32::from_le_bytes([chunk[k], chunk[k + 1], chunk[k + 2], chunk[k + 3]]);
+            let (x, y, z, r) = (f(0), f(4), f(8), f(12));
+            if x.is_finite() && y.is_finite() && z.is_finite() && r.is_finite() {
+                points.push(Point3::new(x, y, z));
+                reflectance.push(r);
+            } else {
+                dropped.push(i as u32);
+            }
+        }
+        Ok(Scan { points, reflectance, file_len: n, dropped })
+    }
+
+    /// Reads and decodes a `.bin` file.
+    pub fn read(path: &Path) -> Result<Scan> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Scan::from_bytes(&bytes, path)
+    }
+
+    /// Number of finite points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when the scan holds no finite point.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Spreads a per-point value over the file's order, putting `fill` at dropped points.
+    pub fn to_file_order<T: Copy>(&self, values: &[T], fill: T) -> Vec<T> {
+        debug_assert_eq!(values.len(), self.points.len());
+        if self.dropped.is_empty() {
+            return values.to_vec();
+        }
+        let mut out = Vec::with_capacity(self.file_len);
+        let mut kept = values.iter();
+        let mut dropped = self.dropped.iter().peekable();
+        for i in 0..self.file_len as u32 {
+            if dropped.peek() == Some(&&i) {
+                dropped.next();
+                out.push(fill);
+            } else {
+                out.push(*kept.next().expect("kept + dropped = file_len"));
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bytes(points: &[[f32; 4]]) -> Vec<u8> {
+        points.iter().flatten().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    #[test]
+    fn decodes_and_drops_non_finite() {
+        let b = bytes(&[[1.0, 2.0, 3.0, 0.5], [f32::NAN, 0.0, 0.0, 0.0], [4.0, 5.0, 6.0, 0.25]]);
+        let s = Scan::from_bytes(&b, Path::new("x.bin")).unwrap();
+        assert_eq!(s.len(), 2);
+        assert_eq!(s.file_len, 3);
+        assert_eq!(s.dropped, vec![1]);
+        assert_eq!(s.points[1], Point3::new(4.0, 5.0, 6.0));
+        assert_eq!(s.to_file_order(&[7u32, 8], 0), vec![7, 0, 8]);
+    }
+
+    #[test]
+    fn rejects_truncated_and_empty() {
+        let mut b = bytes(&[[1.0, 2.0, 3.0, 0.5]]);
+        b.pop();
+        let e = Scan::from_bytes(&b, Path::new("000042.bin")).unwrap_err().to_string();
+        assert!(e.contains("000042.bin") && e.contains("15 bytes"), "{e}");
+        let e = Scan::from_bytes(&[], Path::new("e.bin")).unwrap_err().to_string();
+        assert!(e.contains("empty"), "{e}");
+    }
+}

@@ -1,0 +1,489 @@
+//! The conversion pipeline: frame -> read -> label -> project -> write, parallel over frames.
+//!
+//! [`Plan::build`] finds the drives, reads each day's calibration and each drive's tracklets
+//! once, and lists the frames to convert. [`convert`] runs them on a rayon pool; each frame's
+//! outcome goes to a callback (the CLI's progress bar) and into a [`ConvertSummary`] that holds
+//! totals only, so memory does not grow with the number of frames. A bad frame, or a drive whose
+//! calibration or tracklets are broken, is reported and the rest of the batch goes on. Every
+//! output is written atomically and depends only on its own frame, so the files are
+//! byte-identical whatever the thread count.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::kitti::calib::Calibration;
+use crate::kitti::camera::read_image;
+use crate::kitti::timestamps::{self, Timestamp};
+use crate::kitti::tracklets::Tracklets;
+use crate::kitti::velodyne::Scan;
+use crate::kitti::{discover, Drive, FrameId};
+use crate::label::{Class, LabelBox, Labeller, PointLabels};
+use crate::project::camera::{CameraProjector, Sampling};
+use crate::project::frame::{assemble, PgmFrame};
+use crate::project::{project, PgmSpec, Projection};
+use crate::write::{atomic_write, create_dir, label_file_bytes, npy};
+
+/// Which frames of a drive are converted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+pub enum FrameSelection {
+    /// SqueezeSeg's selection: frames with a scan and at least one tracklet pose (any type).
+    #[default]
+    Annotated,
+    /// Every frame with a scan.
+    All,
+}
+
+/// Colour channels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RgbOptions {
+    /// Camera 2 (left colour, default) or 3 (right colour).
+    pub camera: u8,
+    /// Sampling rule.
+    pub sampling: Sampling,
+}
+
+/// What to convert and where to.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConvertOptions {
+    /// Output folder.
+    pub out_dir: PathBuf,
+    /// Map shape and row rule.
+    pub spec: PgmSpec,
+    /// Colour channels, when wanted.
+    pub rgb: Option<RgbOptions>,
+    /// Frame selection.
+    pub selection: FrameSelection,
+    /// Write `lidar_2d/<id>.npy`.
+    pub write_npy: bool,
+    /// Write `labels/<drive>/<frame>.label`.
+    pub write_labels: bool,
+    /// Worker threads; 0 = one per core, 1 = sequential.
+    pub threads: usize,
+}
+
+impl ConvertOptions {
+    /// Defaults: 64x512 front map, no colour, SqueezeSeg's frames, both outputs.
+    pub fn new(out_dir: impl Into<PathBuf>) -> Self {
+        ConvertOptions {
+            out_dir: out_dir.into(),
+            spec: PgmSpec::default(),
+            rgb: None,
+            selection: FrameSelection::Annotated,
+            write_npy: true,
+            write_labels: true,
+            threads: 0,
+        }
+    }
+
+    /// Checks the options.
+    pub fn validate(&self) -> Result<()> {
+        self.spec.validate()?;
+        if let Some(rgb) = &self.rgb {
+            if !(rgb.camera == 2 || rgb.camera == 3) {
+                return Err(Error::Config(format!("camera {} has no colour; use 2 or 3", rgb.camera)));
+            }
+        }
+        Ok(())
+    }
+
+    /// Path of a frame's `.npy`.
+    pub fn npy_path(&self, id: &FrameId) -> PathBuf {
+        self.out_dir.join("lidar_2d").join(format!("{id}.npy"))
+    }
+
+    /// Path of a frame's `.label`.
+    pub fn label_path(&self, drive: &Drive, frame: u32) -> PathBuf {
+        self.out_dir.join("labels").join(drive.name()).join(format!("{frame:010}.label"))
+    }
+}
+
+/// One drive, read and ready.
+#[derive(Debug, Clone)]
+pub struct DrivePlan {
+    /// The drive.
+    pub drive: Drive,
+    /// Its day's calibration.
+    pub calib: Arc<Calibration>,
+    /// Its tracklets (empty without a `tracklet_labels.xml`).
+    pub tracklets: Arc<Tracklets>,
+    /// Velodyne timestamps, when the file exists.
+    pub timestamps: Option<Arc<Vec<Option<Timestamp>>>>,
+}
+
+impl DrivePlan {
+    /// Reads a drive's tracklets and timestamps; `calib` is its day's calibration.
+    pub fn load(drive: Drive, calib: Arc<Calibration>) -> Result<DrivePlan> {
+        let tpath = drive.tracklets_path();
+        let tracklets = if tpath.exists() { Tracklets::read(&tpath)? } else { Tracklets::default() };
+        let ts_path = drive.scan_timestamps_path();
+        let timestamps = if ts_path.exists() { Some(Arc::new(timestamps::read(&ts_path)?)) } else { None };
+        if let Some(ts) = &timestamps {
+            let len = ts.len() as u32;
+            if let Some((i, t)) = tracklets.tracklets.iter().enumerate().find(|(_, t)| t.end_frame() > len) {
+                return Err(Error::format(
+                    &tpath,
+                    format!(
+                        "tracklet {i} ({}) has poses up to frame {}, past the drive's last frame {} ({} has {len} lines)",
+                        t.object_type.as_str(),
+                        t.end_frame() - 1,
+                        len.saturating_sub(1),
+                        ts_path.display()
+                    ),
+                ));
+            }
+        }
+        Ok(DrivePlan { drive, calib, tracklets: Arc::new(tracklets), timestamps })
+    }
+
+    /// The velodyne timestamp of a frame, when known.
+    pub fn timestamp(&self, frame: u32) -> Option<Timestamp> {
+        self.timestamps.as_ref().and_then(|t| t.get(frame as usize).copied().flatten())
+    }
+
+    /// The boxes present at a frame.
+    pub fn boxes(&self, frame: u32) -> Vec<LabelBox> {
+        self.tracklets.at(frame).map(|(i, t, p)| LabelBox::new(i, t, p)).collect()
+    }
+}
+
+/// A frame that could not be converted.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameFailure {
+    /// The frame id, or the drive name when the whole drive failed.
+    pub what: String,
+    /// Frames lost.
+    pub frames: u64,
+    /// The error, naming the file.
+    pub error: String,
+}
+
+/// The work: drives and frames.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// Drives that could be read.
+    pub drives: Vec<DrivePlan>,
+    /// (index into `drives`, frame) to convert, in frame-id order.
+    pub jobs: Vec<(usize, u32)>,
+    /// Frames not converted by the selection, by reason.
+    pub skipped: BTreeMap<String, u64>,
+    /// Drives that could not be read, with their frames.
+    pub failed: Vec<FrameFailure>,
+}
+
+impl Plan {
+    /// Finds the drives under `root` and lists the frames `selection` picks.
+    pub fn build(root: &Path, selection: FrameSelection) -> Result<Plan> {
+        let mut plan = Plan { drives: Vec::new(), jobs: Vec::new(), skipped: BTreeMap::new(), failed: Vec::new() };
+        let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> = BTreeMap::new();
+        for drive in discover(root)? {
+            let frames = match drive.scan_frames() {
+                Ok(f) => f,
+                Err(e) => {
+                    plan.failed.push(FrameFailure { what: drive.name(), frames: 0, error: e.to_string() });
+                    continue;
+                }
+            };
+            let date_dir = drive.date_dir();
+            let calib = calibs
+                .entry(date_dir.clone())
+                .or_insert_with(|| Calibration::read_dir(&date_dir).map(Arc::new).map_err(|e| e.to_string()))
+                .clone();
+            let loaded = calib.and_then(|c| DrivePlan::load(drive.clone(), c).map_err(|e| e.to_string()));
+            let dp = match loaded {
+                Ok(dp) => dp,
+                Err(error) => {
+                    plan.failed.push(FrameFailure { what: drive.name(), frames: frames.len() as u64, error });
+                    continue;
+                }
+            };
+            let index = plan.drives.len();
+            let has_file = dp.drive.tracklets_path().exists();
+            for &f in &frames {
+                let annotated = dp.tracklets.count_at(f) > 0;
+                if selection == FrameSelection::All || annotated {
+                    plan.jobs.push((index, f));
+                } else {
+                    let why = if has_file { "no tracklet pose at the frame" } else { "drive has no tracklet_labels.xml" };
+                    *plan.skipped.entry(why.into()).or_default() += 1;
+                }
+            }
+            let with_scan: std::collections::BTreeSet<u32> = frames.iter().copied().collect();
+            let missing = (0..dp.tracklets.end_frame())
+                .filter(|f| dp.tracklets.count_at(*f) > 0 && !with_scan.contains(f))
+                .count() as u64;
+            if missing > 0 {
+                *plan.skipped.entry("annotated frame without a velodyne scan".into()).or_default() += missing;
+            }
+            plan.drives.push(dp);
+        }
+        Ok(plan)
+    }
+
+    /// The frame ids the plan converts, in order.
+    pub fn frame_ids(&self) -> impl Iterator<Item = FrameId> + '_ {
+        self.jobs.iter().map(|&(d, f)| self.drives[d].drive.frame_id(f))
+    }
+}
+
+/// Per-class counts, indexed by class id.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct ClassCounts {
+    /// Background.
+    pub background: u64,
+    /// Car.
+    pub car: u64,
+    /// Pedestrian.
+    pub pedestrian: u64,
+    /// Cyclist.
+    pub cyclist: u64,
+}
+
+impl ClassCounts {
+    /// From an array indexed by class id.
+    pub fn from_array(a: [u64; Class::COUNT]) -> Self {
+        ClassCounts { background: a[0], car: a[1], pedestrian: a[2], cyclist: a[3] }
+    }
+
+    /// As an array indexed by class id.
+    pub fn to_array(self) -> [u64; Class::COUNT] {
+        [self.background, self.car, self.pedestrian, self.cyclist]
+    }
+
+    fn add(&mut self, o: &ClassCounts) {
+        let (a, b) = (self.to_array(), o.to_array());
+        *self = ClassCounts::from_array(std::array::from_fn(|k| a[k] + b[k]));
+    }
+}
+
+/// What converting one frame found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameReport {
+    /// The frame.
+    pub id: String,
+    /// Finite points in the scan.
+    pub points: u64,
+    /// Non-finite points dropped.
+    pub dropped_nonfinite: u64,
+    /// Boxes of a labelled class at the frame.
+    pub boxes: u64,
+    /// Points per class.
+    pub labelled_points: ClassCounts,
+    /// Valid cells per class.
+    pub labelled_cells: ClassCounts,
+    /// Points in the field of view.
+    pub in_fov: u64,
+    /// Cells holding a point.
+    pub filled_cells: u64,
+    /// Points that lost their cell to a nearer one.
+    pub collisions: u64,
+    /// Rings found in the scan order.
+    pub rings_found: u64,
+    /// Rows came from elevation binning.
+    pub fallback: bool,
+    /// Cells with a colour.
+    pub rgb_cells: u64,
+}
+
+/// The products of one frame, before writing.
+#[derive(Debug, Clone)]
+pub struct Converted {
+    /// The map.
+    pub pgm: PgmFrame,
+    /// Per-point labels in file order (class ids).
+    pub point_class: Vec<u8>,
+    /// Per-point instance ids in file order.
+    pub point_instance: Vec<u16>,
+    /// What was found.
+    pub report: FrameReport,
+}
+
+/// Labels and projects one scan (no file access but the image, already decoded, if any).
+pub fn process(
+    id: &FrameId,
+    scan: &Scan,
+    boxes: &[LabelBox],
+    spec: &PgmSpec,
+    camera: Option<(&CameraProjector, &image::RgbImage)>,
+) -> Converted {
+    let labeller = Labeller::new(boxes);
+    let labels: PointLabels = labeller.label(&scan.points);
+    let proj: Projection = project(&scan.points, spec);
+    let colour_fn = camera.map(|(cam, img)| move |i: usize| cam.colour(img, &scan.points[i]));
+    let pgm = assemble(scan, &labels, &proj, colour_fn.as_ref().map(|f| f as &dyn Fn(usize) -> Option<[f32; 3]>));
+    let class_ids: Vec<u8> = labels.class.iter().map(|c| c.id()).collect();
+    let report = FrameReport {
+        id: id.to_string(),
+        points: scan.len() as u64,
+        dropped_nonfinite: scan.dropped.len() as u64,
+        boxes: labeller.len() as u64,
+        labelled_points: ClassCounts::from_array(labels.class_counts()),
+        labelled_cells: ClassCounts::from_array(pgm.class_cells()),
+        in_fov: proj.in_fov,
+        filled_cells: proj.filled,
+        collisions: proj.collisions,
+        rings_found: proj.rings_found as u64,
+        fallback: proj.fallback,
+        rgb_cells: pgm.rgb_valid.as_ref().map_or(0, |v| v.iter().map(|&b| b as u64).sum()),
+    };
+    Converted {
+        point_class: scan.to_file_order(&class_ids, 0),
+        point_instance: scan.to_file_order(&labels.instance, 0),
+        pgm,
+        report,
+    }
+}
+
+/// Reads, converts and writes one frame.
+pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Result<FrameReport> {
+    let id = dp.drive.frame_id(frame);
+    let scan = Scan::read(&dp.drive.scan_path(frame))?;
+    let boxes = dp.boxes(frame);
+    let camera = match &opts.rgb {
+        Some(rgb) => {
+            let img = read_image(&dp.drive.image_path(rgb.camera, frame))?;
+            let proj = CameraProjector { velo_to_image: dp.calib.velo_to_image(rgb.camera as usize), sampling: rgb.sampling };
+            Some((proj, img))
+        }
+        None => None,
+    };
+    let out = process(&id, &scan, &boxes, &opts.spec, camera.as_ref().map(|(p, i)| (p, i)));
+    if opts.write_npy {
+        let p = &out.pgm;
+        let bytes = npy::encode_f32(&[p.rows as u64, p.cols as u64, p.depth() as u64], &p.data);
+        atomic_write(&opts.npy_path(&id), &bytes)?;
+    }
+    if opts.write_labels {
+        let path = opts.label_path(&dp.drive, frame);
+        atomic_write(&path, &label_file_bytes(&out.point_class, &out.point_instance))?;
+    }
+    Ok(out.report)
+}
+
+/// The outcome of one frame, as handed to the progress callback.
+#[derive(Debug)]
+pub enum FrameOutcome<'a> {
+    /// Converted and written.
+    Done(&'a FrameReport),
+    /// Failed; the rest of the batch goes on.
+    Failed(&'a FrameFailure),
+}
+
+/// Totals of a conversion.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct ConvertSummary {
+    /// Drives found.
+    pub drives: u64,
+    /// Frames converted and written.
+    pub frames_converted: u64,
+    /// Frames that failed (a failed drive counts all its scans).
+    pub frames_failed: u64,
+    /// Frames left out by the selection, by reason.
+    pub frames_skipped: BTreeMap<String, u64>,
+    /// Each failure, sorted by frame id.
+    pub failures: Vec<FrameFailure>,
+    /// Finite points read.
+    pub points: u64,
+    /// Non-finite points dropped.
+    pub dropped_nonfinite: u64,
+    /// Points per class.
+    pub labelled_points: ClassCounts,
+    /// Valid cells per class.
+    pub labelled_cells: ClassCounts,
+    /// Points in the field of view.
+    pub in_fov: u64,
+    /// Cells holding a point.
+    pub filled_cells: u64,
+    /// Cells in all converted maps.
+    pub total_cells: u64,
+    /// Points that lost their cell to a nearer one.
+    pub collisions: u64,
+    /// Frames whose rows came from elevation binning.
+    pub ring_fallbacks: u64,
+    /// Those frames' ids (sorted).
+    pub fallback_frames: Vec<String>,
+    /// Cells with a colour.
+    pub rgb_cells: u64,
+}
+
+impl ConvertSummary {
+    fn add(&mut self, r: &FrameReport) {
+        self.frames_converted += 1;
+        self.points += r.points;
+        self.dropped_nonfinite += r.dropped_nonfinite;
+        self.labelled_points.add(&r.labelled_points);
+        self.labelled_cells.add(&r.labelled_cells);
+        self.in_fov += r.in_fov;
+        self.filled_cells += r.filled_cells;
+        self.collisions += r.collisions;
+        if r.fallback {
+            self.ring_fallbacks += 1;
+            self.fallback_frames.push(r.id.clone());
+        }
+        self.rgb_cells += r.rgb_cells;
+    }
+
+    /// Filled cells over all cells.
+    pub fn fill_ratio(&self) -> f64 {
+        if self.total_cells == 0 { 0.0 } else { self.filled_cells as f64 / self.total_cells as f64 }
+    }
+}
+
+/// Converts every frame of `plan`, calling `progress` after each one (from worker threads).
+/// Fails as a whole only when the output folder cannot be created.
+pub fn convert(plan: &Plan, opts: &ConvertOptions, progress: &(dyn Fn(FrameOutcome<'_>) + Sync)) -> Result<ConvertSummary> {
+    opts.validate()?;
+    if opts.write_npy {
+        create_dir(&opts.out_dir.join("lidar_2d"))?;
+    }
+    if opts.write_labels {
+        for dp in &plan.drives {
+            create_dir(&opts.out_dir.join("labels").join(dp.drive.name()))?;
+        }
+    }
+    let summary = Mutex::new(ConvertSummary {
+        drives: (plan.drives.len() + plan.failed.len()) as u64,
+        frames_skipped: plan.skipped.clone(),
+        failures: plan.failed.clone(),
+        frames_failed: plan.failed.iter().map(|f| f.frames).sum(),
+        ..Default::default()
+    });
+    for f in &plan.failed {
+        progress(FrameOutcome::Failed(f));
+    }
+    let run = |&(d, frame): &(usize, u32)| {
+        let dp = &plan.drives[d];
+        match convert_frame(dp, frame, opts) {
+            Ok(r) => {
+                progress(FrameOutcome::Done(&r));
+                let mut s = summary.lock().expect("no panic while holding the lock");
+                s.add(&r);
+                s.total_cells += opts.spec.cells() as u64;
+            }
+            Err(e) => {
+                let f = FrameFailure { what: dp.drive.frame_id(frame).to_string(), frames: 1, error: e.to_string() };
+                progress(FrameOutcome::Failed(&f));
+                let mut s = summary.lock().expect("no panic while holding the lock");
+                s.frames_failed += 1;
+                s.failures.push(f);
+            }
+        }
+    };
+    if opts.threads == 1 {
+        plan.jobs.iter().for_each(run);
+    } else {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(opts.threads)
+            .build()
+            .map_err(|e| Error::Config(format!("cannot start {} threads: {e}", opts.threads)))?;
+        pool.install(|| plan.jobs.par_iter().for_each(run));
+    }
+    let mut s = summary.into_inner().expect("no panic while holding the lock");
+    s.failures.sort_by(|a, b| a.what.cmp(&b.what));
+    s.fallback_frames.sort();
+    Ok(s)
+}

@@ -1,0 +1,290 @@
+//! PROJECT: velodyne points to the Polar Grid Map (PGM), SqueezeSeg's range image.
+//!
+//! Columns come from the azimuth: `column = floor((fov/2 - yaw) / (fov/cols))` with
+//! `yaw = atan2(y, x)` (computed in f64), kept when `0 <= column < cols`; the default map is
+//! 512 columns over the front 90 degrees, so straight ahead lands on column 256 and the left
+//! edge (+45 degrees) on column 0.
+//!
+//! Rows come from the scan order ([`rings`]): a KITTI scan stores its 64 lasers one after the
+//! other, each one revolution with the azimuth increasing, and a new ring starts where
+//! `atan2(y, x)` crosses the forward direction from negative to non-negative. Row 0 is the first
+//! ring (the top laser, about +2.3 degrees), row 63 the last (about -23.6 degrees). This is
+//! exact where elevation binning is not: the lasers' elevations are not evenly spaced, so binning
+//! leaves empty rows ("black lines") and stacks neighbouring lasers in one row. A scan that does
+//! not show exactly [`LASERS`] rings (a ring with no return in front, a partial scan) falls back
+//! to elevation binning between `fov_up` and `fov_down` for that scan, and says so.
+//!
+//! When several points land in one cell the nearest wins (ties: the earlier point in the scan);
+//! the losers are counted as collisions.
+
+pub mod camera;
+pub mod frame;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::geom::{Degrees, Point3};
+
+/// Lasers of the HDL-64E that recorded KITTI.
+pub const LASERS: usize = 64;
+
+/// How rows are assigned.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum RowMode {
+    /// Rings recovered from the scan order, elevation binning as the fallback (the default).
+    Rings,
+    /// Elevation binning for every scan (what most public scripts do).
+    Elevation,
+}
+
+/// Shape and field of view of the map.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PgmSpec {
+    /// Rows (default 64).
+    pub rows: usize,
+    /// Columns (default 512).
+    pub cols: usize,
+    /// Horizontal field of view, centred on the x axis (default 90 degrees; 360 for a full map).
+    pub fov: Degrees,
+    /// Upper elevation limit for elevation binning (default +2.0 degrees).
+    pub fov_up: Degrees,
+    /// Lower elevation limit for elevation binning (default -24.9 degrees).
+    pub fov_down: Degrees,
+    /// Row assignment.
+    pub row_mode: RowMode,
+}
+
+impl Default for PgmSpec {
+    fn default() -> Self {
+        PgmSpec {
+            rows: 64,
+            cols: 512,
+            fov: Degrees(90.0),
+            fov_up: Degrees(2.0),
+            fov_down: Degrees(-24.9),
+            row_mode: RowMode::Rings,
+        }
+    }
+}
+
+impl PgmSpec {
+    /// Checks that the numbers make a map.
+    pub fn validate(&self) -> Result<()> {
+        if self.rows == 0 || self.cols == 0 || self.rows > 4096 || self.cols > 65536 {
+            return Err(Error::Config(format!("map size {}x{} is out of range", self.rows, self.cols)));
+        }
+        if !(self.fov.0 > 0.0 && self.fov.0 <= 360.0) {
+            return Err(Error::Config(format!("horizontal FOV {} deg must be in (0, 360]", self.fov.0)));
+        }
+        if !(self.fov_up.0 > self.fov_down.0) {
+            return Err(Error::Config(format!(
+                "fov-up {} deg must be above fov-down {} deg",
+                self.fov_up.0, self.fov_down.0
+            )));
+        }
+        Ok(())
+    }
+
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.rows * self.cols
+    }
+
+    /// Column of a point, if it lies in the field of view.
+    #[inline]
+    pub fn column(&self, p: &Point3) -> Option<usize> {
+        let half = self.fov.to_radians() / 2.0;
+        let yaw = (p.y as f64).atan2(p.x as f64);
+        let c = ((half - yaw) / (2.0 * half / self.cols as f64)).floor();
+        (c >= 0.0 && c < self.cols as f64).then_some(c as usize)
+    }
+
+    /// Row of a point by elevation binning (clamped into the map).
+    #[inline]
+    pub fn elevation_row(&self, p: &Point3, range: f32) -> usize {
+        let up = self.fov_up.to_radians();
+        let down = self.fov_down.to_radians();
+        let pitch = ((p.z as f64) / (range as f64).max(1e-9)).clamp(-1.0, 1.0).asin();
+        let r = ((up - pitch) / (up - down) * self.rows as f64).floor();
+        r.clamp(0.0, (self.rows - 1) as f64) as usize
+    }
+
+    /// Row of ring `ring` (0..LASERS): the ring itself for 64 rows, scaled otherwise.
+    #[inline]
+    pub fn ring_row(&self, ring: u8) -> usize {
+        if self.rows == LASERS {
+            ring as usize
+        } else {
+            ring as usize * self.rows / LASERS
+        }
+    }
+}
+
+/// Ring index of every point from the scan order, or `None` when the scan does not show exactly
+/// [`LASERS`] rings. Returns also the number of rings seen.
+///
+/// A new ring starts at point `i` when point `i - 1` has `y < 0` and point `i` has `y >= 0`, both
+/// in front (`x > 0`): the azimuth crossed the forward direction from negative to non-negative in
+/// a small step (a wrap-around at the back is a step of about 360 degrees and never matches).
+/// The ring must also have reached the rear half (`x < 0`) since it started, so that jitter of
+/// the azimuth around zero does not split a ring.
+pub fn rings(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
+    let mut ring = vec![0u8; points.len()];
+    let mut current = 0usize;
+    let mut seen_rear = false;
+    let mut prev: Option<&Point3> = None;
+    for (i, p) in points.iter().enumerate() {
+        if let Some(q) = prev {
+            if seen_rear && q.y < 0.0 && p.y >= 0.0 && q.x > 0.0 && p.x > 0.0 {
+                current += 1;
+                seen_rear = false;
+                if current >= LASERS {
+                    // Keep counting for the report, but the ring ids are no longer usable.
+                    let more = count_remaining(&points[i..]);
+                    return (None, current + 1 + more);
+                }
+            }
+        }
+        seen_rear |= p.x < 0.0;
+        ring[i] = current as u8;
+        prev = Some(p);
+    }
+    let found = if points.is_empty() { 0 } else { current + 1 };
+    ((found == LASERS).then_some(ring), found)
+}
+
+fn count_remaining(points: &[Point3]) -> usize {
+    let (mut n, mut seen_rear) = (0, false);
+    for w in points.windows(2) {
+        let (q, p) = (&w[0], &w[1]);
+        if seen_rear && q.y < 0.0 && p.y >= 0.0 && q.x > 0.0 && p.x > 0.0 {
+            n += 1;
+            seen_rear = false;
+        }
+        seen_rear |= p.x < 0.0;
+    }
+    n
+}
+
+/// Sentinel of an empty cell in [`Projection::cell_point`].
+pub const EMPTY: u32 = u32::MAX;
+
+/// Which point fills each cell of the map.
+#[derive(Debug, Clone)]
+pub struct Projection {
+    /// The map's shape.
+    pub spec: PgmSpec,
+    /// Index (into the scan's points) of the point kept in each cell, row-major; [`EMPTY`] if none.
+    pub cell_point: Vec<u32>,
+    /// Range of the kept point, metres (0 for empty cells).
+    pub cell_range: Vec<f32>,
+    /// Points that fell in the field of view.
+    pub in_fov: u64,
+    /// Cells holding a point.
+    pub filled: u64,
+    /// Points that lost their cell to a nearer one.
+    pub collisions: u64,
+    /// Rings seen in the scan order.
+    pub rings_found: usize,
+    /// Whether rows came from elevation binning because the rings were not usable.
+    pub fallback: bool,
+}
+
+/// Projects a scan's points onto the map.
+pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
+    let (ring_ids, rings_found) = match spec.row_mode {
+        RowMode::Rings => rings(points),
+        RowMode::Elevation => (None, 0),
+    };
+    let fallback = spec.row_mode == RowMode::Rings && ring_ids.is_none();
+    let mut cell_point = vec![EMPTY; spec.cells()];
+    let mut cell_range = vec![0f32; spec.cells()];
+    let mut in_fov = 0u64;
+    // Cheap half-plane reject for maps narrower than 180 degrees: a point with x <= 0 is at least
+    // 90 degrees off the axis.
+    let front_only = spec.fov.0 < 180.0;
+    let tan_half = (spec.fov.to_radians() / 2.0).tan() as f32 * 1.001 + 1e-6;
+    for (i, p) in points.iter().enumerate() {
+        if front_only && !(p.x > 0.0 && p.y.abs() <= p.x * tan_half) {
+            continue;
+        }
+        let Some(col) = spec.column(p) else { continue };
+        let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+        let row = match &ring_ids {
+            Some(r) => spec.ring_row(r[i]),
+            None => spec.elevation_row(p, range),
+        };
+        in_fov += 1;
+        let c = row * spec.cols + col;
+        if cell_point[c] == EMPTY || range < cell_range[c] {
+            cell_point[c] = i as u32;
+            cell_range[c] = range;
+        }
+    }
+    let filled = cell_point.iter().filter(|&&c| c != EMPTY).count() as u64;
+    Projection {
+        spec: *spec,
+        cell_point,
+        cell_range,
+        in_fov,
+        filled,
+        collisions: in_fov - filled,
+        rings_found,
+        fallback,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn straight_ahead_is_the_middle_column() {
+        let s = PgmSpec::default();
+        assert_eq!(s.column(&Point3::new(10.0, 0.0, 0.0)), Some(256));
+        assert_eq!(s.column(&Point3::new(10.0, 10.0, 0.0)), Some(0)); // +45 deg: left edge
+        assert_eq!(s.column(&Point3::new(10.0, -10.0, 0.0)), None); // -45 deg: just outside
+        assert_eq!(s.column(&Point3::new(-10.0, 0.0, 0.0)), None);
+        let full = PgmSpec { fov: Degrees(360.0), ..s };
+        assert_eq!(full.column(&Point3::new(-10.0, 0.0, 0.0)), Some(0));
+        assert_eq!(full.column(&Point3::new(10.0, 0.0, 0.0)), Some(256));
+    }
+
+    /// A synthetic scan of `n` rings, each a revolution starting just right of forward.
+    fn synthetic(n: usize) -> Vec<Point3> {
+        let mut pts = Vec::new();
+        for r in 0..n {
+            let elev = (2.0 - r as f32 * 0.4).to_radians();
+            for k in 0..360 {
+                let az = ((k as f32) + 0.5).to_radians();
+                pts.push(Point3::new(10.0 * az.cos(), 10.0 * az.sin(), 10.0 * elev.tan()));
+            }
+        }
+        pts
+    }
+
+    #[test]
+    fn rings_from_scan_order() {
+        let pts = synthetic(64);
+        let (r, found) = rings(&pts);
+        let r = r.unwrap();
+        assert_eq!(found, 64);
+        assert_eq!(r[0], 0);
+        assert_eq!(r[pts.len() - 1], 63);
+        let (r, found) = rings(&pts[..pts.len() / 2]);
+        assert!(r.is_none());
+        assert_eq!(found, 32);
+    }
+
+    #[test]
+    fn nearest_point_wins_a_cell() {
+        let pts = vec![Point3::new(20.0, 0.0, 0.0), Point3::new(10.0, 0.0, 0.0), Point3::new(30.0, 0.0, 0.0)];
+        let spec = PgmSpec { row_mode: RowMode::Elevation, ..Default::default() };
+        let p = project(&pts, &spec);
+        assert_eq!(p.filled, 1);
+        assert_eq!(p.collisions, 2);
+        let c = p.cell_point.iter().position(|&c| c != EMPTY).unwrap();
+        assert_eq!(p.cell_point[c], 1);
+        assert_eq!(p.cell_range[c], 10.0);
+    }
+}

@@ -1,0 +1,41 @@
+//! WRITE: files on disk, always atomically.
+//!
+//! Every output is first written to a temporary file in the destination folder and renamed into
+//! place, so a crash or a full disk never leaves a half-written file under a final name.
+
+pub mod npy;
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let werr = |source| Error::Write { path: path.into(), source };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".tmp-")
+        .tempfile_in(dir)
+        .map_err(|source| Error::Write { path: dir.into(), source })?;
+    tmp.write_all(bytes).map_err(werr)?;
+    tmp.as_file().sync_data().map_err(werr)?;
+    tmp.persist(path).map_err(|e| werr(e.error))?;
+    Ok(())
+}
+
+/// Creates a folder and its parents, naming it in the error.
+pub fn create_dir(path: &Path) -> Result<()> {
+    std::fs::create_dir_all(path).map_err(|source| Error::Write { path: path.into(), source })
+}
+
+/// The bytes of a `.label` file: one little-endian u32 per point, class in the low 16 bits,
+/// instance id in the high 16 bits.
+pub fn label_file_bytes(class: &[u8], instance: &[u16]) -> Vec<u8> {
+    debug_assert_eq!(class.len(), instance.len());
+    let mut out = Vec::with_capacity(class.len() * 4);
+    for (c, i) in class.iter().zip(instance) {
+        out.extend_from_slice(&((*i as u32) << 16 | *c as u32).to_le_bytes());
+    }
+    out
+}
