@@ -1,1 +1,35 @@
-fn main(){}
+//! The `kitti2pgm` binary: parses arguments, dispatches to `commands::*`, maps the outcome to an
+//! exit status (0 ok, 1 fatal error, 2 usage, 3 finished with failed frames). All the work is in
+//! the library.
+
+mod cli;
+mod commands;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+/// How a command ended, when it did not fail outright.
+pub enum Outcome {
+    /// Everything done.
+    Ok,
+    /// Done, but some items (frames) failed and were reported.
+    Partial,
+}
+
+fn main() -> ExitCode {
+    let args = cli::Args::parse();
+    match commands::run(args) {
+        Ok(Outcome::Ok) => ExitCode::SUCCESS,
+        Ok(Outcome::Partial) => ExitCode::from(3),
+        Err(e) => {
+            if let Some(io) = e.downcast_ref::<std::io::Error>() {
+                if io.kind() == std::io::ErrorKind::BrokenPipe {
+                    return ExitCode::SUCCESS;
+                }
+            }
+            eprintln!("kitti2pgm: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -64,6 +64,8 @@ pub struct ConvertOptions {
     pub write_labels: bool,
     /// Worker threads; 0 = one per core, 1 = sequential.
     pub threads: usize,
+    /// Flush every file to the device before it is renamed into place (survives power cuts).
+    pub sync: bool,
 }
 
 impl ConvertOptions {
@@ -77,6 +79,7 @@ impl ConvertOptions {
             write_npy: true,
             write_labels: true,
             threads: 0,
+            sync: false,
         }
     }
 
@@ -355,11 +358,11 @@ pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Resul
     if opts.write_npy {
         let p = &out.pgm;
         let bytes = npy::encode_f32(&[p.rows as u64, p.cols as u64, p.depth() as u64], &p.data);
-        atomic_write(&opts.npy_path(&id), &bytes)?;
+        atomic_write(&opts.npy_path(&id), &bytes, opts.sync)?;
     }
     if opts.write_labels {
         let path = opts.label_path(&dp.drive, frame);
-        atomic_write(&path, &label_file_bytes(&out.point_class, &out.point_instance))?;
+        atomic_write(&path, &label_file_bytes(&out.point_class, &out.point_instance), opts.sync)?;
     }
     Ok(out.report)
 }

@@ -251,7 +251,9 @@ impl Tracklets {
 
     /// Parses the XML text; `path` names the file in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Tracklets> {
-        let doc = roxmltree::Document::parse(text)
+        // KITTI's files carry `<!DOCTYPE boost_serialization>`: allow the DTD, it declares nothing.
+        let options = roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
+        let doc = roxmltree::Document::parse_with_options(text, options)
             .map_err(|e| Error::format(path, format!("malformed XML: {e}")))?;
         let p = Parser { path };
         let root = doc.root_element();

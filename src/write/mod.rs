@@ -11,7 +11,11 @@ use std::path::Path;
 use crate::error::{Error, Result};
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
-pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
+///
+/// The rename makes the file appear whole or not at all, whatever happens to the process. With
+/// `durable`, the data is also flushed to the device before the rename, so that the file survives
+/// a power cut as well; that costs a disk round trip per file, so it is an option (`--sync`).
+pub fn atomic_write(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let werr = |source| Error::Write { path: path.into(), source };
     let mut tmp = tempfile::Builder::new()
@@ -19,7 +23,9 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
         .tempfile_in(dir)
         .map_err(|source| Error::Write { path: dir.into(), source })?;
     tmp.write_all(bytes).map_err(werr)?;
-    tmp.as_file().sync_data().map_err(werr)?;
+    if durable {
+        tmp.as_file().sync_data().map_err(werr)?;
+    }
     tmp.persist(path).map_err(|e| werr(e.error))?;
     Ok(())
 }

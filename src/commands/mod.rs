@@ -1,0 +1,25 @@
+//! One module per subcommand; each turns its clap struct into library options and runs it.
+
+mod convert;
+mod preview;
+pub mod progress;
+
+use crate::cli::{Args, Command};
+use crate::Outcome;
+
+/// Runs the parsed command.
+pub fn run(args: Args) -> anyhow::Result<Outcome> {
+    let global = Global { threads: args.threads, progress: !args.no_progress };
+    match args.command {
+        Command::Convert(a) => convert::run(a, &global),
+        Command::Preview(a) => preview::run(a),
+    }
+}
+
+/// Options shared by every subcommand.
+pub struct Global {
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    /// Whether a progress bar may be drawn.
+    pub progress: bool,
+}
