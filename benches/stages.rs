@@ -16,11 +16,16 @@ use kitti2pgm::label::Labeller;
 use kitti2pgm::pipeline::{convert_frame, process, ConvertOptions, DrivePlan, RgbOptions};
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
 use kitti2pgm::project::{project, PgmSpec};
+use kitti2pgm::write::atomic_write;
 use kitti2pgm::write::npy::encode_f32;
 
 fn raw_root() -> PathBuf {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/raw");
-    if shared.is_dir() { shared } else { Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/raw") }
+    if shared.is_dir() {
+        shared
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/raw")
+    }
 }
 
 fn drive_0052() -> (DrivePlan, u32) {
@@ -38,33 +43,70 @@ fn stages(c: &mut Criterion) {
     let img = read_image(&img_path).unwrap();
     let boxes = dp.boxes(f);
     let spec = PgmSpec::default();
-    let cam = CameraProjector { velo_to_image: dp.calib.velo_to_image(2), sampling: Sampling::Nearest };
+    let cam = CameraProjector {
+        velo_to_image: dp.calib.velo_to_image(2),
+        sampling: Sampling::Nearest,
+    };
     let id = dp.drive.frame_id(f);
 
     let mut g = c.benchmark_group("stage");
     g.throughput(Throughput::Elements(1));
-    g.bench_function("read_bin", |b| b.iter(|| Scan::read(black_box(&scan_path)).unwrap()));
-    g.bench_function("decode_png", |b| b.iter(|| read_image(black_box(&img_path)).unwrap()));
-    g.bench_function("floor_bin_plus_png", |b| {
-        b.iter(|| (Scan::read(&scan_path).unwrap(), read_image(&img_path).unwrap()))
+    g.bench_function("read_bin", |b| {
+        b.iter(|| Scan::read(black_box(&scan_path)).unwrap())
     });
-    g.bench_function("label", |b| b.iter(|| Labeller::new(black_box(&boxes)).label(&scan.points)));
-    g.bench_function("project", |b| b.iter(|| project(black_box(&scan.points), &spec)));
-    g.bench_function("process_lidar", |b| b.iter(|| process(&id, &scan, &boxes, &spec, None)));
-    g.bench_function("process_rgb", |b| b.iter(|| process(&id, &scan, &boxes, &spec, Some((&cam, &img)))));
+    g.bench_function("decode_png", |b| {
+        b.iter(|| read_image(black_box(&img_path)).unwrap())
+    });
+    g.bench_function("floor_bin_plus_png", |b| {
+        b.iter(|| {
+            (
+                Scan::read(&scan_path).unwrap(),
+                read_image(&img_path).unwrap(),
+            )
+        })
+    });
+    g.bench_function("label", |b| {
+        b.iter(|| Labeller::new(black_box(&boxes)).label(&scan.points))
+    });
+    g.bench_function("project", |b| {
+        b.iter(|| project(black_box(&scan.points), &spec))
+    });
+    g.bench_function("process_lidar", |b| {
+        b.iter(|| process(&id, &scan, &boxes, &spec, None))
+    });
+    g.bench_function("process_rgb", |b| {
+        b.iter(|| process(&id, &scan, &boxes, &spec, Some((&cam, &img))))
+    });
     let out = process(&id, &scan, &boxes, &spec, Some((&cam, &img)));
-    g.bench_function("encode_npy_9ch", |b| b.iter(|| encode_f32(&[64, 512, 9], black_box(&out.pgm.data))));
+    g.bench_function("encode_npy_9ch", |b| {
+        b.iter(|| encode_f32(&[64, 512, 9], black_box(&out.pgm.data)))
+    });
+    let bytes = encode_f32(&[64, 512, 9], &out.pgm.data);
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("x.npy");
+    g.bench_function("atomic_write_npy_9ch", |b| {
+        b.iter(|| atomic_write(&target, &bytes, false).unwrap())
+    });
+    g.bench_function("plain_write_npy_9ch", |b| {
+        b.iter(|| std::fs::write(&target, &bytes).unwrap())
+    });
     g.finish();
 
-    let dir = tempfile::tempdir().unwrap();
     let mut g = c.benchmark_group("frame");
     g.throughput(Throughput::Elements(1));
     let mut opts = ConvertOptions::new(dir.path());
     std::fs::create_dir_all(dir.path().join("lidar_2d")).unwrap();
     std::fs::create_dir_all(dir.path().join("labels").join(dp.drive.name())).unwrap();
-    g.bench_function("convert_lidar", |b| b.iter(|| convert_frame(&dp, f, &opts).unwrap()));
-    opts.rgb = Some(RgbOptions { camera: 2, sampling: Sampling::Nearest });
-    g.bench_function("convert_rgb", |b| b.iter(|| convert_frame(&dp, f, &opts).unwrap()));
+    g.bench_function("convert_lidar", |b| {
+        b.iter(|| convert_frame(&dp, f, &opts).unwrap())
+    });
+    opts.rgb = Some(RgbOptions {
+        camera: 2,
+        sampling: Sampling::Nearest,
+    });
+    g.bench_function("convert_rgb", |b| {
+        b.iter(|| convert_frame(&dp, f, &opts).unwrap())
+    });
     g.finish();
 }
 

@@ -128,12 +128,34 @@ mod tests {
 
     #[test]
     fn parses_convert() {
-        let a = Args::try_parse_from(["kitti2pgm", "convert", "raw", "--out", "o", "--rgb", "--camera", "3", "--fov-down-deg", "-20"])
-            .unwrap();
-        let Command::Convert(c) = a.command else { panic!() };
+        let a = Args::try_parse_from([
+            "kitti2pgm",
+            "convert",
+            "raw",
+            "--out",
+            "o",
+            "--rgb",
+            "--camera",
+            "3",
+            "--fov-down-deg",
+            "-20",
+        ])
+        .unwrap();
+        let Command::Convert(c) = a.command else {
+            panic!()
+        };
         assert!(c.rgb);
         assert_eq!(c.camera, 3);
         assert_eq!(c.fov_down_deg, -20.0);
-        assert!(Args::try_parse_from(["kitti2pgm", "convert", "raw", "--out", "o", "--camera", "1"]).is_err());
+        assert!(Args::try_parse_from([
+            "kitti2pgm",
+            "convert",
+            "raw",
+            "--out",
+            "o",
+            "--camera",
+            "1"
+        ])
+        .is_err());
     }
 }

@@ -68,12 +68,19 @@ pub enum Error {
 impl Error {
     /// A [`Error::Format`] without a line number.
     pub fn format(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
-        Error::Format { path: path.into(), line: None, message: message.into() }
+        Error::Format {
+            path: path.into(),
+            line: None,
+            message: message.into(),
+        }
     }
 
     /// A [`Error::Io`] for `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
 }
 

@@ -37,3 +37,38 @@ impl Degrees {
         self.0.to_radians()
     }
 }
+
+/// `x.floor()` as an integer, for finite `x` well inside the i64 range.
+///
+/// `f64::floor` is a libm call on x86-64 without SSE4.1; this inlines to a truncation and a
+/// compare, which matters in the per-point loops.
+#[inline(always)]
+#[must_use]
+pub fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - ((t as f64) > x) as i64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_matches_std() {
+        for x in [
+            -2.5,
+            -2.0,
+            -1e-12,
+            -0.0,
+            0.0,
+            1e-12,
+            0.5,
+            1.0,
+            255.999,
+            511.0000001,
+            -511.5,
+        ] {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+        }
+    }
+}

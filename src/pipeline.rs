@@ -88,7 +88,10 @@ impl ConvertOptions {
         self.spec.validate()?;
         if let Some(rgb) = &self.rgb {
             if !(rgb.camera == 2 || rgb.camera == 3) {
-                return Err(Error::Config(format!("camera {} has no colour; use 2 or 3", rgb.camera)));
+                return Err(Error::Config(format!(
+                    "camera {} has no colour; use 2 or 3",
+                    rgb.camera
+                )));
             }
         }
         Ok(())
@@ -101,7 +104,10 @@ impl ConvertOptions {
 
     /// Path of a frame's `.label`.
     pub fn label_path(&self, drive: &Drive, frame: u32) -> PathBuf {
-        self.out_dir.join("labels").join(drive.name()).join(format!("{frame:010}.label"))
+        self.out_dir
+            .join("labels")
+            .join(drive.name())
+            .join(format!("{frame:010}.label"))
     }
 }
 
@@ -122,12 +128,25 @@ impl DrivePlan {
     /// Reads a drive's tracklets and timestamps; `calib` is its day's calibration.
     pub fn load(drive: Drive, calib: Arc<Calibration>) -> Result<DrivePlan> {
         let tpath = drive.tracklets_path();
-        let tracklets = if tpath.exists() { Tracklets::read(&tpath)? } else { Tracklets::default() };
+        let tracklets = if tpath.exists() {
+            Tracklets::read(&tpath)?
+        } else {
+            Tracklets::default()
+        };
         let ts_path = drive.scan_timestamps_path();
-        let timestamps = if ts_path.exists() { Some(Arc::new(timestamps::read(&ts_path)?)) } else { None };
+        let timestamps = if ts_path.exists() {
+            Some(Arc::new(timestamps::read(&ts_path)?))
+        } else {
+            None
+        };
         if let Some(ts) = &timestamps {
             let len = ts.len() as u32;
-            if let Some((i, t)) = tracklets.tracklets.iter().enumerate().find(|(_, t)| t.end_frame() > len) {
+            if let Some((i, t)) = tracklets
+                .tracklets
+                .iter()
+                .enumerate()
+                .find(|(_, t)| t.end_frame() > len)
+            {
                 return Err(Error::format(
                     &tpath,
                     format!(
@@ -140,17 +159,27 @@ impl DrivePlan {
                 ));
             }
         }
-        Ok(DrivePlan { drive, calib, tracklets: Arc::new(tracklets), timestamps })
+        Ok(DrivePlan {
+            drive,
+            calib,
+            tracklets: Arc::new(tracklets),
+            timestamps,
+        })
     }
 
     /// The velodyne timestamp of a frame, when known.
     pub fn timestamp(&self, frame: u32) -> Option<Timestamp> {
-        self.timestamps.as_ref().and_then(|t| t.get(frame as usize).copied().flatten())
+        self.timestamps
+            .as_ref()
+            .and_then(|t| t.get(frame as usize).copied().flatten())
     }
 
     /// The boxes present at a frame.
     pub fn boxes(&self, frame: u32) -> Vec<LabelBox> {
-        self.tracklets.at(frame).map(|(i, t, p)| LabelBox::new(i, t, p)).collect()
+        self.tracklets
+            .at(frame)
+            .map(|(i, t, p)| LabelBox::new(i, t, p))
+            .collect()
     }
 }
 
@@ -181,26 +210,45 @@ pub struct Plan {
 impl Plan {
     /// Finds the drives under `root` and lists the frames `selection` picks.
     pub fn build(root: &Path, selection: FrameSelection) -> Result<Plan> {
-        let mut plan = Plan { drives: Vec::new(), jobs: Vec::new(), skipped: BTreeMap::new(), failed: Vec::new() };
-        let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> = BTreeMap::new();
+        let mut plan = Plan {
+            drives: Vec::new(),
+            jobs: Vec::new(),
+            skipped: BTreeMap::new(),
+            failed: Vec::new(),
+        };
+        let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> =
+            BTreeMap::new();
         for drive in discover(root)? {
             let frames = match drive.scan_frames() {
                 Ok(f) => f,
                 Err(e) => {
-                    plan.failed.push(FrameFailure { what: drive.name(), frames: 0, error: e.to_string() });
+                    plan.failed.push(FrameFailure {
+                        what: drive.name(),
+                        frames: 0,
+                        error: e.to_string(),
+                    });
                     continue;
                 }
             };
             let date_dir = drive.date_dir();
             let calib = calibs
                 .entry(date_dir.clone())
-                .or_insert_with(|| Calibration::read_dir(&date_dir).map(Arc::new).map_err(|e| e.to_string()))
+                .or_insert_with(|| {
+                    Calibration::read_dir(&date_dir)
+                        .map(Arc::new)
+                        .map_err(|e| e.to_string())
+                })
                 .clone();
-            let loaded = calib.and_then(|c| DrivePlan::load(drive.clone(), c).map_err(|e| e.to_string()));
+            let loaded =
+                calib.and_then(|c| DrivePlan::load(drive.clone(), c).map_err(|e| e.to_string()));
             let dp = match loaded {
                 Ok(dp) => dp,
                 Err(error) => {
-                    plan.failed.push(FrameFailure { what: drive.name(), frames: frames.len() as u64, error });
+                    plan.failed.push(FrameFailure {
+                        what: drive.name(),
+                        frames: frames.len() as u64,
+                        error,
+                    });
                     continue;
                 }
             };
@@ -211,7 +259,11 @@ impl Plan {
                 if selection == FrameSelection::All || annotated {
                     plan.jobs.push((index, f));
                 } else {
-                    let why = if has_file { "no tracklet pose at the frame" } else { "drive has no tracklet_labels.xml" };
+                    let why = if has_file {
+                        "no tracklet pose at the frame"
+                    } else {
+                        "drive has no tracklet_labels.xml"
+                    };
                     *plan.skipped.entry(why.into()).or_default() += 1;
                 }
             }
@@ -220,7 +272,10 @@ impl Plan {
                 .filter(|f| dp.tracklets.count_at(*f) > 0 && !with_scan.contains(f))
                 .count() as u64;
             if missing > 0 {
-                *plan.skipped.entry("annotated frame without a velodyne scan".into()).or_default() += missing;
+                *plan
+                    .skipped
+                    .entry("annotated frame without a velodyne scan".into())
+                    .or_default() += missing;
             }
             plan.drives.push(dp);
         }
@@ -229,7 +284,9 @@ impl Plan {
 
     /// The frame ids the plan converts, in order.
     pub fn frame_ids(&self) -> impl Iterator<Item = FrameId> + '_ {
-        self.jobs.iter().map(|&(d, f)| self.drives[d].drive.frame_id(f))
+        self.jobs
+            .iter()
+            .map(|&(d, f)| self.drives[d].drive.frame_id(f))
     }
 }
 
@@ -249,7 +306,12 @@ pub struct ClassCounts {
 impl ClassCounts {
     /// From an array indexed by class id.
     pub fn from_array(a: [u64; Class::COUNT]) -> Self {
-        ClassCounts { background: a[0], car: a[1], pedestrian: a[2], cyclist: a[3] }
+        ClassCounts {
+            background: a[0],
+            car: a[1],
+            pedestrian: a[2],
+            cyclist: a[3],
+        }
     }
 
     /// As an array indexed by class id.
@@ -317,7 +379,14 @@ pub fn process(
     let labels: PointLabels = labeller.label(&scan.points);
     let proj: Projection = project(&scan.points, spec);
     let colour_fn = camera.map(|(cam, img)| move |i: usize| cam.colour(img, &scan.points[i]));
-    let pgm = assemble(scan, &labels, &proj, colour_fn.as_ref().map(|f| f as &dyn Fn(usize) -> Option<[f32; 3]>));
+    let pgm = assemble(
+        scan,
+        &labels,
+        &proj,
+        colour_fn
+            .as_ref()
+            .map(|f| f as &dyn Fn(usize) -> Option<[f32; 3]>),
+    );
     let class_ids: Vec<u8> = labels.class.iter().map(|c| c.id()).collect();
     let report = FrameReport {
         id: id.to_string(),
@@ -331,7 +400,10 @@ pub fn process(
         collisions: proj.collisions,
         rings_found: proj.rings_found as u64,
         fallback: proj.fallback,
-        rgb_cells: pgm.rgb_valid.as_ref().map_or(0, |v| v.iter().map(|&b| b as u64).sum()),
+        rgb_cells: pgm
+            .rgb_valid
+            .as_ref()
+            .map_or(0, |v| v.iter().map(|&b| b as u64).sum()),
     };
     Converted {
         point_class: scan.to_file_order(&class_ids, 0),
@@ -349,12 +421,21 @@ pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Resul
     let camera = match &opts.rgb {
         Some(rgb) => {
             let img = read_image(&dp.drive.image_path(rgb.camera, frame))?;
-            let proj = CameraProjector { velo_to_image: dp.calib.velo_to_image(rgb.camera as usize), sampling: rgb.sampling };
+            let proj = CameraProjector {
+                velo_to_image: dp.calib.velo_to_image(rgb.camera as usize),
+                sampling: rgb.sampling,
+            };
             Some((proj, img))
         }
         None => None,
     };
-    let out = process(&id, &scan, &boxes, &opts.spec, camera.as_ref().map(|(p, i)| (p, i)));
+    let out = process(
+        &id,
+        &scan,
+        &boxes,
+        &opts.spec,
+        camera.as_ref().map(|(p, i)| (p, i)),
+    );
     if opts.write_npy {
         let p = &out.pgm;
         let bytes = npy::encode_f32(&[p.rows as u64, p.cols as u64, p.depth() as u64], &p.data);
@@ -362,7 +443,11 @@ pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Resul
     }
     if opts.write_labels {
         let path = opts.label_path(&dp.drive, frame);
-        atomic_write(&path, &label_file_bytes(&out.point_class, &out.point_instance), opts.sync)?;
+        atomic_write(
+            &path,
+            &label_file_bytes(&out.point_class, &out.point_instance),
+            opts.sync,
+        )?;
     }
     Ok(out.report)
 }
@@ -432,13 +517,21 @@ impl ConvertSummary {
 
     /// Filled cells over all cells.
     pub fn fill_ratio(&self) -> f64 {
-        if self.total_cells == 0 { 0.0 } else { self.filled_cells as f64 / self.total_cells as f64 }
+        if self.total_cells == 0 {
+            0.0
+        } else {
+            self.filled_cells as f64 / self.total_cells as f64
+        }
     }
 }
 
 /// Converts every frame of `plan`, calling `progress` after each one (from worker threads).
 /// Fails as a whole only when the output folder cannot be created.
-pub fn convert(plan: &Plan, opts: &ConvertOptions, progress: &(dyn Fn(FrameOutcome<'_>) + Sync)) -> Result<ConvertSummary> {
+pub fn convert(
+    plan: &Plan,
+    opts: &ConvertOptions,
+    progress: &(dyn Fn(FrameOutcome<'_>) + Sync),
+) -> Result<ConvertSummary> {
     opts.validate()?;
     if opts.write_npy {
         create_dir(&opts.out_dir.join("lidar_2d"))?;
@@ -468,7 +561,11 @@ pub fn convert(plan: &Plan, opts: &ConvertOptions, progress: &(dyn Fn(FrameOutco
                 s.total_cells += opts.spec.cells() as u64;
             }
             Err(e) => {
-                let f = FrameFailure { what: dp.drive.frame_id(frame).to_string(), frames: 1, error: e.to_string() };
+                let f = FrameFailure {
+                    what: dp.drive.frame_id(frame).to_string(),
+                    frames: 1,
+                    error: e.to_string(),
+                };
                 progress(FrameOutcome::Failed(&f));
                 let mut s = summary.lock().expect("no panic while holding the lock");
                 s.frames_failed += 1;
@@ -485,7 +582,9 @@ pub fn convert(plan: &Plan, opts: &ConvertOptions, progress: &(dyn Fn(FrameOutco
             .map_err(|e| Error::Config(format!("cannot start {} threads: {e}", opts.threads)))?;
         pool.install(|| plan.jobs.par_iter().for_each(run));
     }
-    let mut s = summary.into_inner().expect("no panic while holding the lock");
+    let mut s = summary
+        .into_inner()
+        .expect("no panic while holding the lock");
     s.failures.sort_by(|a, b| a.what.cmp(&b.what));
     s.fallback_frames.sort();
     Ok(s)

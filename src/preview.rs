@@ -15,8 +15,13 @@ const GAP: u32 = 4;
 
 /// A sequential colour map (dark blue -> green -> yellow), `t` in [0, 1].
 pub fn colormap(t: f32) -> [u8; 3] {
-    const STOPS: [[f32; 3]; 5] =
-        [[68.0, 1.0, 84.0], [59.0, 82.0, 139.0], [33.0, 145.0, 140.0], [94.0, 201.0, 98.0], [253.0, 231.0, 37.0]];
+    const STOPS: [[f32; 3]; 5] = [
+        [68.0, 1.0, 84.0],
+        [59.0, 82.0, 139.0],
+        [33.0, 145.0, 140.0],
+        [94.0, 201.0, 98.0],
+        [253.0, 231.0, 37.0],
+    ];
     let t = t.clamp(0.0, 1.0) * (STOPS.len() - 1) as f32;
     let i = (t.floor() as usize).min(STOPS.len() - 2);
     let f = t - i as f32;
@@ -27,10 +32,17 @@ pub fn colormap(t: f32) -> [u8; 3] {
 pub fn render(shape: &[u64], data: &[f32]) -> Result<RgbImage> {
     let [h, w, c] = match shape {
         [h, w, c] if *c == 6 || *c == 9 => [*h as usize, *w as usize, *c as usize],
-        other => return Err(Error::Config(format!("cannot draw a map of shape {other:?}: expected H x W x 6 or 9"))),
+        other => {
+            return Err(Error::Config(format!(
+                "cannot draw a map of shape {other:?}: expected H x W x 6 or 9"
+            )))
+        }
     };
     let at = |r: usize, col: usize, ch: usize| data[(r * w + col) * c + ch];
-    let max_range = (0..h * w).map(|i| data[i * c + 4]).fold(0f32, f32::max).max(1e-3);
+    let max_range = (0..h * w)
+        .map(|i| data[i * c + 4])
+        .fold(0f32, f32::max)
+        .max(1e-3);
     let panels = if c == 9 { 4 } else { 3 };
     let ph = h as u32 * ROW_SCALE;
     let mut img = RgbImage::new(w as u32, panels * ph + (panels - 1) * GAP);
@@ -39,25 +51,36 @@ pub fn render(shape: &[u64], data: &[f32]) -> Result<RgbImage> {
             for col in 0..w {
                 let px = f(r, col).unwrap_or([0, 0, 0]);
                 for k in 0..ROW_SCALE {
-                    img.put_pixel(col as u32, panel * (ph + GAP) + r as u32 * ROW_SCALE + k, Rgb(px));
+                    img.put_pixel(
+                        col as u32,
+                        panel * (ph + GAP) + r as u32 * ROW_SCALE + k,
+                        Rgb(px),
+                    );
                 }
             }
         }
     };
     let valid = |r: usize, col: usize| at(r, col, 4) > 0.0;
     // Range: near is bright; square root spreads the near field where most points are.
-    draw(0, &|r, col| valid(r, col).then(|| colormap(1.0 - (at(r, col, 4) / max_range).sqrt())));
+    draw(0, &|r, col| {
+        valid(r, col).then(|| colormap(1.0 - (at(r, col, 4) / max_range).sqrt()))
+    });
     draw(1, &|r, col| valid(r, col).then(|| colormap(at(r, col, 3))));
     let mut next = 2;
     if c == 9 {
         draw(2, &|r, col| {
             let rgb = [at(r, col, 6), at(r, col, 7), at(r, col, 8)];
-            (valid(r, col) && rgb.iter().any(|v| *v > 0.0)).then(|| rgb.map(|v| (v * 255.0).round() as u8))
+            (valid(r, col) && rgb.iter().any(|v| *v > 0.0))
+                .then(|| rgb.map(|v| (v * 255.0).round() as u8))
         });
         next = 3;
     }
     draw(next, &|r, col| {
-        valid(r, col).then(|| Class::from_id(at(r, col, 5) as u8).unwrap_or_default().colour())
+        valid(r, col).then(|| {
+            Class::from_id(at(r, col, 5) as u8)
+                .unwrap_or_default()
+                .colour()
+        })
     });
     Ok(img)
 }

@@ -2,7 +2,9 @@
 
 use anyhow::Context;
 use kitti2pgm::geom::Degrees;
-use kitti2pgm::pipeline::{convert, ConvertOptions, ConvertSummary, FrameOutcome, FrameSelection, Plan, RgbOptions};
+use kitti2pgm::pipeline::{
+    convert, ConvertOptions, ConvertSummary, FrameOutcome, FrameSelection, Plan, RgbOptions,
+};
 use kitti2pgm::project::camera::Sampling;
 use kitti2pgm::project::{PgmSpec, RowMode};
 
@@ -32,7 +34,11 @@ impl From<&ConvertArgs> for ConvertOptions {
                     SamplingArg::Bilinear => Sampling::Bilinear,
                 },
             }),
-            selection: if a.all_frames { FrameSelection::All } else { FrameSelection::Annotated },
+            selection: if a.all_frames {
+                FrameSelection::All
+            } else {
+                FrameSelection::Annotated
+            },
             write_npy: true,
             write_labels: !a.no_point_labels,
             threads: 0,
@@ -62,13 +68,23 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
     } else {
         print!("{}", table(&summary));
     }
-    Ok(if summary.frames_failed > 0 { Outcome::Partial } else { Outcome::Ok })
+    Ok(if summary.frames_failed > 0 {
+        Outcome::Partial
+    } else {
+        Outcome::Ok
+    })
 }
 
 fn table(s: &ConvertSummary) -> String {
     use std::fmt::Write;
     let mut t = String::new();
-    let pct = |a: u64, b: u64| if b == 0 { 0.0 } else { 100.0 * a as f64 / b as f64 };
+    let pct = |a: u64, b: u64| {
+        if b == 0 {
+            0.0
+        } else {
+            100.0 * a as f64 / b as f64
+        }
+    };
     let _ = writeln!(t, "drives              {:>12}", s.drives);
     let _ = writeln!(t, "frames converted    {:>12}", s.frames_converted);
     let _ = writeln!(t, "frames failed       {:>12}", s.frames_failed);
@@ -79,17 +95,38 @@ fn table(s: &ConvertSummary) -> String {
     let _ = writeln!(t, "non-finite dropped  {:>12}", s.dropped_nonfinite);
     let _ = writeln!(t, "points in FOV       {:>12}", s.in_fov);
     let _ = writeln!(t, "fill ratio          {:>12.4}", s.fill_ratio());
-    let _ = writeln!(t, "cell collisions     {:>12}  (nearest point kept)", s.collisions);
-    let _ = writeln!(t, "ring fallbacks      {:>12}  (frames binned by elevation)", s.ring_fallbacks);
+    let _ = writeln!(
+        t,
+        "cell collisions     {:>12}  (nearest point kept)",
+        s.collisions
+    );
+    let _ = writeln!(
+        t,
+        "ring fallbacks      {:>12}  (frames binned by elevation)",
+        s.ring_fallbacks
+    );
     if s.rgb_cells > 0 {
-        let _ = writeln!(t, "cells with colour   {:>12}  ({:.1}% of filled)", s.rgb_cells, pct(s.rgb_cells, s.filled_cells));
+        let _ = writeln!(
+            t,
+            "cells with colour   {:>12}  ({:.1}% of filled)",
+            s.rgb_cells,
+            pct(s.rgb_cells, s.filled_cells)
+        );
     }
     let _ = writeln!(t, "\nclass        points        %        cells        %");
     let (p, c) = (s.labelled_points.to_array(), s.labelled_cells.to_array());
     let (tp, tc) = (p.iter().sum::<u64>(), c.iter().sum::<u64>());
     for k in kitti2pgm::label::Class::ALL {
         let i = k as usize;
-        let _ = writeln!(t, "{:<10} {:>10} {:>7.3}% {:>12} {:>7.3}%", k.name(), p[i], pct(p[i], tp), c[i], pct(c[i], tc));
+        let _ = writeln!(
+            t,
+            "{:<10} {:>10} {:>7.3}% {:>12} {:>7.3}%",
+            k.name(),
+            p[i],
+            pct(p[i], tp),
+            c[i],
+            pct(c[i], tc)
+        );
     }
     for f in &s.failures {
         let _ = writeln!(t, "failed: {} ({} frames): {}", f.what, f.frames, f.error);

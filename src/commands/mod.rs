@@ -9,7 +9,10 @@ use crate::Outcome;
 
 /// Runs the parsed command.
 pub fn run(args: Args) -> anyhow::Result<Outcome> {
-    let global = Global { threads: args.threads, progress: !args.no_progress };
+    let global = Global {
+        threads: args.threads,
+        progress: !args.no_progress,
+    };
     match args.command {
         Command::Convert(a) => convert::run(a, &global),
         Command::Preview(a) => preview::run(a),

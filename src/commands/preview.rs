@@ -7,7 +7,10 @@ use crate::cli::PreviewArgs;
 use crate::Outcome;
 
 pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
-    let single_file = a.inputs.len() == 1 && a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let single_file = a.inputs.len() == 1
+        && a.out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
     if !single_file {
         std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     }
@@ -15,7 +18,8 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
     for input in &a.inputs {
         let result = (|| -> anyhow::Result<()> {
             let (shape, data) = read_f32(input)?;
-            let img = kitti2pgm::preview::render(&shape, &data).with_context(|| input.display().to_string())?;
+            let img = kitti2pgm::preview::render(&shape, &data)
+                .with_context(|| input.display().to_string())?;
             let out = if single_file {
                 a.out.clone()
             } else {
@@ -23,7 +27,10 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
                 a.out.join(stem).with_extension("png")
             };
             let mut bytes = Vec::new();
-            img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+            img.write_to(
+                &mut std::io::Cursor::new(&mut bytes),
+                image::ImageFormat::Png,
+            )?;
             kitti2pgm::write::atomic_write(&out, &bytes, false)?;
             Ok(())
         })();
@@ -35,5 +42,9 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
     if failed == a.inputs.len() {
         bail!("no preview written");
     }
-    Ok(if failed > 0 { Outcome::Partial } else { Outcome::Ok })
+    Ok(if failed > 0 {
+        Outcome::Partial
+    } else {
+        Outcome::Ok
+    })
 }

@@ -66,7 +66,11 @@ impl CalibFile {
                 }
             }
         }
-        Ok(CalibFile { path: path.into(), numeric, text: texts })
+        Ok(CalibFile {
+            path: path.into(),
+            numeric,
+            text: texts,
+        })
     }
 
     /// Reads and parses a calibration file.
@@ -92,7 +96,10 @@ impl CalibFile {
                 &self.path,
                 format!("key `{key}` is not a list of numbers: {:?}", self.text[key]),
             )),
-            None => Err(Error::MissingKey { path: self.path.clone(), key: key.into() }),
+            None => Err(Error::MissingKey {
+                path: self.path.clone(),
+                key: key.into(),
+            }),
         }
     }
 
@@ -116,7 +123,10 @@ impl CalibFile {
     /// `R` and `T` as a rigid motion (rotation kept exactly as written).
     fn rigid(&self, r: &str, t: &str) -> Result<RigidF64> {
         let rot = na::Rotation3::from_matrix_unchecked(self.mat3(r)?);
-        Ok(RigidF64::from_parts(na::Translation3::from(self.vec3(t)?), rot))
+        Ok(RigidF64::from_parts(
+            na::Translation3::from(self.vec3(t)?),
+            rot,
+        ))
     }
 }
 
@@ -178,7 +188,8 @@ impl CamToCam {
     /// `R_rect_00` as a 4x4 homogeneous matrix.
     pub fn rect_00(&self) -> na::Matrix4<f64> {
         let mut m = na::Matrix4::identity();
-        m.fixed_view_mut::<3, 3>(0, 0).copy_from(&self.cameras[0].r_rect);
+        m.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&self.cameras[0].r_rect);
         m
     }
 }
@@ -250,7 +261,11 @@ impl Calibration {
         } else {
             None
         };
-        Ok(Calibration { cam_to_cam, velo_to_cam, imu_to_velo })
+        Ok(Calibration {
+            cam_to_cam,
+            velo_to_cam,
+            imu_to_velo,
+        })
     }
 
     /// The 3x4 matrix taking homogeneous velodyne points to homogeneous pixels of `camera`
@@ -274,7 +289,9 @@ mod tests {
         .unwrap();
         assert_eq!(f.text("calib_time"), Some("15-Mar-2012 11:37:16"));
         let v = VeloToCam::from_file(&f).unwrap();
-        let p = v.velo_to_cam.transform_point(&na::Point3::new(1.0, 1.0, 1.0));
+        let p = v
+            .velo_to_cam
+            .transform_point(&na::Point3::new(1.0, 1.0, 1.0));
         assert_eq!(p, na::Point3::new(2.0, 3.0, 4.0));
     }
 
@@ -286,7 +303,9 @@ mod tests {
         let f = CalibFile::parse("R: 1 0 0\nT: 1 2 3\n", Path::new("velo.txt")).unwrap();
         let e = VeloToCam::from_file(&f).unwrap_err().to_string();
         assert!(e.contains("holds 3 numbers, expected 9"), "{e}");
-        let e = CalibFile::parse("garbage line\n", Path::new("c.txt")).unwrap_err().to_string();
+        let e = CalibFile::parse("garbage line\n", Path::new("c.txt"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("c.txt:1"), "{e}");
     }
 }

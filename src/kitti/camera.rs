@@ -15,8 +15,13 @@ pub fn read_image(path: &Path) -> Result<RgbImage> {
 
 /// Decodes PNG bytes; `path` names the file in errors.
 pub fn decode_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
-    let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
-        .map_err(|source| Error::Image { path: path.into(), source })?;
+    let img =
+        image::load_from_memory_with_format(bytes, image::ImageFormat::Png).map_err(|source| {
+            Error::Image {
+                path: path.into(),
+                source,
+            }
+        })?;
     Ok(match img {
         image::DynamicImage::ImageRgb8(rgb) => rgb,
         other => other.to_rgb8(),

@@ -68,7 +68,13 @@ impl std::str::FromStr for FrameId {
 fn is_date(s: &str) -> bool {
     let b = s.as_bytes();
     b.len() == 10
-        && b.iter().enumerate().all(|(i, c)| if i == 4 || i == 7 { *c == b'_' } else { c.is_ascii_digit() })
+        && b.iter().enumerate().all(|(i, c)| {
+            if i == 4 || i == 7 {
+                *c == b'_'
+            } else {
+                c.is_ascii_digit()
+            }
+        })
 }
 
 /// Parses `<date>_drive_<NNNN>_sync` into (date, number).
@@ -98,7 +104,11 @@ impl Drive {
     /// The drive in folder `dir`, if its name is a drive name.
     pub fn from_dir(dir: &Path) -> Option<Drive> {
         let (date, number) = parse_drive_name(file_name(dir))?;
-        Some(Drive { date, number, dir: dir.to_path_buf() })
+        Some(Drive {
+            date,
+            number,
+            dir: dir.to_path_buf(),
+        })
     }
 
     /// `<date>_drive_<NNNN>_sync`.
@@ -113,17 +123,23 @@ impl Drive {
 
     /// The id of frame `frame` of this drive.
     pub fn frame_id(&self, frame: u32) -> FrameId {
-        FrameId { date: self.date.clone(), drive: self.number, frame }
+        FrameId {
+            date: self.date.clone(),
+            drive: self.number,
+            frame,
+        }
     }
 
     /// Path of a velodyne scan.
     pub fn scan_path(&self, frame: u32) -> PathBuf {
-        self.dir.join(format!("velodyne_points/data/{frame:010}.bin"))
+        self.dir
+            .join(format!("velodyne_points/data/{frame:010}.bin"))
     }
 
     /// Path of a camera image (camera 0-3).
     pub fn image_path(&self, camera: u8, frame: u32) -> PathBuf {
-        self.dir.join(format!("image_{camera:02}/data/{frame:010}.png"))
+        self.dir
+            .join(format!("image_{camera:02}/data/{frame:010}.png"))
     }
 
     /// Path of the drive's tracklets.
@@ -145,7 +161,9 @@ impl Drive {
         let mut frames = Vec::new();
         for p in list_dir(&dir)? {
             let name = file_name(&p);
-            let Some(stem) = name.strip_suffix(".bin") else { continue };
+            let Some(stem) = name.strip_suffix(".bin") else {
+                continue;
+            };
             if stem.len() != 10 || !stem.bytes().all(|c| c.is_ascii_digit()) {
                 return Err(Error::Input {
                     path: p.clone(),
@@ -163,7 +181,10 @@ impl Drive {
 /// folder. Drives come sorted by date and number.
 pub fn discover(root: &Path) -> Result<Vec<Drive>> {
     if !root.is_dir() {
-        return Err(Error::Input { path: root.into(), message: "not a folder".into() });
+        return Err(Error::Input {
+            path: root.into(),
+            message: "not a folder".into(),
+        });
     }
     let canonical = root.canonicalize().map_err(|e| Error::io(root, e))?;
     if let Some(d) = Drive::from_dir(&canonical) {
@@ -192,7 +213,8 @@ pub fn discover(root: &Path) -> Result<Vec<Drive>> {
     if drives.is_empty() {
         return Err(Error::Input {
             path: root.into(),
-            message: "no KITTI drive found (expected <date>/<date>_drive_<NNNN>_sync/ folders)".into(),
+            message: "no KITTI drive found (expected <date>/<date>_drive_<NNNN>_sync/ folders)"
+                .into(),
         });
     }
     drives.sort();
@@ -206,14 +228,24 @@ mod tests {
     #[test]
     fn frame_id_round_trips() {
         let id: FrameId = "2011_09_26_0001_0000000010".parse().unwrap();
-        assert_eq!(id, FrameId { date: "2011_09_26".into(), drive: 1, frame: 10 });
+        assert_eq!(
+            id,
+            FrameId {
+                date: "2011_09_26".into(),
+                drive: 1,
+                frame: 10
+            }
+        );
         assert_eq!(id.to_string(), "2011_09_26_0001_0000000010");
         assert!("2011_09_26_1_10".parse::<FrameId>().is_err());
     }
 
     #[test]
     fn drive_names() {
-        assert_eq!(parse_drive_name("2011_09_26_drive_0052_sync"), Some(("2011_09_26".into(), 52)));
+        assert_eq!(
+            parse_drive_name("2011_09_26_drive_0052_sync"),
+            Some(("2011_09_26".into(), 52))
+        );
         assert_eq!(parse_drive_name("2011_09_26_drive_0052_extract"), None);
     }
 }

@@ -82,7 +82,10 @@ impl Oxts {
             .collect::<std::result::Result<_, _>>()
             .map_err(|e| Error::format(path, format!("oxts record: {e}")))?;
         if v.len() != 30 {
-            return Err(Error::format(path, format!("oxts record has {} values, expected 30", v.len())));
+            return Err(Error::format(
+                path,
+                format!("oxts record has {} values, expected 30", v.len()),
+            ));
         }
         let i = |k: usize| v[k] as i32;
         Ok(Oxts {

@@ -40,11 +40,13 @@ pub fn parse(text: &str, path: &Path) -> Result<Vec<Option<Timestamp>>> {
             if line.trim().is_empty() {
                 return Ok(None);
             }
-            Timestamp::parse(line).map(Some).ok_or_else(|| Error::Format {
-                path: path.into(),
-                line: Some(i + 1),
-                message: format!("not a timestamp: {line:?}"),
-            })
+            Timestamp::parse(line)
+                .map(Some)
+                .ok_or_else(|| Error::Format {
+                    path: path.into(),
+                    line: Some(i + 1),
+                    message: format!("not a timestamp: {line:?}"),
+                })
         })
         .collect()
 }
@@ -55,11 +57,17 @@ mod tests {
 
     #[test]
     fn blank_lines_are_missing_frames() {
-        let t = parse("2011-09-26 13:02:25.951199337\n\n2011-09-26 13:02:26.054281661\n", Path::new("t"))
-            .unwrap();
+        let t = parse(
+            "2011-09-26 13:02:25.951199337\n\n2011-09-26 13:02:26.054281661\n",
+            Path::new("t"),
+        )
+        .unwrap();
         assert_eq!(t.len(), 3);
         assert!(t[1].is_none());
         assert_eq!(t[2].unwrap().0 - t[0].unwrap().0, 103_082_324);
-        assert!(parse("yesterday\n", Path::new("t.txt")).unwrap_err().to_string().contains("t.txt:1"));
+        assert!(parse("yesterday\n", Path::new("t.txt"))
+            .unwrap_err()
+            .to_string()
+            .contains("t.txt:1"));
     }
 }

@@ -213,7 +213,9 @@ impl Tracklet {
 
     /// The pose at `frame`, if the tracklet is present there.
     pub fn pose_at(&self, frame: u32) -> Option<&Pose> {
-        frame.checked_sub(self.first_frame).and_then(|i| self.poses.get(i as usize))
+        frame
+            .checked_sub(self.first_frame)
+            .and_then(|i| self.poses.get(i as usize))
     }
 }
 
@@ -240,7 +242,11 @@ impl Tracklets {
                 by_frame[f as usize].push(i as u32);
             }
         }
-        Tracklets { path, tracklets, by_frame }
+        Tracklets {
+            path,
+            tracklets,
+            by_frame,
+        }
     }
 
     /// Reads and parses a `tracklet_labels.xml`.
@@ -252,7 +258,10 @@ impl Tracklets {
     /// Parses the XML text; `path` names the file in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Tracklets> {
         // KITTI's files carry `<!DOCTYPE boost_serialization>`: allow the DTD, it declares nothing.
-        let options = roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
+        let options = roxmltree::ParsingOptions {
+            allow_dtd: true,
+            ..Default::default()
+        };
         let doc = roxmltree::Document::parse_with_options(text, options)
             .map_err(|e| Error::format(path, format!("malformed XML: {e}")))?;
         let p = Parser { path };
@@ -262,17 +271,28 @@ impl Tracklets {
         let tracklets = items
             .iter()
             .enumerate()
-            .map(|(i, n)| p.tracklet(*n).map_err(|e| p.context(e, &format!("tracklet {i}"))))
+            .map(|(i, n)| {
+                p.tracklet(*n)
+                    .map_err(|e| p.context(e, &format!("tracklet {i}")))
+            })
             .collect::<Result<Vec<_>>>()?;
         Ok(Tracklets::new(path.into(), tracklets))
     }
 
     /// The boxes present at `frame`, in tracklet order.
     pub fn at(&self, frame: u32) -> impl Iterator<Item = BoxAt<'_>> + '_ {
-        self.by_frame.get(frame as usize).into_iter().flatten().map(move |&i| {
-            let t = &self.tracklets[i as usize];
-            (i as usize, t, t.pose_at(frame).expect("index built from poses"))
-        })
+        self.by_frame
+            .get(frame as usize)
+            .into_iter()
+            .flatten()
+            .map(move |&i| {
+                let t = &self.tracklets[i as usize];
+                (
+                    i as usize,
+                    t,
+                    t.pose_at(frame).expect("index built from poses"),
+                )
+            })
     }
 
     /// Number of tracklet poses at `frame`.
@@ -293,14 +313,24 @@ struct Parser<'p> {
 impl Parser<'_> {
     fn err(&self, node: Node, message: String) -> Error {
         let pos = node.document().text_pos_at(node.range().start);
-        Error::Format { path: self.path.into(), line: Some(pos.row as usize), message }
+        Error::Format {
+            path: self.path.into(),
+            line: Some(pos.row as usize),
+            message,
+        }
     }
 
     fn context(&self, e: Error, what: &str) -> Error {
         match e {
-            Error::Format { path, line, message } => {
-                Error::Format { path, line, message: format!("{what}: {message}") }
-            }
+            Error::Format {
+                path,
+                line,
+                message,
+            } => Error::Format {
+                path,
+                line,
+                message: format!("{what}: {message}"),
+            },
             other => other,
         }
     }
@@ -308,7 +338,12 @@ impl Parser<'_> {
     fn child<'a, 'i>(&self, node: Node<'a, 'i>, name: &str) -> Result<Node<'a, 'i>> {
         node.children()
             .find(|c| c.has_tag_name(name))
-            .ok_or_else(|| self.err(node, format!("<{}> has no <{name}>", node.tag_name().name())))
+            .ok_or_else(|| {
+                self.err(
+                    node,
+                    format!("<{}> has no <{name}>", node.tag_name().name()),
+                )
+            })
     }
 
     fn text<'a>(&self, node: Node<'a, '_>, name: &str) -> Result<&'a str> {
@@ -319,7 +354,8 @@ impl Parser<'_> {
     fn num<T: std::str::FromStr>(&self, node: Node, name: &str) -> Result<T> {
         let c = self.child(node, name)?;
         let s = c.text().unwrap_or("").trim();
-        s.parse().map_err(|_| self.err(c, format!("<{name}> is not a number: {s:?}")))
+        s.parse()
+            .map_err(|_| self.err(c, format!("<{name}> is not a number: {s:?}")))
     }
 
     fn real(&self, node: Node, name: &str) -> Result<f64> {
@@ -346,13 +382,19 @@ impl Parser<'_> {
     fn tracklet(&self, n: Node) -> Result<Tracklet> {
         let (h, w, l) = (self.real(n, "h")?, self.real(n, "w")?, self.real(n, "l")?);
         if h <= 0.0 || w <= 0.0 || l <= 0.0 {
-            return Err(self.err(n, format!("box size must be positive, found h={h} w={w} l={l}")));
+            return Err(self.err(
+                n,
+                format!("box size must be positive, found h={h} w={w} l={l}"),
+            ));
         }
         let poses = self
             .counted_items(self.child(n, "poses")?)?
             .into_iter()
             .enumerate()
-            .map(|(i, p)| self.pose(p).map_err(|e| self.context(e, &format!("pose {i}"))))
+            .map(|(i, p)| {
+                self.pose(p)
+                    .map_err(|e| self.context(e, &format!("pose {i}")))
+            })
             .collect::<Result<Vec<_>>>()?;
         let finished = match n.children().find(|c| c.has_tag_name("finished")) {
             Some(_) => Some(self.num::<i64>(n, "finished")? != 0),
@@ -376,8 +418,16 @@ impl Parser<'_> {
 
     fn pose(&self, n: Node) -> Result<Pose> {
         Ok(Pose {
-            t: [self.real(n, "tx")?, self.real(n, "ty")?, self.real(n, "tz")?],
-            r: [self.real(n, "rx")?, self.real(n, "ry")?, self.real(n, "rz")?],
+            t: [
+                self.real(n, "tx")?,
+                self.real(n, "ty")?,
+                self.real(n, "tz")?,
+            ],
+            r: [
+                self.real(n, "rx")?,
+                self.real(n, "ry")?,
+                self.real(n, "rz")?,
+            ],
             state: self.coded(n, "state", PoseState::from_code)?,
             occlusion: self.coded(n, "occlusion", Occlusion::from_code)?,
             occlusion_kf: self.num::<i64>(n, "occlusion_kf")? != 0,

@@ -49,7 +49,8 @@ impl Scan {
         let mut reflectance = Vec::with_capacity(n);
         let mut dropped = Vec::new();
         for (i, chunk) in bytes.chunks_exact(POINT_BYTES).enumerate() {
-            let f = |k: usize| f32::from_le_bytes([chunk[k], chunk[k + 1], chunk[k + 2], chunk[k + 3]]);
+            let f =
+                |k: usize| f32::from_le_bytes([chunk[k], chunk[k + 1], chunk[k + 2], chunk[k + 3]]);
             let (x, y, z, r) = (f(0), f(4), f(8), f(12));
             if x.is_finite() && y.is_finite() && z.is_finite() && r.is_finite() {
                 points.push(Point3::new(x, y, z));
@@ -58,7 +59,12 @@ impl Scan {
                 dropped.push(i as u32);
             }
         }
-        Ok(Scan { points, reflectance, file_len: n, dropped })
+        Ok(Scan {
+            points,
+            reflectance,
+            file_len: n,
+            dropped,
+        })
     }
 
     /// Reads and decodes a `.bin` file.
@@ -103,12 +109,20 @@ mod tests {
     use super::*;
 
     fn bytes(points: &[[f32; 4]]) -> Vec<u8> {
-        points.iter().flatten().flat_map(|v| v.to_le_bytes()).collect()
+        points
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
     }
 
     #[test]
     fn decodes_and_drops_non_finite() {
-        let b = bytes(&[[1.0, 2.0, 3.0, 0.5], [f32::NAN, 0.0, 0.0, 0.0], [4.0, 5.0, 6.0, 0.25]]);
+        let b = bytes(&[
+            [1.0, 2.0, 3.0, 0.5],
+            [f32::NAN, 0.0, 0.0, 0.0],
+            [4.0, 5.0, 6.0, 0.25],
+        ]);
         let s = Scan::from_bytes(&b, Path::new("x.bin")).unwrap();
         assert_eq!(s.len(), 2);
         assert_eq!(s.file_len, 3);
@@ -121,9 +135,13 @@ mod tests {
     fn rejects_truncated_and_empty() {
         let mut b = bytes(&[[1.0, 2.0, 3.0, 0.5]]);
         b.pop();
-        let e = Scan::from_bytes(&b, Path::new("000042.bin")).unwrap_err().to_string();
+        let e = Scan::from_bytes(&b, Path::new("000042.bin"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("000042.bin") && e.contains("15 bytes"), "{e}");
-        let e = Scan::from_bytes(&[], Path::new("e.bin")).unwrap_err().to_string();
+        let e = Scan::from_bytes(&[], Path::new("e.bin"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("empty"), "{e}");
     }
 }

@@ -34,7 +34,12 @@ pub enum Class {
 
 impl Class {
     /// All classes in id order.
-    pub const ALL: [Class; 4] = [Class::Background, Class::Car, Class::Pedestrian, Class::Cyclist];
+    pub const ALL: [Class; 4] = [
+        Class::Background,
+        Class::Car,
+        Class::Pedestrian,
+        Class::Cyclist,
+    ];
     /// Number of classes.
     pub const COUNT: usize = 4;
 
@@ -86,8 +91,16 @@ impl LabelBox {
     /// The box of tracklet number `index` at `pose`. The tracklet gives the bottom-face centre;
     /// the cuboid is centred, so the pose is lifted by h/2 along the box's own z.
     pub fn new(index: usize, tracklet: &Tracklet, pose: &Pose) -> LabelBox {
-        let half = Vector3::new(tracklet.l as Real / 2.0, tracklet.w as Real / 2.0, tracklet.h as Real / 2.0);
-        let rot = na::UnitQuaternion::from_euler_angles(pose.r[0] as Real, pose.r[1] as Real, pose.r[2] as Real);
+        let half = Vector3::new(
+            tracklet.l as Real / 2.0,
+            tracklet.w as Real / 2.0,
+            tracklet.h as Real / 2.0,
+        );
+        let rot = na::UnitQuaternion::from_euler_angles(
+            pose.r[0] as Real,
+            pose.r[1] as Real,
+            pose.r[2] as Real,
+        );
         let bottom = na::Translation3::new(pose.t[0] as Real, pose.t[1] as Real, pose.t[2] as Real);
         let pose = Iso3::from_parts(bottom, rot) * na::Translation3::new(0.0, 0.0, half.z);
         LabelBox {
@@ -141,9 +154,12 @@ struct Prepared {
     class: Class,
     instance: u16,
     cuboid: Cuboid,
-    velo_to_box: Iso3,
-    z_min: Real,
-    z_max: Real,
+    /// Velodyne frame to box frame, with the rotation as a matrix (cheaper per point than the
+    /// quaternion of the box pose).
+    velo_to_box: na::IsometryMatrix3<Real>,
+    /// Axis-aligned bounds in the velodyne frame: a cheap reject before parry's test.
+    mins: Point3,
+    maxs: Point3,
 }
 
 /// A uniform XY bucket grid over the union of the boxes' bounding boxes, stored CSR-style.
@@ -159,9 +175,16 @@ struct Grid {
 impl Labeller {
     /// Prepares the labelled-class boxes among `boxes`.
     pub fn new(boxes: &[LabelBox]) -> Labeller {
-        let mut kept: Vec<&LabelBox> = boxes.iter().filter(|b| b.class != Class::Background).collect();
+        let mut kept: Vec<&LabelBox> = boxes
+            .iter()
+            .filter(|b| b.class != Class::Background)
+            .collect();
         // Smallest volume first, then lowest tracklet index: the first hit wins.
-        kept.sort_by(|a, b| a.volume().total_cmp(&b.volume()).then(a.instance.cmp(&b.instance)));
+        kept.sort_by(|a, b| {
+            a.volume()
+                .total_cmp(&b.volume())
+                .then(a.instance.cmp(&b.instance))
+        });
         let mut aabbs = Vec::with_capacity(kept.len());
         let boxes: Vec<Prepared> = kept
             .iter()
@@ -172,9 +195,15 @@ impl Labeller {
                     class: b.class,
                     instance: b.instance,
                     cuboid: b.cuboid,
-                    velo_to_box: b.pose.inverse(),
-                    z_min: aabb.mins.z,
-                    z_max: aabb.maxs.z,
+                    velo_to_box: {
+                        let inv = b.pose.inverse();
+                        na::IsometryMatrix3::from_parts(
+                            inv.translation,
+                            inv.rotation.to_rotation_matrix(),
+                        )
+                    },
+                    mins: aabb.mins,
+                    maxs: aabb.maxs,
                 }
             })
             .collect();
@@ -197,10 +226,13 @@ impl Labeller {
     pub fn label_point(&self, p: &Point3) -> Option<(Class, u16)> {
         for &i in self.grid.candidates(p.x, p.y) {
             let b = &self.boxes[i as usize];
-            if p.z < b.z_min || p.z > b.z_max {
+            let outside = (p.x < b.mins.x) | (p.x > b.maxs.x) | (p.y < b.mins.y) | (p.y > b.maxs.y);
+            if outside | (p.z < b.mins.z) | (p.z > b.maxs.z) {
                 continue;
             }
-            if b.cuboid.contains_local_point(&b.velo_to_box.transform_point(p)) {
+            if b.cuboid
+                .contains_local_point(&b.velo_to_box.transform_point(p))
+            {
                 return Some((b.class, b.instance));
             }
         }
@@ -244,8 +276,11 @@ impl Grid {
         let extent = (max[0] - min[0]).max(max[1] - min[1]);
         let cell = Self::CELL.max(extent / Self::MAX_DIM as Real);
         let inv_cell = 1.0 / cell;
-        let dims = [0, 1].map(|k| (((max[k] - min[k]) * inv_cell).floor() as usize + 1).min(Self::MAX_DIM + 1));
-        let cell_of = |v: Real, k: usize| (((v - min[k]) * inv_cell).floor().max(0.0) as usize).min(dims[k] - 1);
+        let dims = [0, 1]
+            .map(|k| (((max[k] - min[k]) * inv_cell).floor() as usize + 1).min(Self::MAX_DIM + 1));
+        let cell_of = |v: Real, k: usize| {
+            (((v - min[k]) * inv_cell).floor().max(0.0) as usize).min(dims[k] - 1)
+        };
         let mut lists: Vec<Vec<u16>> = vec![Vec::new(); dims[0] * dims[1]];
         for (i, a) in aabbs.iter().enumerate() {
             for cx in cell_of(a.mins.x, 0)..=cell_of(a.maxs.x, 0) {
@@ -261,7 +296,13 @@ impl Grid {
             items.extend(l);
             starts.push(items.len() as u32);
         }
-        Grid { min, inv_cell, dims, starts, items }
+        Grid {
+            min,
+            inv_cell,
+            dims,
+            starts,
+            items,
+        }
     }
 
     #[inline]

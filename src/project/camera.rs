@@ -12,7 +12,7 @@
 
 use serde::Serialize;
 
-use crate::geom::{Matrix3x4, Point3};
+use crate::geom::{floor_i64, Matrix3x4, Point3};
 use crate::kitti::camera::RgbImage;
 
 /// How a colour is read at a sub-pixel position.
@@ -55,10 +55,10 @@ impl CameraProjector {
         let (w, h) = (image.width() as f64, image.height() as f64);
         match self.sampling {
             Sampling::Nearest => {
-                let (cu, cv) = ((u + 0.5).floor(), (v + 0.5).floor());
-                if !(cu >= 0.0 && cv >= 0.0 && cu < w && cv < h) {
+                if !(u >= -0.5 && v >= -0.5 && u < w - 0.5 && v < h - 0.5) {
                     return None;
                 }
+                let (cu, cv) = (floor_i64(u + 0.5), floor_i64(v + 0.5));
                 let px = image.get_pixel(cu as u32, cv as u32).0;
                 Some(px.map(|c| c as f32 / 255.0))
             }
@@ -66,8 +66,11 @@ impl CameraProjector {
                 if !(u >= 0.0 && v >= 0.0 && u <= w - 1.0 && v <= h - 1.0) {
                     return None;
                 }
-                let (u0, v0) = (u.floor() as u32, v.floor() as u32);
-                let (u1, v1) = ((u0 + 1).min(image.width() - 1), (v0 + 1).min(image.height() - 1));
+                let (u0, v0) = (floor_i64(u) as u32, floor_i64(v) as u32);
+                let (u1, v1) = (
+                    (u0 + 1).min(image.width() - 1),
+                    (v0 + 1).min(image.height() - 1),
+                );
                 let (fu, fv) = (u - u0 as f64, v - v0 as f64);
                 let px = |a: u32, b: u32| image.get_pixel(a, b).0;
                 let (p00, p10, p01, p11) = (px(u0, v0), px(u1, v0), px(u0, v1), px(u1, v1));

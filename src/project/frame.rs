@@ -8,8 +8,8 @@
 use serde::Serialize;
 
 use super::{Projection, EMPTY};
-use crate::label::{Class, PointLabels};
 use crate::kitti::velodyne::Scan;
+use crate::label::{Class, PointLabels};
 
 /// Channel names of the LiDAR-only tensor, in order.
 pub const LIDAR_CHANNELS: [&str; 6] = ["x", "y", "z", "intensity", "range", "label"];
@@ -62,7 +62,11 @@ pub fn assemble(
     proj: &Projection,
     colour: Option<&dyn Fn(usize) -> Option<[f32; 3]>>,
 ) -> PgmFrame {
-    let depth = if colour.is_some() { RGB_CHANNELS.len() } else { LIDAR_CHANNELS.len() };
+    let depth = if colour.is_some() {
+        RGB_CHANNELS.len()
+    } else {
+        LIDAR_CHANNELS.len()
+    };
     let cells = proj.spec.cells();
     let mut data = vec![0f32; cells * depth];
     let mut label = vec![0u8; cells];
@@ -89,6 +93,19 @@ pub fn assemble(
             }
         }
     }
-    let channels = if depth == RGB_CHANNELS.len() { RGB_CHANNELS.to_vec() } else { LIDAR_CHANNELS.to_vec() };
-    PgmFrame { rows: proj.spec.rows, cols: proj.spec.cols, channels, data, label, instance, mask, rgb_valid }
+    let channels = if depth == RGB_CHANNELS.len() {
+        RGB_CHANNELS.to_vec()
+    } else {
+        LIDAR_CHANNELS.to_vec()
+    };
+    PgmFrame {
+        rows: proj.spec.rows,
+        cols: proj.spec.cols,
+        channels,
+        data,
+        label,
+        instance,
+        mask,
+        rgb_valid,
+    }
 }

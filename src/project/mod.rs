@@ -23,7 +23,7 @@ pub mod frame;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::geom::{Degrees, Point3};
+use crate::geom::{floor_i64, Degrees, Point3};
 
 /// Lasers of the HDL-64E that recorded KITTI.
 pub const LASERS: usize = 64;
@@ -71,12 +71,18 @@ impl PgmSpec {
     /// Checks that the numbers make a map.
     pub fn validate(&self) -> Result<()> {
         if self.rows == 0 || self.cols == 0 || self.rows > 4096 || self.cols > 65536 {
-            return Err(Error::Config(format!("map size {}x{} is out of range", self.rows, self.cols)));
+            return Err(Error::Config(format!(
+                "map size {}x{} is out of range",
+                self.rows, self.cols
+            )));
         }
         if !(self.fov.0 > 0.0 && self.fov.0 <= 360.0) {
-            return Err(Error::Config(format!("horizontal FOV {} deg must be in (0, 360]", self.fov.0)));
+            return Err(Error::Config(format!(
+                "horizontal FOV {} deg must be in (0, 360]",
+                self.fov.0
+            )));
         }
-        if !(self.fov_up.0 > self.fov_down.0) {
+        if self.fov_up.0.partial_cmp(&self.fov_down.0) != Some(std::cmp::Ordering::Greater) {
             return Err(Error::Config(format!(
                 "fov-up {} deg must be above fov-down {} deg",
                 self.fov_up.0, self.fov_down.0
@@ -95,8 +101,8 @@ impl PgmSpec {
     pub fn column(&self, p: &Point3) -> Option<usize> {
         let half = self.fov.to_radians() / 2.0;
         let yaw = (p.y as f64).atan2(p.x as f64);
-        let c = ((half - yaw) / (2.0 * half / self.cols as f64)).floor();
-        (c >= 0.0 && c < self.cols as f64).then_some(c as usize)
+        let c = floor_i64((half - yaw) / (2.0 * half / self.cols as f64));
+        (c >= 0 && c < self.cols as i64).then_some(c as usize)
     }
 
     /// Row of a point by elevation binning (clamped into the map).
@@ -104,9 +110,11 @@ impl PgmSpec {
     pub fn elevation_row(&self, p: &Point3, range: f32) -> usize {
         let up = self.fov_up.to_radians();
         let down = self.fov_down.to_radians();
-        let pitch = ((p.z as f64) / (range as f64).max(1e-9)).clamp(-1.0, 1.0).asin();
-        let r = ((up - pitch) / (up - down) * self.rows as f64).floor();
-        r.clamp(0.0, (self.rows - 1) as f64) as usize
+        let pitch = ((p.z as f64) / (range as f64).max(1e-9))
+            .clamp(-1.0, 1.0)
+            .asin();
+        let r = floor_i64((up - pitch) / (up - down) * self.rows as f64);
+        r.clamp(0, self.rows as i64 - 1) as usize
     }
 
     /// Row of ring `ring` (0..LASERS): the ring itself for 64 rows, scaled otherwise.
@@ -245,7 +253,10 @@ mod tests {
         assert_eq!(s.column(&Point3::new(10.0, 10.0, 0.0)), Some(0)); // +45 deg: left edge
         assert_eq!(s.column(&Point3::new(10.0, -10.0, 0.0)), None); // -45 deg: just outside
         assert_eq!(s.column(&Point3::new(-10.0, 0.0, 0.0)), None);
-        let full = PgmSpec { fov: Degrees(360.0), ..s };
+        let full = PgmSpec {
+            fov: Degrees(360.0),
+            ..s
+        };
         assert_eq!(full.column(&Point3::new(-10.0, 0.0, 0.0)), Some(0));
         assert_eq!(full.column(&Point3::new(10.0, 0.0, 0.0)), Some(256));
     }
@@ -257,7 +268,11 @@ mod tests {
             let elev = (2.0 - r as f32 * 0.4).to_radians();
             for k in 0..360 {
                 let az = ((k as f32) + 0.5).to_radians();
-                pts.push(Point3::new(10.0 * az.cos(), 10.0 * az.sin(), 10.0 * elev.tan()));
+                pts.push(Point3::new(
+                    10.0 * az.cos(),
+                    10.0 * az.sin(),
+                    10.0 * elev.tan(),
+                ));
             }
         }
         pts
@@ -278,8 +293,15 @@ mod tests {
 
     #[test]
     fn nearest_point_wins_a_cell() {
-        let pts = vec![Point3::new(20.0, 0.0, 0.0), Point3::new(10.0, 0.0, 0.0), Point3::new(30.0, 0.0, 0.0)];
-        let spec = PgmSpec { row_mode: RowMode::Elevation, ..Default::default() };
+        let pts = vec![
+            Point3::new(20.0, 0.0, 0.0),
+            Point3::new(10.0, 0.0, 0.0),
+            Point3::new(30.0, 0.0, 0.0),
+        ];
+        let spec = PgmSpec {
+            row_mode: RowMode::Elevation,
+            ..Default::default()
+        };
         let p = project(&pts, &spec);
         assert_eq!(p.filled, 1);
         assert_eq!(p.collisions, 2);

@@ -16,12 +16,21 @@ use crate::error::{Error, Result};
 /// `durable`, the data is also flushed to the device before the rename, so that the file survives
 /// a power cut as well; that costs a disk round trip per file, so it is an option (`--sync`).
 pub fn atomic_write(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let werr = |source| Error::Write { path: path.into(), source };
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let werr = |source| Error::Write {
+        path: path.into(),
+        source,
+    };
     let mut tmp = tempfile::Builder::new()
         .prefix(".tmp-")
         .tempfile_in(dir)
-        .map_err(|source| Error::Write { path: dir.into(), source })?;
+        .map_err(|source| Error::Write {
+            path: dir.into(),
+            source,
+        })?;
     tmp.write_all(bytes).map_err(werr)?;
     if durable {
         tmp.as_file().sync_data().map_err(werr)?;
@@ -32,7 +41,10 @@ pub fn atomic_write(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
 
 /// Creates a folder and its parents, naming it in the error.
 pub fn create_dir(path: &Path) -> Result<()> {
-    std::fs::create_dir_all(path).map_err(|source| Error::Write { path: path.into(), source })
+    std::fs::create_dir_all(path).map_err(|source| Error::Write {
+        path: path.into(),
+        source,
+    })
 }
 
 /// The bytes of a `.label` file: one little-endian u32 per point, class in the low 16 bits,

@@ -1,1 +1,9 @@
+//! The integration tests: one binary, a module per stage, on the real KITTI files in
+//! `fixtures/raw` (and `../shared/kitti` where present).
 
+mod bad_input;
+mod cli;
+mod label;
+mod project;
+mod readers;
+mod util;

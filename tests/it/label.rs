@@ -1,0 +1,179 @@
+//! LABEL: the labeller against an independent inside-box check, and on real frames.
+
+use kitti2pgm::geom::{Point3, Real};
+use kitti2pgm::kitti::tracklets::{
+    ObjectType, Occlusion, Pose, PoseState, Tracklet, Tracklets, Truncation,
+};
+use kitti2pgm::kitti::velodyne::Scan;
+use kitti2pgm::label::{Class, LabelBox, Labeller};
+use proptest::prelude::*;
+
+use crate::util::*;
+
+fn tracklet(object_type: ObjectType, hwl: [f64; 3], t: [f64; 3], yaw: f64) -> (Tracklet, Pose) {
+    let pose = Pose {
+        t,
+        r: [0.0, 0.0, yaw],
+        state: PoseState::Labeled,
+        occlusion: Occlusion::Visible,
+        occlusion_kf: false,
+        truncation: Truncation::InImage,
+        amt_occlusion: 0.0,
+        amt_occlusion_kf: 0,
+        amt_border_l: 0.0,
+        amt_border_r: 0.0,
+        amt_border_kf: 0,
+    };
+    let tr = Tracklet {
+        object_type,
+        h: hwl[0],
+        w: hwl[1],
+        l: hwl[2],
+        first_frame: 0,
+        poses: vec![pose.clone()],
+        finished: Some(true),
+    };
+    (tr, pose)
+}
+
+/// The definition, in f64, written independently of parry: signed margin to the box
+/// (positive inside), so that the test can skip points too close to a face to decide in f32.
+fn margin(p: [f64; 3], hwl: [f64; 3], t: [f64; 3], yaw: f64) -> f64 {
+    let (dx, dy, dz) = (p[0] - t[0], p[1] - t[1], p[2] - t[2]);
+    let (c, s) = (yaw.cos(), yaw.sin());
+    let (lx, ly) = (c * dx + s * dy, -s * dx + c * dy);
+    let [h, w, l] = hwl;
+    (l / 2.0 - lx.abs())
+        .min(w / 2.0 - ly.abs())
+        .min(dz)
+        .min(h - dz)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    #[test]
+    fn labeller_agrees_with_an_independent_check(
+        h in 0.5f64..4.0, w in 0.3f64..3.0, l in 0.3f64..12.0,
+        tx in -40.0f64..40.0, ty in -40.0f64..40.0, tz in -3.0f64..1.0,
+        yaw in -7.0f64..7.0,
+        pts in prop::collection::vec((-6.0f64..6.0, -6.0f64..6.0, -1.0f64..5.0), 200),
+    ) {
+        let (tr, pose) = tracklet(ObjectType::Car, [h, w, l], [tx, ty, tz], yaw);
+        let b = LabelBox::new(0, &tr, &pose);
+        let lab = Labeller::new(std::slice::from_ref(&b));
+        for (dx, dy, dz) in pts {
+            let p = [tx + dx, ty + dy, tz + dz];
+            let m = margin(p, [h, w, l], [tx, ty, tz], yaw);
+            if m.abs() < 1e-3 {
+                continue; // within f32 rounding of a face
+            }
+            let point = Point3::new(p[0] as Real, p[1] as Real, p[2] as Real);
+            let got = lab.label_point(&point);
+            prop_assert_eq!(got.is_some(), m > 0.0, "point {:?} margin {}", p, m);
+            prop_assert_eq!(b.contains(&point), m > 0.0);
+            if let Some((class, id)) = got {
+                prop_assert_eq!(class, Class::Car);
+                prop_assert_eq!(id, 1);
+            }
+        }
+    }
+
+    #[test]
+    fn a_box_holds_its_centre_for_any_yaw(yaw in -10.0f64..10.0, h in 0.5f64..4.0) {
+        let (tr, pose) = tracklet(ObjectType::Pedestrian, [h, 0.6, 0.8], [5.0, -3.0, -1.5], yaw);
+        let b = LabelBox::new(3, &tr, &pose);
+        let centre = Point3::new(5.0, -3.0, (-1.5 + h / 2.0) as Real);
+        prop_assert!(b.contains(&centre));
+        prop_assert_eq!(Labeller::new(&[b]).label_point(&centre), Some((Class::Pedestrian, 4)));
+    }
+}
+
+#[test]
+fn overlaps_go_to_the_smallest_box_and_tram_stays_background() {
+    let (car, cp) = tracklet(ObjectType::Car, [2.0, 2.0, 4.0], [10.0, 0.0, -1.0], 0.3);
+    let (cyc, yp) = tracklet(ObjectType::Cyclist, [1.8, 0.6, 1.8], [10.0, 0.0, -1.0], 0.0);
+    let (tram, tp) = tracklet(ObjectType::Tram, [3.0, 3.0, 20.0], [10.0, 0.0, -1.0], 0.0);
+    let (van, vp) = tracklet(ObjectType::Van, [2.0, 2.0, 4.0], [10.0, 0.0, -1.0], 0.3);
+    let boxes = [
+        LabelBox::new(0, &tram, &tp),
+        LabelBox::new(1, &car, &cp),
+        LabelBox::new(2, &cyc, &yp),
+        LabelBox::new(3, &van, &vp),
+    ];
+    let lab = Labeller::new(&boxes);
+    assert_eq!(lab.len(), 3, "the tram does not take part");
+    assert_eq!(
+        lab.label_point(&Point3::new(10.0, 0.0, -0.5)),
+        Some((Class::Cyclist, 3))
+    );
+    // In car and van (same size) but not the cyclist: the lower tracklet index wins.
+    assert_eq!(
+        lab.label_point(&Point3::new(11.5, 0.5, -0.5)),
+        Some((Class::Car, 2))
+    );
+    // Only in the tram: background.
+    assert_eq!(lab.label_point(&Point3::new(18.0, 0.0, 0.0)), None);
+    // Boundaries are inclusive: the bottom face.
+    assert!(boxes[2].contains(&Point3::new(10.0, 0.0, -1.0)));
+}
+
+/// On real frames, each car's points are exactly those the independent check puts in its box.
+#[test]
+fn cars_are_labelled_where_the_tracklets_put_them() {
+    for (drive, frame) in [(1u32, 0u32), (1, 45), (52, 0)] {
+        let dir = fixture_drive(drive);
+        let tr = Tracklets::read(&dir.join("tracklet_labels.xml")).unwrap();
+        let scan = Scan::read(&dir.join(format!("velodyne_points/data/{frame:010}.bin"))).unwrap();
+        let boxes: Vec<LabelBox> = tr
+            .at(frame)
+            .map(|(i, t, p)| LabelBox::new(i, t, p))
+            .collect();
+        let labels = Labeller::new(&boxes).label(&scan.points);
+        let mut cars_with_points = 0;
+        for (i, t, p) in tr.at(frame) {
+            if t.object_type.class() == Class::Background {
+                continue;
+            }
+            let yaw = p.r[2];
+            let mut inside = 0;
+            let mut labelled_as_it = 0;
+            let mut undecidable = 0;
+            for (k, q) in scan.points.iter().enumerate() {
+                let m = margin(
+                    [q.x as f64, q.y as f64, q.z as f64],
+                    [t.h, t.w, t.l],
+                    p.t,
+                    yaw,
+                );
+                if m.abs() < 1e-4 {
+                    undecidable += 1;
+                    continue;
+                }
+                if m > 0.0 {
+                    inside += 1;
+                    // Overlaps are rare; a point in this box carries this box's class at least.
+                    assert_ne!(labels.class[k], Class::Background);
+                }
+                if labels.instance[k] as usize == i + 1 {
+                    labelled_as_it += 1;
+                    assert!(
+                        m > 0.0,
+                        "point {k} labelled as tracklet {i} lies outside its box"
+                    );
+                }
+            }
+            assert!(labelled_as_it <= inside + undecidable);
+            assert!(
+                labelled_as_it + undecidable >= inside * 95 / 100,
+                "tracklet {i}: {labelled_as_it} of {inside}"
+            );
+            if t.object_type.class() == Class::Car && inside > 50 {
+                cars_with_points += 1;
+            }
+        }
+        assert!(
+            cars_with_points >= 1,
+            "drive {drive} frame {frame} has visible cars"
+        );
+    }
+}

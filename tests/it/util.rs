@@ -1,0 +1,74 @@
+//! Shared helpers: fixture paths, a temp dir per test, the binary.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// `fixtures/raw`: always present.
+pub fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/raw")
+}
+
+/// `../shared/kitti`, when this checkout sits beside it.
+pub fn shared() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti");
+    p.join("raw").is_dir().then_some(p)
+}
+
+/// The richest raw root available: the shared 30 scans, else the fixtures' 3.
+pub fn raw_root() -> PathBuf {
+    shared().map(|s| s.join("raw")).unwrap_or_else(fixtures)
+}
+
+/// The fixture drive folder of drive `n`.
+pub fn fixture_drive(n: u32) -> PathBuf {
+    fixtures().join(format!("2011_09_26/2011_09_26_drive_{n:04}_sync"))
+}
+
+/// A fresh temporary folder.
+pub fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().expect("temp dir")
+}
+
+/// Copies `src` into `dst` recursively.
+pub fn copy_tree(src: &Path, dst: &Path) {
+    std::fs::create_dir_all(dst).unwrap();
+    for e in std::fs::read_dir(src).unwrap() {
+        let e = e.unwrap();
+        let to = dst.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_tree(&e.path(), &to);
+        } else {
+            std::fs::copy(e.path(), &to).unwrap();
+        }
+    }
+}
+
+/// A writable copy of the fixtures (to break files in).
+pub fn fixture_copy(dir: &Path) -> PathBuf {
+    let root = dir.join("raw");
+    copy_tree(&fixtures(), &root);
+    root
+}
+
+/// Runs the binary.
+pub fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_kitti2pgm"))
+        .args(args)
+        .output()
+        .expect("run kitti2pgm")
+}
+
+/// Runs the binary and returns (exit code, stdout, stderr).
+pub fn run_text(args: &[&str]) -> (i32, String, String) {
+    let o = run(args);
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// `path` as a `&str`.
+pub fn s(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
