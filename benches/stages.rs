@@ -19,6 +19,10 @@ use kitti2pgm::project::{project, PgmSpec};
 use kitti2pgm::write::atomic_write;
 use kitti2pgm::write::npy::encode_f32;
 
+/// The same allocator as the binary, so that stage costs match what `convert` pays.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn raw_root() -> PathBuf {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/raw");
     if shared.is_dir() {

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Whole-conversion benchmark against the numpy peer (../shared/bench/numpy_baseline.py), same
+# frames, same machine, same run, same number of cores.
+#
+#   benches/compare_peer.sh [COPIES] [WORKERS]
+#
+# The 30 real scans of ../shared/kitti/raw (drives 0001 and 0052, with image_02) are repeated
+# COPIES times (default 10 -> 300 frames) as extra drive folders made of symbolic links, so that
+# both tools see a batch large enough for their start-up to vanish. Both convert every scan to a
+# 64x512x9 .npy with colour from camera 2 (kitti2pgm: --all-frames --rgb --no-point-labels; a
+# second kitti2pgm run adds the per-point .label files the peer does not write). Each tool runs
+# three times, alternating, and the best run counts. Prints frames/s and the ratios.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+shared=${SHARED:-$here/../shared}
+copies=${1:-10}
+workers=${2:-$(nproc)}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+day=2011_09_26
+src=$shared/kitti/raw/$day
+mkdir -p "$work/raw/$day"
+cp "$src"/calib_*.txt "$work/raw/$day/"
+n=0
+for i in $(seq 1 "$copies"); do
+  for d in 0001 0052; do
+    n=$((n + 1))
+    dst=$work/raw/$day/${day}_drive_$(printf %04d $((1000 + n)))_sync
+    mkdir -p "$dst"
+    for part in velodyne_points image_02 tracklet_labels.xml; do ln -s "$src/${day}_drive_${d}_sync/$part" "$dst/$part"; done
+  done
+done
+(cd "$here" && cargo build --release --quiet)
+bin=$here/target/release/kitti2pgm
+frames=$(find -L "$work/raw" -name '*.bin' | wc -l)
+echo "frames: $frames, workers/threads: $workers, cpu: $(nproc) cores"
+peer_best=999999; ours_best=999999; ours_lab_best=999999
+t() { local s e; s=$(date +%s.%N); "$@" >/dev/null; e=$(date +%s.%N); echo "$e - $s" | bc; }
+min() { echo "if ($1 < $2) $1 else $2" | bc; }
+for rep in 1 2 3; do
+  rm -rf "$work/peer" "$work/ours" "$work/ours_lab"
+  p=$(t python3 "$shared/bench/numpy_baseline.py" "$work/raw" "$work/peer" --workers "$workers")
+  o=$(t "$bin" --threads "$workers" --no-progress convert "$work/raw" --out "$work/ours" --all-frames --rgb --no-point-labels)
+  l=$(t "$bin" --threads "$workers" --no-progress convert "$work/raw" --out "$work/ours_lab" --all-frames --rgb)
+  peer_best=$(min "$p" "$peer_best"); ours_best=$(min "$o" "$ours_best"); ours_lab_best=$(min "$l" "$ours_lab_best")
+  echo "run $rep: peer ${p}s  kitti2pgm ${o}s  kitti2pgm+labels ${l}s"
+done
+fps() { echo "scale=1; $frames / $1" | bc; }
+echo "peer (numpy, $workers workers):          $(fps "$peer_best") frames/s (wall, process start included)"
+echo "kitti2pgm (same output):               $(fps "$ours_best") frames/s  ratio $(echo "scale=2; $peer_best / $ours_best" | bc)x"
+echo "kitti2pgm (+ per-point .label files):  $(fps "$ours_lab_best") frames/s  ratio $(echo "scale=2; $peer_best / $ours_lab_best" | bc)x"
