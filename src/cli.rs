@@ -34,6 +34,68 @@ pub enum Command {
     Convert(ConvertArgs),
     /// Draw converted frames (.npy) as PNG: range, intensity, colour and labels stacked.
     Preview(PreviewArgs),
+    /// Write the train/val split lists (DIR/ImageSet/{all,train,val}.txt) from the tracklets and
+    /// the list of velodyne files alone (no point data is read).
+    ///
+    /// Default: SqueezeSeg's split. all = frames with a velodyne scan and at least one tracklet
+    /// pose; val = drives 0064 0070 0079 0084 0086 0087 0091 0093 of 2011_09_26; train = the rest.
+    Split(SplitArgs),
+    /// Class balance, normalisation constants and class weights of a convert output folder,
+    /// per split.
+    ///
+    /// Per class: labelled cells and points, shares, frames, instances and poses (with --raw);
+    /// per split: each class's train/val share; per channel: mean and standard deviation over
+    /// valid cells (SqueezeSeg's INPUT_MEAN / INPUT_STD); suggested loss weights; tracklet
+    /// state / occlusion / truncation histograms; per-row fill and colour coverage.
+    Stats(StatsArgs),
+}
+
+/// `kitti2pgm split`.
+#[derive(Debug, ClapArgs)]
+pub struct SplitArgs {
+    /// KITTI raw root, date folder or drive folder.
+    #[arg(value_name = "RAW_ROOT")]
+    pub raw_root: PathBuf,
+    /// Output folder: the lists go to DIR/ImageSet/.
+    #[arg(long, short, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Val drives instead of SqueezeSeg's: NNNN (of 2011_09_26), <date>_NNNN or
+    /// <date>_drive_NNNN_sync, comma separated or repeated.
+    #[arg(long, value_name = "DRIVES", conflicts_with = "random_val")]
+    pub val_drives: Vec<String>,
+    /// A seeded random split, disjoint by drive, with about this share of the frames in val.
+    #[arg(long, value_name = "FRACTION")]
+    pub random_val: Option<f64>,
+    /// Seed of --random-val.
+    #[arg(long, default_value_t = 0, requires = "random_val")]
+    pub seed: u64,
+    /// List every scan, not only those with a tracklet pose.
+    #[arg(long)]
+    pub all_frames: bool,
+    /// Print the counts as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `kitti2pgm stats`.
+#[derive(Debug, ClapArgs)]
+pub struct StatsArgs {
+    /// A `kitti2pgm convert` output folder (with lidar_2d/).
+    #[arg(value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Split lists: list files (train.txt, val.txt; named by their stem) or an ImageSet folder
+    /// (its train.txt and val.txt). Without it, one split `all` over every converted frame.
+    #[arg(long, value_name = "PATH")]
+    pub imageset: Vec<PathBuf>,
+    /// KITTI raw root, for tracklet figures (instances, poses, state, occlusion, truncation).
+    #[arg(long, value_name = "RAW_ROOT")]
+    pub raw: Option<PathBuf>,
+    /// Print the report as JSON (stable keys, see docs/stats.md) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Also draw the class balance per split as a PNG bar chart.
+    #[arg(long, value_name = "PNG")]
+    pub chart: Option<PathBuf>,
 }
 
 /// Row assignment.

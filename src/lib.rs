@@ -24,6 +24,7 @@ pub mod label;
 pub mod pipeline;
 pub mod preview;
 pub mod project;
+pub mod report;
 pub mod write;
 
 pub use error::{Error, Result};

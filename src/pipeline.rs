@@ -28,6 +28,9 @@ use crate::project::frame::{assemble, PgmFrame};
 use crate::project::{project, PgmSpec, Projection};
 use crate::write::{atomic_write, create_dir, label_file_bytes, npy};
 
+/// Name of the summary that [`convert`] leaves in the output folder (read by `stats`).
+pub const SUMMARY_FILE: &str = "convert_summary.json";
+
 /// Which frames of a drive are converted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
 pub enum FrameSelection {
@@ -533,6 +536,7 @@ pub fn convert(
     progress: &(dyn Fn(FrameOutcome<'_>) + Sync),
 ) -> Result<ConvertSummary> {
     opts.validate()?;
+    create_dir(&opts.out_dir)?;
     if opts.write_npy {
         create_dir(&opts.out_dir.join("lidar_2d"))?;
     }
@@ -587,5 +591,7 @@ pub fn convert(
         .expect("no panic while holding the lock");
     s.failures.sort_by(|a, b| a.what.cmp(&b.what));
     s.fallback_frames.sort();
+    let json = serde_json::to_vec_pretty(&s).expect("the summary serialises");
+    atomic_write(&opts.out_dir.join(SUMMARY_FILE), &json, opts.sync)?;
     Ok(s)
 }

@@ -84,3 +84,37 @@ pub fn render(shape: &[u64], data: &[f32]) -> Result<RgbImage> {
     });
     Ok(img)
 }
+
+/// Draws ASCII `text` with its top-left corner at (x, y), each font pixel `scale` x `scale`
+/// (font8x8's public-domain 8x8 glyphs). Pixels outside the image are skipped.
+pub fn draw_text(img: &mut RgbImage, x: u32, y: u32, text: &str, colour: [u8; 3], scale: u32) {
+    for (i, ch) in text.chars().enumerate() {
+        let glyph = font8x8::legacy::BASIC_LEGACY
+            .get(ch as usize)
+            .copied()
+            .unwrap_or([0; 8]);
+        for (row, bits) in glyph.iter().enumerate() {
+            for col in 0..8u32 {
+                if bits >> col & 1 == 0 {
+                    continue;
+                }
+                for dy in 0..scale {
+                    for dx in 0..scale {
+                        let (px, py) = (
+                            x + (i as u32 * 8 + col) * scale + dx,
+                            y + row as u32 * scale + dy,
+                        );
+                        if px < img.width() && py < img.height() {
+                            img.put_pixel(px, py, Rgb(colour));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Width in pixels of `text` drawn by [`draw_text`].
+pub fn text_width(text: &str, scale: u32) -> u32 {
+    text.chars().count() as u32 * 8 * scale
+}

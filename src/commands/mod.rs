@@ -3,6 +3,8 @@
 mod convert;
 mod preview;
 pub mod progress;
+mod split;
+mod stats;
 
 use crate::cli::{Args, Command};
 use crate::Outcome;
@@ -16,6 +18,8 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
     match args.command {
         Command::Convert(a) => convert::run(a, &global),
         Command::Preview(a) => preview::run(a),
+        Command::Split(a) => split::run(a),
+        Command::Stats(a) => stats::run(a, &global),
     }
 }
 

@@ -6,4 +6,5 @@ mod cli;
 mod label;
 mod project;
 mod readers;
+mod reports;
 mod util;

@@ -1,0 +1,215 @@
+//! `kitti2pgm stats`: the CLI over [`kitti2pgm::report::stats`].
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Context;
+use kitti2pgm::label::Class;
+use kitti2pgm::report::imageset;
+use kitti2pgm::report::stats::{balance_chart, stats, SplitFrames, Stats};
+
+use super::{progress, Global};
+use crate::cli::StatsArgs;
+use crate::Outcome;
+
+fn split_lists(paths: &[std::path::PathBuf]) -> anyhow::Result<Vec<SplitFrames>> {
+    let mut out = Vec::new();
+    for p in paths {
+        let files: Vec<std::path::PathBuf> = if p.is_dir() {
+            ["train.txt", "val.txt"]
+                .iter()
+                .map(|f| p.join(f))
+                .filter(|f| f.is_file())
+                .collect()
+        } else {
+            vec![p.clone()]
+        };
+        if files.is_empty() {
+            anyhow::bail!(
+                "{}: no train.txt or val.txt in this ImageSet folder",
+                p.display()
+            );
+        }
+        for f in files {
+            let name = f
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("split")
+                .to_string();
+            out.push(SplitFrames {
+                name,
+                source: Some(f.clone()),
+                frames: imageset::read(&f)?,
+            });
+        }
+    }
+    Ok(out)
+}
+
+pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
+    let splits = split_lists(&a.imageset)?;
+    let total = if splits.is_empty() {
+        kitti2pgm::report::stats::converted_frames(&a.dir)
+            .map(|v| v.len())
+            .unwrap_or(0)
+    } else {
+        splits.iter().map(|s| s.frames.len()).sum()
+    };
+    let pb = progress::bar(total as u64, g.progress, "reading");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(g.threads)
+        .build()?;
+    let s = pool
+        .install(|| stats(&a.dir, &splits, a.raw.as_deref(), &|n| pb.inc(n)))
+        .with_context(|| format!("statistics of {}", a.dir.display()))?;
+    pb.finish_and_clear();
+    if let Some(png) = &a.chart {
+        let mut bytes = Vec::new();
+        balance_chart(&s).write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )?;
+        kitti2pgm::write::atomic_write(png, &bytes, false)?;
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&s)?);
+    } else {
+        print!("{}", table(&s, a.chart.as_deref()));
+    }
+    Ok(Outcome::Ok)
+}
+
+fn table(s: &Stats, chart: Option<&Path>) -> String {
+    let mut t = String::new();
+    let names = &s.split_order;
+    let _ = writeln!(
+        t,
+        "maps {}x{}, channels {}",
+        s.rows,
+        s.cols,
+        s.channels.join(",")
+    );
+    let _ = write!(t, "\n{:<32}", "");
+    for n in names {
+        let _ = write!(t, "{n:>14}");
+    }
+    let _ = writeln!(t);
+    let row = |t: &mut String, label: &str, f: &dyn Fn(&str) -> String| {
+        let _ = write!(t, "{label:<32}");
+        for n in names {
+            let _ = write!(t, "{:>14}", f(n));
+        }
+        let _ = writeln!(t);
+    };
+    row(&mut t, "frames", &|n| s.splits[n].frames.to_string());
+    row(&mut t, "fill ratio", &|n| {
+        format!("{:.4}", s.splits[n].fill_ratio)
+    });
+    if s.splits.values().all(|x| x.rgb_coverage.is_some()) {
+        row(&mut t, "cells with colour", &|n| {
+            format!("{:.1}%", 100.0 * s.splits[n].rgb_coverage.unwrap_or(0.0))
+        });
+    }
+    for c in Class::ALL {
+        row(&mut t, &format!("{} cells", c.name()), &|n| {
+            s.splits[n].cells[c.name()].to_string()
+        });
+    }
+    if s.splits.values().all(|x| x.points.is_some()) {
+        for c in Class::ALL {
+            row(&mut t, &format!("{} points", c.name()), &|n| {
+                s.splits[n]
+                    .points
+                    .as_ref()
+                    .map(|p| p[c.name()].to_string())
+                    .unwrap_or_default()
+            });
+        }
+    }
+    for c in &Class::ALL[1..] {
+        row(&mut t, &format!("{} % of labelled cells", c.name()), &|n| {
+            format!(
+                "{:.2}%",
+                100.0 * s.splits[n].share_of_labelled_cells[c.name()]
+            )
+        });
+        row(&mut t, &format!("{} frames", c.name()), &|n| {
+            s.splits[n].frames_with[c.name()].to_string()
+        });
+    }
+    if s.splits.values().all(|x| x.tracklets.is_some()) {
+        for c in &Class::ALL[1..] {
+            row(&mut t, &format!("{} instances", c.name()), &|n| {
+                s.splits[n]
+                    .tracklets
+                    .as_ref()
+                    .map(|x| x.instances[c.name()].to_string())
+                    .unwrap_or_default()
+            });
+            row(&mut t, &format!("{} poses", c.name()), &|n| {
+                s.splits[n]
+                    .tracklets
+                    .as_ref()
+                    .map(|x| x.poses[c.name()].to_string())
+                    .unwrap_or_default()
+            });
+        }
+    }
+    if names.len() > 1 {
+        let _ = writeln!(t, "\nshare of each class's cells per split");
+        for c in &Class::ALL[1..] {
+            let shares: Vec<String> = names
+                .iter()
+                .map(|n| format!("{n} {:.1}%", 100.0 * s.class_split_share[c.name()][n]))
+                .collect();
+            let _ = writeln!(t, "  {:<12} {}", c.name(), shares.join("  "));
+        }
+    }
+    let nm = &s.normalisation;
+    let _ = writeln!(
+        t,
+        "\nnormalisation (from {}), channels {}",
+        nm.from_split,
+        nm.channels.join(",")
+    );
+    let fmt = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:.4}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let _ = writeln!(t, "  INPUT_MEAN [{}]", fmt(&nm.mean));
+    let _ = writeln!(t, "  INPUT_STD  [{}]", fmt(&nm.std));
+    let w = &s.class_weights;
+    let _ = writeln!(
+        t,
+        "\nclass weights (background, car, pedestrian, cyclist; from {})",
+        w.from_split
+    );
+    let _ = writeln!(
+        t,
+        "  inverse frequency       [{}]",
+        fmt(&w.inverse_frequency)
+    );
+    let _ = writeln!(
+        t,
+        "  sqrt inverse frequency  [{}]",
+        fmt(&w.sqrt_inverse_frequency)
+    );
+    let _ = writeln!(
+        t,
+        "  SqueezeSeg default      [{}]",
+        fmt(&w.squeezeseg_default)
+    );
+    if let Some(cs) = &s.convert_summary {
+        let _ = writeln!(
+            t,
+            "\nconversion: {} collisions, {} ring fallbacks",
+            cs["collisions"], cs["ring_fallbacks"]
+        );
+    }
+    if let Some(p) = chart {
+        let _ = writeln!(t, "\nchart: {}", p.display());
+    }
+    t
+}
