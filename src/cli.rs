@@ -48,6 +48,52 @@ pub enum Command {
     /// valid cells (SqueezeSeg's INPUT_MEAN / INPUT_STD); suggested loss weights; tracklet
     /// state / occlusion / truncation histograms; per-row fill and colour coverage.
     Stats(StatsArgs),
+    /// Score a model's predictions against converted ground truth: per-class IoU, mIoU.
+    ///
+    /// Cell protocol (SqueezeSeg's, default): cells with ground-truth range > 0, TP/FP/FN summed
+    /// over all frames, IoU = TP / (TP + FP + FN); mIoU over car, pedestrian, cyclist. --points:
+    /// the same per scan point in the field of view (needs --raw). Predictions, matched by frame
+    /// id, may be HxW label maps, HxWx4 scores (argmax), SqueezeSeg-layout HxWx6/9 .npy, or
+    /// per-point .label files. Exit status 1 on bad or missing predictions, naming the frame.
+    Score(ScoreArgs),
+}
+
+/// `kitti2pgm score`.
+#[derive(Debug, ClapArgs)]
+pub struct ScoreArgs {
+    /// Ground truth: a `kitti2pgm convert` output folder.
+    #[arg(long, value_name = "DIR")]
+    pub gt: PathBuf,
+    /// Predictions: a folder (searched recursively) or one file.
+    #[arg(long, value_name = "PATH")]
+    pub pred: PathBuf,
+    /// Only the frames of this ImageSet list (e.g. val.txt); default: every ground-truth frame.
+    #[arg(long, value_name = "LIST")]
+    pub imageset: Option<PathBuf>,
+    /// Point protocol: score every scan point in the field of view (needs --raw).
+    #[arg(long, requires = "raw")]
+    pub points: bool,
+    /// KITTI raw root (for --points, and for .label predictions under the cell protocol).
+    #[arg(long, value_name = "RAW_ROOT")]
+    pub raw: Option<PathBuf>,
+    /// Score a ground-truth frame without a prediction as all background instead of failing.
+    #[arg(long)]
+    pub missing_as_background: bool,
+    /// Print the report as JSON (layout in docs/evaluation.md).
+    #[arg(long)]
+    pub json: bool,
+    /// Include per-frame IoUs (table and JSON).
+    #[arg(long)]
+    pub per_frame: bool,
+    /// Draw the confusion matrix to this PNG.
+    #[arg(long, value_name = "PNG")]
+    pub confusion: Option<PathBuf>,
+    /// Draw the N worst frames (lowest mIoU of the classes present) as prediction-over-truth PNGs.
+    #[arg(long, value_name = "N")]
+    pub worst: Option<usize>,
+    /// Folder for --worst pictures.
+    #[arg(long, value_name = "DIR", default_value = "worst")]
+    pub worst_dir: PathBuf,
 }
 
 /// `kitti2pgm split`.

@@ -32,7 +32,7 @@ use crate::write::{atomic_write, create_dir, label_file_bytes, npy};
 pub const SUMMARY_FILE: &str = "convert_summary.json";
 
 /// Which frames of a drive are converted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, Default)]
 pub enum FrameSelection {
     /// SqueezeSeg's selection: frames with a scan and at least one tracklet pose (any type).
     #[default]
@@ -42,7 +42,7 @@ pub enum FrameSelection {
 }
 
 /// Colour channels.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct RgbOptions {
     /// Camera 2 (left colour, default) or 3 (right colour).
     pub camera: u8,
@@ -467,6 +467,14 @@ pub enum FrameOutcome<'a> {
 /// Totals of a conversion.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct ConvertSummary {
+    /// kitti2pgm version that wrote the files.
+    pub version: String,
+    /// Map shape and row rule used.
+    pub spec: Option<PgmSpec>,
+    /// Colour options used.
+    pub rgb: Option<RgbOptions>,
+    /// Frame selection used.
+    pub selection: FrameSelection,
     /// Drives found.
     pub drives: u64,
     /// Frames converted and written.
@@ -546,6 +554,10 @@ pub fn convert(
         }
     }
     let summary = Mutex::new(ConvertSummary {
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        spec: Some(opts.spec),
+        rgb: opts.rgb,
+        selection: opts.selection,
         drives: (plan.drives.len() + plan.failed.len()) as u64,
         frames_skipped: plan.skipped.clone(),
         failures: plan.failed.clone(),

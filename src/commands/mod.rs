@@ -3,6 +3,7 @@
 mod convert;
 mod preview;
 pub mod progress;
+mod score;
 mod split;
 mod stats;
 
@@ -20,6 +21,7 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
         Command::Preview(a) => preview::run(a),
         Command::Split(a) => split::run(a),
         Command::Stats(a) => stats::run(a, &global),
+        Command::Score(a) => score::run(a, &global),
     }
 }
 

@@ -83,6 +83,22 @@ impl Scan {
         self.points.is_empty()
     }
 
+    /// The file index of each kept point.
+    pub fn file_indices(&self) -> Vec<u32> {
+        let kept: Vec<u32> = (0..self.points.len() as u32).collect();
+        if self.dropped.is_empty() {
+            return kept;
+        }
+        let spread = self.to_file_order(&kept, u32::MAX);
+        let mut out = vec![0u32; self.points.len()];
+        for (file_i, &k) in spread.iter().enumerate() {
+            if k != u32::MAX {
+                out[k as usize] = file_i as u32;
+            }
+        }
+        out
+    }
+
     /// Spreads a per-point value over the file's order, putting `fill` at dropped points.
     pub fn to_file_order<T: Copy>(&self, values: &[T], fill: T) -> Vec<T> {
         debug_assert_eq!(values.len(), self.points.len());
@@ -129,6 +145,7 @@ mod tests {
         assert_eq!(s.dropped, vec![1]);
         assert_eq!(s.points[1], Point3::new(4.0, 5.0, 6.0));
         assert_eq!(s.to_file_order(&[7u32, 8], 0), vec![7, 0, 8]);
+        assert_eq!(s.file_indices(), vec![0, 2]);
     }
 
     #[test]

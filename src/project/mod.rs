@@ -29,7 +29,7 @@ use crate::geom::{floor_i64, Degrees, Point3};
 pub const LASERS: usize = 64;
 
 /// How rows are assigned.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub enum RowMode {
     /// Rings recovered from the scan order, elevation binning as the fallback (the default).
     Rings,
@@ -38,7 +38,7 @@ pub enum RowMode {
 }
 
 /// Shape and field of view of the map.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct PgmSpec {
     /// Rows (default 64).
     pub rows: usize,
@@ -186,6 +186,9 @@ pub struct Projection {
     pub cell_point: Vec<u32>,
     /// Range of the kept point, metres (0 for empty cells).
     pub cell_range: Vec<f32>,
+    /// The cell of every point ([`EMPTY`] outside the field of view); empty unless asked for
+    /// with [`project_with_point_cells`].
+    pub point_cell: Vec<u32>,
     /// Points that fell in the field of view.
     pub in_fov: u64,
     /// Cells holding a point.
@@ -200,6 +203,16 @@ pub struct Projection {
 
 /// Projects a scan's points onto the map.
 pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
+    project_impl(points, spec, false)
+}
+
+/// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
+/// for scoring per point.
+pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection {
+    project_impl(points, spec, true)
+}
+
+fn project_impl(points: &[Point3], spec: &PgmSpec, keep_point_cells: bool) -> Projection {
     let (ring_ids, rings_found) = match spec.row_mode {
         RowMode::Rings => rings(points),
         RowMode::Elevation => (None, 0),
@@ -207,6 +220,11 @@ pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
     let fallback = spec.row_mode == RowMode::Rings && ring_ids.is_none();
     let mut cell_point = vec![EMPTY; spec.cells()];
     let mut cell_range = vec![0f32; spec.cells()];
+    let mut point_cell = if keep_point_cells {
+        vec![EMPTY; points.len()]
+    } else {
+        Vec::new()
+    };
     let mut in_fov = 0u64;
     // Cheap half-plane reject for maps narrower than 180 degrees: a point with x <= 0 is at least
     // 90 degrees off the axis.
@@ -224,6 +242,9 @@ pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
         };
         in_fov += 1;
         let c = row * spec.cols + col;
+        if keep_point_cells {
+            point_cell[i] = c as u32;
+        }
         if cell_point[c] == EMPTY || range < cell_range[c] {
             cell_point[c] = i as u32;
             cell_range[c] = range;
@@ -234,6 +255,7 @@ pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
         spec: *spec,
         cell_point,
         cell_range,
+        point_cell,
         in_fov,
         filled,
         collisions: in_fov - filled,

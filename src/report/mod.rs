@@ -2,5 +2,6 @@
 //! class and channel statistics ([`stats`]).
 
 pub mod imageset;
+pub mod score;
 pub mod split;
 pub mod stats;

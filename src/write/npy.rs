@@ -58,6 +58,9 @@ impl NpyArray {
 }
 
 /// Reads a float32 `.npy` file (the converter's output) without conversion.
+///
+/// npyz parses and checks the header; the data, little-endian `<f4` in C order, is then copied
+/// straight from the file's tail, which is several times faster than decoding it value by value.
 pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let npy = npyz::NpyFile::new(&bytes[..])
@@ -70,9 +73,44 @@ pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
             format!("dtype {dtype}, expected float32 ('<f4')"),
         ));
     }
-    let data = npy
-        .into_vec::<f32>()
-        .map_err(|e| Error::format(path, format!("truncated .npy data: {e}")))?;
+    if npy.order() != npyz::Order::C {
+        return Err(Error::format(
+            path,
+            "Fortran-ordered array, expected C order",
+        ));
+    }
+    let n = npy.len() as usize;
+    let need = n * 4;
+    if bytes.len() < need + 10 {
+        return Err(Error::format(
+            path,
+            format!(
+                "truncated .npy data: {} bytes for {n} float32 values",
+                bytes.len()
+            ),
+        ));
+    }
+    let data_start = bytes.len() - need;
+    // The data must start right after the header (checked by its length field).
+    let header_len = 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let header_len = if bytes[6] == 1 {
+        header_len
+    } else {
+        12 + u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize
+    };
+    if data_start != header_len {
+        return Err(Error::format(
+            path,
+            format!(
+                "{} data bytes after the header, expected {need} for shape {shape:?}",
+                bytes.len().saturating_sub(header_len)
+            ),
+        ));
+    }
+    let data = bytes[data_start..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
     Ok((shape, data))
 }
 

@@ -7,4 +7,5 @@ mod label;
 mod project;
 mod readers;
 mod reports;
+mod score;
 mod util;

@@ -1,0 +1,416 @@
+//! `kitti2pgm score`: hand-computed IoUs, perfect and empty predictions, both protocols, every
+//! prediction format, bad input.
+
+use std::path::{Path, PathBuf};
+
+use kitti2pgm::report::score::{Confusion, Protocol};
+use kitti2pgm::write::npy::{encode_f32, read_f32};
+use npyz::WriterBuilder;
+
+use crate::util::*;
+
+fn write_f32(path: &Path, shape: &[u64], data: &[f32]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(path, encode_f32(shape, data)).unwrap();
+}
+
+fn write_i64(path: &Path, shape: &[u64], data: &[i64]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut out = Vec::new();
+    let mut w = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(shape)
+        .writer(&mut out)
+        .begin_nd()
+        .unwrap();
+    w.extend(data.iter().copied()).unwrap();
+    w.finish().unwrap();
+    std::fs::write(path, out).unwrap();
+}
+
+fn score_json(args: &[&str]) -> serde_json::Value {
+    let mut a = vec!["score", "--json"];
+    a.extend_from_slice(args);
+    let (code, stdout, stderr) = run_text(&a);
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str(&stdout).unwrap()
+}
+
+fn iou(j: &serde_json::Value, class: &str) -> f64 {
+    j["classes"][class]["iou"].as_f64().unwrap_or(f64::NAN)
+}
+
+/// A 2 x 4 ground truth and prediction, IoUs worked out by hand.
+#[test]
+fn hand_computed_ious_on_a_small_map() {
+    let t = tmp();
+    let gt = t.path().join("gt");
+    // Cells (row-major): truth labels, the last cell empty (range 0, not scored).
+    let truth = [1, 1, 1, 0, 2, 2, 3, 0];
+    let mut data = vec![0f32; 8 * 6];
+    for (i, &l) in truth.iter().enumerate() {
+        if i != 7 {
+            data[i * 6..i * 6 + 6].copy_from_slice(&[1.0, 0.0, 0.0, 0.5, 1.0, l as f32]);
+        }
+    }
+    write_f32(
+        &gt.join("lidar_2d/2011_09_26_0001_0000000000.npy"),
+        &[2, 4, 6],
+        &data,
+    );
+    let pred = t.path().join("pred/2011_09_26_0001_0000000000.npy");
+    write_i64(&pred, &[2, 4], &[1, 1, 0, 1, 2, 0, 0, 3]);
+    let j = score_json(&["--gt", s(&gt), "--pred", s(pred.parent().unwrap())]);
+    // car: TP 2 (cells 0, 1), FP 1 (cell 3), FN 1 (cell 2) -> 2/4.
+    assert_eq!(iou(&j, "car"), 0.5);
+    // pedestrian: TP 1 (cell 4), FN 1 (cell 5) -> 1/2.
+    assert_eq!(iou(&j, "pedestrian"), 0.5);
+    // cyclist: TP 0, FN 1 (cell 6); cell 7 is empty, so its prediction does not count -> 0.
+    assert_eq!(iou(&j, "cyclist"), 0.0);
+    // background: TP 0, FP 3 (cells 2, 5, 6), FN 1 (cell 3) -> 0.
+    assert_eq!(iou(&j, "background"), 0.0);
+    assert_eq!(j["elements"], 7);
+    assert_eq!(j["miou"].as_f64().unwrap(), (0.5 + 0.5 + 0.0) / 3.0);
+    assert_eq!(
+        j["classes"]["car"]["precision"].as_f64().unwrap(),
+        2.0 / 3.0
+    );
+    assert_eq!(j["classes"]["car"]["recall"].as_f64().unwrap(), 2.0 / 3.0);
+    assert_eq!(j["confusion"]["m"][1], serde_json::json!([1, 2, 0, 0]));
+}
+
+#[test]
+fn confusion_algebra() {
+    let mut c = Confusion::default();
+    c.m[1][1] = 8;
+    c.m[1][0] = 2;
+    c.m[0][1] = 2;
+    c.m[0][0] = 100;
+    assert_eq!(c.iou(1), Some(8.0 / 12.0));
+    assert_eq!(c.iou(2), None);
+    assert_eq!(
+        c.miou(),
+        8.0 / 12.0,
+        "absent classes are left out of the mean"
+    );
+    let _ = Protocol::Cells;
+}
+
+/// Converts the fixtures; returns (gt folder, its lidar_2d).
+fn gt(t: &Path) -> (PathBuf, PathBuf) {
+    let gt = t.join("gt");
+    assert_eq!(run_text(&["convert", s(&fixtures()), "--out", s(&gt)]).0, 0);
+    let l = gt.join("lidar_2d");
+    (gt, l)
+}
+
+#[test]
+fn perfect_and_all_background_predictions() {
+    let t = tmp();
+    let (gt, l2d) = gt(t.path());
+    // The ground truth itself, in SqueezeSeg layout: perfect.
+    let j = score_json(&["--gt", s(&gt), "--pred", s(&l2d)]);
+    for c in ["background", "car", "cyclist"] {
+        assert_eq!(iou(&j, c), 1.0, "{c}");
+    }
+    assert!(
+        j["classes"]["pedestrian"]["iou"].is_null(),
+        "no pedestrian in the fixtures"
+    );
+    assert_eq!(j["miou"], 1.0);
+    // All background: 0 for every object class, and missing frames may be scored as background.
+    let empty = t.path().join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    write_i64(
+        &empty.join("2011_09_26_0052_0000000000.npy"),
+        &[64, 512],
+        &vec![0; 64 * 512],
+    );
+    let j = score_json(&[
+        "--gt",
+        s(&gt),
+        "--pred",
+        s(&empty),
+        "--missing-as-background",
+    ]);
+    assert_eq!(j["missing_frames"], 2);
+    assert_eq!(iou(&j, "car"), 0.0);
+    assert_eq!(iou(&j, "cyclist"), 0.0);
+    assert_eq!(j["miou"], 0.0);
+    assert!(iou(&j, "background") > 0.5);
+}
+
+#[test]
+fn every_prediction_format_gives_the_same_score() {
+    let t = tmp();
+    let (gt, l2d) = gt(t.path());
+    let reference = score_json(&["--gt", s(&gt), "--pred", s(&l2d)]);
+    let (maps, scores) = (t.path().join("maps"), t.path().join("scores"));
+    for e in std::fs::read_dir(&l2d).unwrap() {
+        let p = e.unwrap().path();
+        let (_, data) = read_f32(&p).unwrap();
+        let labels: Vec<f32> = data.chunks_exact(6).map(|c| c[5]).collect();
+        // A float label map, and one-hot-ish scores whose argmax is the label.
+        write_f32(&maps.join(p.file_name().unwrap()), &[64, 512], &labels);
+        let sc: Vec<f32> = labels
+            .iter()
+            .flat_map(|&l| (0..4).map(move |k| if k as f32 == l { 0.7 } else { 0.1 }))
+            .collect();
+        write_f32(&scores.join(p.file_name().unwrap()), &[64, 512, 4], &sc);
+    }
+    for pred in [&maps, &scores] {
+        let j = score_json(&["--gt", s(&gt), "--pred", s(pred)]);
+        assert_eq!(j["confusion"], reference["confusion"], "{}", pred.display());
+    }
+    // Per-point .label files (the converter's own) under the cell protocol: the prediction of a
+    // cell is that of the point that won it, so this is perfect too.
+    let j = score_json(&[
+        "--gt",
+        s(&gt),
+        "--pred",
+        s(&gt.join("labels")),
+        "--raw",
+        s(&fixtures()),
+    ]);
+    assert_eq!(j["confusion"], reference["confusion"]);
+}
+
+/// Rewrites a scan keeping, in the front field of view, only the point that wins each cell, so
+/// that no cell holds two points.
+fn deduplicated_raw(t: &Path) -> PathBuf {
+    use kitti2pgm::kitti::velodyne::Scan;
+    use kitti2pgm::project::{project, PgmSpec, EMPTY};
+    let root = fixture_copy(t);
+    let bin =
+        root.join("2011_09_26/2011_09_26_drive_0052_sync/velodyne_points/data/0000000000.bin");
+    let scan = Scan::read(&bin).unwrap();
+    let spec = PgmSpec::default();
+    let proj = project(&scan.points, &spec);
+    let winners: std::collections::BTreeSet<u32> = proj
+        .cell_point
+        .iter()
+        .copied()
+        .filter(|&p| p != EMPTY)
+        .collect();
+    let mut bytes = Vec::new();
+    for (i, p) in scan.points.iter().enumerate() {
+        if spec.column(p).is_some() && !winners.contains(&(i as u32)) {
+            continue;
+        }
+        for v in [p.x, p.y, p.z, scan.reflectance[i]] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(&bin, bytes).unwrap();
+    root
+}
+
+#[test]
+fn cell_and_point_protocols_agree_where_no_cell_holds_two_points() {
+    let t = tmp();
+    let raw = deduplicated_raw(t.path());
+    let gt = t.path().join("gt");
+    let (code, stdout, _) = run_text(&[
+        "convert",
+        s(&raw.join("2011_09_26/2011_09_26_drive_0052_sync")),
+        "--out",
+        s(&gt),
+        "--json",
+    ]);
+    assert_eq!(code, 0);
+    let summary: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        summary["collisions"], 0,
+        "the rewritten scan has no collisions"
+    );
+    assert_eq!(summary["ring_fallbacks"], 0);
+    // A prediction that is wrong in places: every tenth cell called car.
+    let (_, data) = read_f32(&gt.join("lidar_2d/2011_09_26_0052_0000000000.npy")).unwrap();
+    let pred: Vec<i64> = data
+        .chunks_exact(6)
+        .enumerate()
+        .map(|(i, c)| if i % 10 == 0 { 1 } else { c[5] as i64 })
+        .collect();
+    let pdir = t.path().join("pred");
+    write_i64(
+        &pdir.join("2011_09_26_0052_0000000000.npy"),
+        &[64, 512],
+        &pred,
+    );
+    let cells = score_json(&["--gt", s(&gt), "--pred", s(&pdir)]);
+    let points = score_json(&[
+        "--gt",
+        s(&gt),
+        "--pred",
+        s(&pdir),
+        "--points",
+        "--raw",
+        s(&raw),
+    ]);
+    assert_eq!(points["protocol"], "Points");
+    assert_eq!(cells["confusion"], points["confusion"]);
+    assert!(iou(&cells, "car") < 1.0);
+}
+
+#[test]
+fn points_protocol_on_real_scans_with_collisions() {
+    let t = tmp();
+    let (gt, _) = gt(t.path());
+    let j = score_json(&[
+        "--gt",
+        s(&gt),
+        "--pred",
+        s(&gt.join("labels")),
+        "--points",
+        "--raw",
+        s(&fixtures()),
+    ]);
+    assert_eq!(iou(&j, "car"), 1.0);
+    let cells = score_json(&[
+        "--gt",
+        s(&gt),
+        "--pred",
+        s(&gt.join("labels")),
+        "--raw",
+        s(&fixtures()),
+    ]);
+    assert!(
+        j["elements"].as_u64().unwrap() > cells["elements"].as_u64().unwrap(),
+        "points outnumber filled cells"
+    );
+}
+
+#[test]
+fn json_schema_is_stable() {
+    let t = tmp();
+    let (gt, l2d) = gt(t.path());
+    let j = score_json(&["--gt", s(&gt), "--pred", s(&l2d), "--per-frame"]);
+    let keys: Vec<&str> = j.as_object().unwrap().keys().map(String::as_str).collect();
+    assert_eq!(
+        keys,
+        [
+            "classes",
+            "confusion",
+            "elements",
+            "frames",
+            "miou",
+            "missing_frames",
+            "per_frame",
+            "protocol",
+            "version"
+        ]
+    );
+    assert_eq!(j["version"], 1);
+    let class_keys: Vec<&str> = j["classes"]["car"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(String::as_str)
+        .collect();
+    assert_eq!(class_keys, ["iou", "precision", "recall", "support"]);
+    let pf = &j["per_frame"][0];
+    let pf_keys: Vec<&str> = pf.as_object().unwrap().keys().map(String::as_str).collect();
+    assert_eq!(pf_keys, ["elements", "id", "iou", "miou_present"]);
+    assert_eq!(j["per_frame"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn pictures_and_imageset() {
+    let t = tmp();
+    let (gt, l2d) = gt(t.path());
+    let list = t.path().join("val.txt");
+    std::fs::write(&list, "2011_09_26_0052_0000000000\n").unwrap();
+    let (conf, worst) = (t.path().join("c.png"), t.path().join("worst"));
+    let (code, stdout, _) = run_text(&[
+        "score",
+        "--gt",
+        s(&gt),
+        "--pred",
+        s(&l2d),
+        "--imageset",
+        s(&list),
+        "--confusion",
+        s(&conf),
+        "--worst",
+        "5",
+        "--worst-dir",
+        s(&worst),
+        "--per-frame",
+    ]);
+    assert_eq!(code, 0);
+    assert!(
+        stdout.contains("1 frames")
+            && stdout.contains("mIoU")
+            && stdout.contains("2011_09_26_0052_0000000000"),
+        "{stdout}"
+    );
+    assert!(image::open(&conf).unwrap().width() > 400);
+    let pngs: Vec<_> = std::fs::read_dir(&worst).unwrap().collect();
+    assert_eq!(pngs.len(), 1, "only one frame in the list");
+}
+
+#[test]
+fn bad_predictions_name_the_frame() {
+    let t = tmp();
+    let (gt, l2d) = gt(t.path());
+    let bad = t.path().join("bad");
+    let one = |name: &str| bad.join(format!("{name}.npy"));
+    let id = "2011_09_26_0052_0000000000";
+    let run_bad = |extra: &[&str]| {
+        let mut a = vec!["score", "--gt", s(&gt), "--pred", s(&bad)];
+        a.extend_from_slice(extra);
+        run_text(&a)
+    };
+    // A ground-truth frame without prediction.
+    write_i64(&one(id), &[64, 512], &vec![0; 64 * 512]);
+    let (code, _, stderr) = run_bad(&[]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("no prediction for ground-truth frame 2011_09_26_0001_0000000000")
+            && stderr.contains("--missing-as-background"),
+        "{stderr}"
+    );
+    // Shape mismatch.
+    write_i64(&one(id), &[32, 512], &vec![0; 32 * 512]);
+    let (code, _, stderr) = run_bad(&["--missing-as-background"]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains(&format!("{id}.npy")) && stderr.contains("[32, 512]"),
+        "{stderr}"
+    );
+    // Labels out of range.
+    let mut v = vec![0i64; 64 * 512];
+    v[700] = 7;
+    write_i64(&one(id), &[64, 512], &v);
+    let (code, _, stderr) = run_bad(&["--missing-as-background"]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains(&format!("{id}.npy")) && stderr.contains("cell (1, 188) is 7"),
+        "{stderr}"
+    );
+    // NaN scores.
+    let mut sc = vec![0.25f32; 64 * 512 * 4];
+    sc[4 * 1000 + 2] = f32::NAN;
+    write_f32(&one(id), &[64, 512, 4], &sc);
+    let (code, _, stderr) = run_bad(&["--missing-as-background"]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains(&format!("{id}.npy")) && stderr.contains("NaN"),
+        "{stderr}"
+    );
+    // Mixed formats.
+    std::fs::create_dir_all(bad.join("2011_09_26_drive_0052_sync")).unwrap();
+    std::fs::copy(
+        gt.join("labels/2011_09_26_drive_0052_sync/0000000000.label"),
+        bad.join("2011_09_26_drive_0052_sync/0000000001.label"),
+    )
+    .unwrap();
+    let (code, _, stderr) = run_bad(&["--missing-as-background"]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains("mixed formats"), "{stderr}");
+    // The point protocol without the raw scans is a usage error.
+    assert_eq!(
+        run_text(&["score", "--gt", s(&gt), "--pred", s(&l2d), "--points"]).0,
+        2
+    );
+}
