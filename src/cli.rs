@@ -56,6 +56,20 @@ pub enum Command {
     /// id, may be HxW label maps, HxWx4 scores (argmax), SqueezeSeg-layout HxWx6/9 .npy, or
     /// per-point .label files. Exit status 1 on bad or missing predictions, naming the frame.
     Score(ScoreArgs),
+    /// Describe MCAP shards: frames, channels, sizes, compression ratio, class counts, and the
+    /// conversion parameters stored in them. Fails, naming the shard and frame, on a corrupted one.
+    Inspect(InspectArgs),
+}
+
+/// `kitti2pgm inspect`.
+#[derive(Debug, ClapArgs)]
+pub struct InspectArgs {
+    /// Shards (.mcap).
+    #[arg(required = true, value_name = "SHARD")]
+    pub shards: Vec<PathBuf>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `kitti2pgm score`.
@@ -105,16 +119,9 @@ pub struct SplitArgs {
     /// Output folder: the lists go to DIR/ImageSet/.
     #[arg(long, short, value_name = "DIR")]
     pub out: PathBuf,
-    /// Val drives instead of SqueezeSeg's: NNNN (of 2011_09_26), <date>_NNNN or
-    /// <date>_drive_NNNN_sync, comma separated or repeated.
-    #[arg(long, value_name = "DRIVES", conflicts_with = "random_val")]
-    pub val_drives: Vec<String>,
-    /// A seeded random split, disjoint by drive, with about this share of the frames in val.
-    #[arg(long, value_name = "FRACTION")]
-    pub random_val: Option<f64>,
-    /// Seed of --random-val.
-    #[arg(long, default_value_t = 0, requires = "random_val")]
-    pub seed: u64,
+    /// Which drives go to val.
+    #[command(flatten)]
+    pub split: SplitRuleArgs,
     /// List every scan, not only those with a tracklet pose.
     #[arg(long)]
     pub all_frames: bool,
@@ -208,9 +215,72 @@ pub struct ConvertArgs {
     /// written atomically (never half-written); this also makes them survive a power cut.
     #[arg(long)]
     pub sync: bool,
+    /// Outputs: npy (lidar_2d/*.npy and labels/), mcap (shards/<split>-<NNNNN>.mcap), or both
+    /// (`--format npy,mcap`).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "npy")]
+    pub format: Vec<FormatArg>,
+    /// Frames per shard (default: about 256 MB of uncompressed data per shard).
+    #[arg(long, value_name = "N")]
+    pub shard_frames: Option<usize>,
+    /// Chunk compression of the shards.
+    #[arg(long, value_enum, default_value_t = CompressionArg::Lz4)]
+    pub compression: CompressionArg,
+    /// Add Foxglove topics to the shards: the labelled point cloud, the tracklet boxes, the image.
+    #[arg(long)]
+    pub viz: bool,
+    /// How shards are split into train and val (the same rule as `kitti2pgm split`).
+    #[command(flatten)]
+    pub split: SplitRuleArgs,
     /// Print the summary as JSON on stdout instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Output formats of `convert`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    /// SqueezeSeg .npy maps and per-point .label files.
+    Npy,
+    /// MCAP training shards.
+    Mcap,
+}
+
+/// Shard chunk compression.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum CompressionArg {
+    /// lz4: fast to read.
+    Lz4,
+    /// zstd: smaller.
+    Zstd,
+    /// none.
+    None,
+}
+
+/// The val-drive rule, shared by `split` and `convert --format mcap`.
+#[derive(Debug, ClapArgs)]
+pub struct SplitRuleArgs {
+    /// Val drives instead of SqueezeSeg's: NNNN (of 2011_09_26), <date>_NNNN or
+    /// <date>_drive_NNNN_sync, comma separated or repeated.
+    #[arg(long, value_name = "DRIVES", conflicts_with = "random_val")]
+    pub val_drives: Vec<String>,
+    /// A seeded random split, disjoint by drive, with about this share of the frames in val.
+    #[arg(long, value_name = "FRACTION")]
+    pub random_val: Option<f64>,
+    /// Seed of --random-val.
+    #[arg(long, default_value_t = 0, requires = "random_val")]
+    pub seed: u64,
+}
+
+impl SplitRuleArgs {
+    /// The library's rule.
+    pub fn rule(&self) -> kitti2pgm::Result<kitti2pgm::report::split::SplitRule> {
+        use kitti2pgm::report::split::SplitRule;
+        match (self.random_val, self.val_drives.is_empty()) {
+            (Some(fraction), _) => Ok(SplitRule::Random { fraction, seed: self.seed }),
+            (None, false) => SplitRule::parse_drives(&self.val_drives),
+            (None, true) => Ok(SplitRule::squeezeseg()),
+        }
+    }
 }
 
 /// `kitti2pgm preview`.

@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::kitti::calib::Calibration;
-use crate::kitti::camera::read_image;
+use crate::kitti::camera::decode_image;
 use crate::kitti::timestamps::{self, Timestamp};
 use crate::kitti::tracklets::Tracklets;
 use crate::kitti::velodyne::Scan;
@@ -26,6 +26,9 @@ use crate::label::{Class, LabelBox, Labeller, PointLabels};
 use crate::project::camera::{CameraProjector, Sampling};
 use crate::project::frame::{assemble, PgmFrame};
 use crate::project::{project, PgmSpec, Projection};
+use crate::report::split::{val_drives, SplitRule};
+use crate::write::shard::{shard_is_intact, shard_name, FrameMsg, ShardCompression, ShardMetadata, ShardWriter};
+use crate::write::viz::VizFrame;
 use crate::write::{atomic_write, create_dir, label_file_bytes, npy};
 
 /// Name of the summary that [`convert`] leaves in the output folder (read by `stats`).
@@ -69,6 +72,35 @@ pub struct ConvertOptions {
     pub threads: usize,
     /// Flush every file to the device before it is renamed into place (survives power cuts).
     pub sync: bool,
+    /// Also write MCAP training shards.
+    pub shards: Option<ShardOptions>,
+}
+
+/// MCAP shard output (`--format mcap`).
+#[derive(Debug, Clone, Serialize)]
+pub struct ShardOptions {
+    /// Chunk compression.
+    pub compression: ShardCompression,
+    /// Frames per shard; `None` sizes shards to about [`SHARD_TARGET_BYTES`] of uncompressed data.
+    pub frames_per_shard: Option<usize>,
+    /// Add Foxglove visualisation topics.
+    pub viz: bool,
+    /// Which drives go to val (the same rule as `kitti2pgm split`).
+    pub split: SplitRule,
+}
+
+/// Uncompressed bytes a shard is sized to when `--shard-frames` is not given.
+pub const SHARD_TARGET_BYTES: usize = 256 << 20;
+
+impl ShardOptions {
+    /// Frames per shard for a map of `spec`, with or without colour.
+    pub fn frames_per_shard(&self, spec: &PgmSpec, rgb: bool) -> usize {
+        self.frames_per_shard.unwrap_or_else(|| {
+            // tensor (5 or 8 float32) + label + instance (2) + mask (+ rgb_valid), per cell.
+            let per_cell = if rgb { 8 * 4 + 5 } else { 5 * 4 + 4 };
+            (SHARD_TARGET_BYTES / (spec.cells() * per_cell)).max(1)
+        })
+    }
 }
 
 impl ConvertOptions {
@@ -83,12 +115,19 @@ impl ConvertOptions {
             write_labels: true,
             threads: 0,
             sync: false,
+            shards: None,
         }
     }
 
     /// Checks the options.
     pub fn validate(&self) -> Result<()> {
         self.spec.validate()?;
+        if !self.write_npy && !self.write_labels && self.shards.is_none() {
+            return Err(Error::Config("nothing to write: enable .npy, .label or shard output".into()));
+        }
+        if self.shards.as_ref().is_some_and(|s| s.frames_per_shard == Some(0)) {
+            return Err(Error::Config("--shard-frames must be at least 1".into()));
+        }
         if let Some(rgb) = &self.rgb {
             if !(rgb.camera == 2 || rgb.camera == 3) {
                 return Err(Error::Config(format!(
@@ -416,43 +455,68 @@ pub fn process(
     }
 }
 
-/// Reads, converts and writes one frame.
-pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Result<FrameReport> {
+/// A converted frame with what the shard writer needs beside it.
+#[derive(Debug, Clone)]
+pub struct Produced {
+    /// The products.
+    pub out: Converted,
+    /// Visualisation payload, when asked for.
+    pub viz: Option<VizFrame>,
+}
+
+/// Reads and converts one frame (no output written). `want_viz` keeps the scan points, boxes
+/// and camera PNG for the visualisation topics.
+pub fn produce(dp: &DrivePlan, frame: u32, opts: &ConvertOptions, want_viz: bool) -> Result<Produced> {
     let id = dp.drive.frame_id(frame);
     let scan = Scan::read(&dp.drive.scan_path(frame))?;
     let boxes = dp.boxes(frame);
+    let mut png_bytes = None;
     let camera = match &opts.rgb {
         Some(rgb) => {
-            let img = read_image(&dp.drive.image_path(rgb.camera, frame))?;
-            let proj = CameraProjector {
-                velo_to_image: dp.calib.velo_to_image(rgb.camera as usize),
-                sampling: rgb.sampling,
-            };
+            let path = dp.drive.image_path(rgb.camera, frame);
+            let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+            let img = decode_image(&bytes, &path)?;
+            if want_viz {
+                png_bytes = Some(bytes);
+            }
+            let proj = CameraProjector { velo_to_image: dp.calib.velo_to_image(rgb.camera as usize), sampling: rgb.sampling };
             Some((proj, img))
         }
         None => None,
     };
-    let out = process(
-        &id,
-        &scan,
-        &boxes,
-        &opts.spec,
-        camera.as_ref().map(|(p, i)| (p, i)),
-    );
+    let out = process(&id, &scan, &boxes, &opts.spec, camera.as_ref().map(|(p, i)| (p, i)));
+    let viz = want_viz.then(|| {
+        let class_of = |i: usize| Class::from_id(out.point_class[i]).unwrap_or_default();
+        let file_idx = scan.file_indices();
+        VizFrame {
+            points: scan.points.iter().enumerate().map(|(k, p)| (*p, scan.reflectance[k], class_of(file_idx[k] as usize))).collect(),
+            boxes: boxes.into_iter().filter(|b| b.class != Class::Background).collect(),
+            png: png_bytes,
+            camera: opts.rgb.map_or(2, |r| r.camera),
+        }
+    });
+    Ok(Produced { out, viz })
+}
+
+/// Writes a converted frame's `.npy` and `.label` files, as the options ask.
+pub fn write_frame_files(dp: &DrivePlan, frame: u32, out: &Converted, opts: &ConvertOptions) -> Result<()> {
     if opts.write_npy {
         let p = &out.pgm;
         let bytes = npy::encode_f32(&[p.rows as u64, p.cols as u64, p.depth() as u64], &p.data);
-        atomic_write(&opts.npy_path(&id), &bytes, opts.sync)?;
+        atomic_write(&opts.npy_path(&dp.drive.frame_id(frame)), &bytes, opts.sync)?;
     }
     if opts.write_labels {
         let path = opts.label_path(&dp.drive, frame);
-        atomic_write(
-            &path,
-            &label_file_bytes(&out.point_class, &out.point_instance),
-            opts.sync,
-        )?;
+        atomic_write(&path, &label_file_bytes(&out.point_class, &out.point_instance), opts.sync)?;
     }
-    Ok(out.report)
+    Ok(())
+}
+
+/// Reads, converts and writes one frame (`.npy` and `.label` outputs).
+pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Result<FrameReport> {
+    let p = produce(dp, frame, opts, false)?;
+    write_frame_files(dp, frame, &p.out, opts)?;
+    Ok(p.out.report)
 }
 
 /// The outcome of one frame, as handed to the progress callback.
@@ -462,6 +526,8 @@ pub enum FrameOutcome<'a> {
     Done(&'a FrameReport),
     /// Failed; the rest of the batch goes on.
     Failed(&'a FrameFailure),
+    /// This many frames were skipped: their shard is already complete and intact.
+    Skipped(u64),
 }
 
 /// Totals of a conversion.
@@ -507,6 +573,10 @@ pub struct ConvertSummary {
     pub fallback_frames: Vec<String>,
     /// Cells with a colour.
     pub rgb_cells: u64,
+    /// Shards written.
+    pub shards_written: u64,
+    /// Shards left as they were (complete, intact, same frames and parameters).
+    pub shards_skipped: u64,
 }
 
 impl ConvertSummary {
@@ -567,36 +637,84 @@ pub fn convert(
     for f in &plan.failed {
         progress(FrameOutcome::Failed(f));
     }
-    let run = |&(d, frame): &(usize, u32)| {
-        let dp = &plan.drives[d];
-        match convert_frame(dp, frame, opts) {
-            Ok(r) => {
-                progress(FrameOutcome::Done(&r));
-                let mut s = summary.lock().expect("no panic while holding the lock");
-                s.add(&r);
-                s.total_cells += opts.spec.cells() as u64;
-            }
-            Err(e) => {
-                let f = FrameFailure {
-                    what: dp.drive.frame_id(frame).to_string(),
-                    frames: 1,
-                    error: e.to_string(),
-                };
-                progress(FrameOutcome::Failed(&f));
-                let mut s = summary.lock().expect("no panic while holding the lock");
-                s.frames_failed += 1;
-                s.failures.push(f);
-            }
-        }
+    let add = |r: &FrameReport| {
+        let mut s = summary.lock().expect("no panic while holding the lock");
+        s.add(r);
+        s.total_cells += opts.spec.cells() as u64;
     };
-    if opts.threads == 1 {
-        plan.jobs.iter().for_each(run);
+    let record_ok = |r: &FrameReport| {
+        progress(FrameOutcome::Done(r));
+        add(r);
+    };
+    let record_err = |what: String, frames: u64, e: Error| {
+        let f = FrameFailure { what, frames, error: e.to_string() };
+        progress(FrameOutcome::Failed(&f));
+        let mut s = summary.lock().expect("no panic while holding the lock");
+        s.frames_failed += frames;
+        s.failures.push(f);
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| Error::Config(format!("cannot start {} threads: {e}", opts.threads)))?;
+    if let Some(sh) = &opts.shards {
+        let shards = plan_shards(plan, opts, sh)?;
+        let dir = opts.out_dir.join("shards");
+        create_dir(&dir)?;
+        let params = serde_json::to_string(&serde_json::json!({
+            "spec": opts.spec, "rgb": opts.rgb, "selection": opts.selection,
+            "split": sh.split, "compression": sh.compression, "viz": sh.viz,
+        }))
+        .expect("parameters serialise");
+        let drives: Vec<String> = plan.drives.iter().map(|d| d.drive.name()).collect();
+        pool.install(|| {
+            shards.par_iter().for_each(|sp| {
+                let path = dir.join(shard_name(&sp.split, sp.index));
+                let ids: Vec<String> = sp.jobs.iter().map(|&(d, f)| plan.drives[d].drive.frame_id(f).to_string()).collect();
+                let others_present = sp.jobs.iter().all(|&(d, f)| {
+                    let dp = &plan.drives[d];
+                    (!opts.write_npy || opts.npy_path(&dp.drive.frame_id(f)).is_file())
+                        && (!opts.write_labels || opts.label_path(&dp.drive, f).is_file())
+                });
+                if others_present && shard_is_intact(&path, &ids, &params) {
+                    progress(FrameOutcome::Skipped(ids.len() as u64));
+                    let mut s = summary.lock().expect("no panic while holding the lock");
+                    s.shards_skipped += 1;
+                    *s.frames_skipped.entry("already in a complete, intact shard".into()).or_default() += ids.len() as u64;
+                    return;
+                }
+                let meta = ShardMetadata {
+                    version: env!("CARGO_PKG_VERSION").into(),
+                    params: params.clone(),
+                    drives: drives.clone(),
+                    frames: ids,
+                    failed: Vec::new(),
+                    split: sp.split.clone(),
+                };
+                let frames = sp.jobs.len() as u64;
+                match write_shard(plan, opts, sh, sp, &path, meta, progress, &record_err) {
+                    Ok(reports) => {
+                        reports.iter().for_each(add);
+                        summary.lock().expect("no panic while holding the lock").shards_written += 1;
+                    }
+                    // The shard is lost (its temporary file is removed), so are its frames.
+                    Err(e) => record_err(format!("shard {}", path.display()), frames, e),
+                }
+            })
+        });
     } else {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(opts.threads)
-            .build()
-            .map_err(|e| Error::Config(format!("cannot start {} threads: {e}", opts.threads)))?;
-        pool.install(|| plan.jobs.par_iter().for_each(run));
+        let run = |&(d, frame): &(usize, u32)| {
+            let dp = &plan.drives[d];
+            match convert_frame(dp, frame, opts) {
+                Ok(r) => record_ok(&r),
+                Err(e) => record_err(dp.drive.frame_id(frame).to_string(), 1, e),
+            }
+        };
+        if opts.threads == 1 {
+            plan.jobs.iter().for_each(run);
+        } else {
+            pool.install(|| plan.jobs.par_iter().for_each(run));
+        }
     }
     let mut s = summary
         .into_inner()
@@ -606,4 +724,89 @@ pub fn convert(
     let json = serde_json::to_vec_pretty(&s).expect("the summary serialises");
     atomic_write(&opts.out_dir.join(SUMMARY_FILE), &json, opts.sync)?;
     Ok(s)
+}
+
+/// The frames of one shard.
+#[derive(Debug, Clone)]
+struct ShardPlan {
+    split: String,
+    index: usize,
+    jobs: Vec<(usize, u32)>,
+}
+
+/// Assigns each job to a split by its drive, then cuts each split into shards, in frame-id order.
+fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardOptions) -> Result<Vec<ShardPlan>> {
+    let mut counts: BTreeMap<(String, u32), usize> = BTreeMap::new();
+    for &(d, _) in &plan.jobs {
+        let drive = &plan.drives[d].drive;
+        *counts.entry((drive.date.clone(), drive.number)).or_default() += 1;
+    }
+    let counts: Vec<_> = counts.into_iter().collect();
+    let val = val_drives(&sh.split, &counts)?;
+    let per_shard = sh.frames_per_shard(&opts.spec, opts.rgb.is_some());
+    let mut out = Vec::new();
+    for split in ["train", "val"] {
+        let jobs: Vec<(usize, u32)> = plan
+            .jobs
+            .iter()
+            .copied()
+            .filter(|&(d, _)| {
+                let drive = &plan.drives[d].drive;
+                val.contains(&(drive.date.clone(), drive.number)) == (split == "val")
+            })
+            .collect();
+        for (index, chunk) in jobs.chunks(per_shard).enumerate() {
+            out.push(ShardPlan { split: split.into(), index, jobs: chunk.to_vec() });
+        }
+    }
+    Ok(out)
+}
+
+/// Converts a shard's frames (in parallel batches) and writes them in order; failed frames are
+/// reported, left out and listed in the shard's metadata.
+#[allow(clippy::too_many_arguments)]
+fn write_shard(
+    plan: &Plan,
+    opts: &ConvertOptions,
+    sh: &ShardOptions,
+    sp: &ShardPlan,
+    path: &Path,
+    mut meta: ShardMetadata,
+    progress: &(dyn Fn(FrameOutcome<'_>) + Sync),
+    record_err: &(dyn Fn(String, u64, Error) + Sync),
+) -> Result<Vec<FrameReport>> {
+    let mut writer = ShardWriter::create(path, sh.compression, sh.viz)?;
+    let mut reports = Vec::with_capacity(sp.jobs.len());
+    let batch = rayon::current_num_threads().max(1) * 2;
+    for jobs in sp.jobs.chunks(batch) {
+        let done: Vec<Result<(Produced, FrameMsg, u64)>> = jobs
+            .par_iter()
+            .map(|&(d, f)| {
+                let dp = &plan.drives[d];
+                let p = produce(dp, f, opts, sh.viz)?;
+                write_frame_files(dp, f, &p.out, opts)?;
+                let ts = dp.timestamp(f).map(|t| t.0.max(0) as u64);
+                // Without a timestamp, frames are spaced at the scanner's 10 Hz.
+                let log_time = ts.unwrap_or(f as u64 * 100_000_000);
+                let msg = FrameMsg::from_frame(&p.out.pgm, &p.out.report.id, &dp.drive.name(), f, ts.unwrap_or(0), &sp.split);
+                Ok((p, msg, log_time))
+            })
+            .collect();
+        for (r, &(d, f)) in done.into_iter().zip(jobs) {
+            match r {
+                Ok((p, msg, log_time)) => {
+                    writer.write(&msg, log_time, p.viz.as_ref())?;
+                    progress(FrameOutcome::Done(&p.out.report));
+                    reports.push(p.out.report);
+                }
+                Err(e) => {
+                    let id = plan.drives[d].drive.frame_id(f).to_string();
+                    meta.failed.push(id.clone());
+                    record_err(id, 1, e);
+                }
+            }
+        }
+    }
+    writer.finish(&meta)?;
+    Ok(reports)
 }

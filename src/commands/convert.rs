@@ -4,12 +4,15 @@ use anyhow::Context;
 use kitti2pgm::geom::Degrees;
 use kitti2pgm::pipeline::{
     convert, ConvertOptions, ConvertSummary, FrameOutcome, FrameSelection, Plan, RgbOptions,
+    ShardOptions,
 };
+use kitti2pgm::report::split::SplitRule;
+use kitti2pgm::write::shard::ShardCompression;
 use kitti2pgm::project::camera::Sampling;
 use kitti2pgm::project::{PgmSpec, RowMode};
 
 use super::{progress, Global};
-use crate::cli::{ConvertArgs, RowModeArg, SamplingArg};
+use crate::cli::{CompressionArg, ConvertArgs, FormatArg, RowModeArg, SamplingArg};
 use crate::Outcome;
 
 impl From<&ConvertArgs> for ConvertOptions {
@@ -39,10 +42,20 @@ impl From<&ConvertArgs> for ConvertOptions {
             } else {
                 FrameSelection::Annotated
             },
-            write_npy: true,
+            write_npy: a.format.contains(&FormatArg::Npy),
             write_labels: !a.no_point_labels,
             threads: 0,
             sync: a.sync,
+            shards: a.format.contains(&FormatArg::Mcap).then(|| ShardOptions {
+                compression: match a.compression {
+                    CompressionArg::Lz4 => ShardCompression::Lz4,
+                    CompressionArg::Zstd => ShardCompression::Zstd,
+                    CompressionArg::None => ShardCompression::None,
+                },
+                frames_per_shard: a.shard_frames,
+                viz: a.viz,
+                split: SplitRule::squeezeseg(),
+            }),
         }
     }
 }
@@ -50,6 +63,9 @@ impl From<&ConvertArgs> for ConvertOptions {
 pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
     let mut opts = ConvertOptions::from(&a);
     opts.threads = g.threads;
+    if let Some(sh) = opts.shards.as_mut() {
+        sh.split = a.split.rule()?;
+    }
     opts.validate()?;
     let plan = Plan::build(&a.raw_root, opts.selection)
         .with_context(|| format!("reading {}", a.raw_root.display()))?;
@@ -60,6 +76,7 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
             pb.suspend(|| eprintln!("kitti2pgm: {}: {}", f.what, f.error));
             pb.inc(f.frames.min(1));
         }
+        FrameOutcome::Skipped(n) => pb.inc(n),
     })
     .with_context(|| format!("converting into {}", a.out.display()))?;
     pb.finish_and_clear();
@@ -105,6 +122,9 @@ fn table(s: &ConvertSummary) -> String {
         "ring fallbacks      {:>12}  (frames binned by elevation)",
         s.ring_fallbacks
     );
+    if s.shards_written + s.shards_skipped > 0 {
+        let _ = writeln!(t, "shards written      {:>12}  ({} left as they were: complete and intact)", s.shards_written, s.shards_skipped);
+    }
     if s.rgb_cells > 0 {
         let _ = writeln!(
             t,

@@ -1,6 +1,7 @@
 //! One module per subcommand; each turns its clap struct into library options and runs it.
 
 mod convert;
+mod inspect;
 mod preview;
 pub mod progress;
 mod score;
@@ -22,6 +23,7 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
         Command::Split(a) => split::run(a),
         Command::Stats(a) => stats::run(a, &global),
         Command::Score(a) => score::run(a, &global),
+        Command::Inspect(a) => inspect::run(a),
     }
 }
 

@@ -3,21 +3,14 @@
 use anyhow::Context;
 use kitti2pgm::pipeline::FrameSelection;
 use kitti2pgm::report::imageset;
-use kitti2pgm::report::split::{split, SplitRule};
+use kitti2pgm::report::split::split;
 use kitti2pgm::write::{atomic_write, create_dir};
 
 use crate::cli::SplitArgs;
 use crate::Outcome;
 
 pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
-    let rule = match (a.random_val, a.val_drives.is_empty()) {
-        (Some(fraction), _) => SplitRule::Random {
-            fraction,
-            seed: a.seed,
-        },
-        (None, false) => SplitRule::parse_drives(&a.val_drives)?,
-        (None, true) => SplitRule::squeezeseg(),
-    };
+    let rule = a.split.rule()?;
     let selection = if a.all_frames {
         FrameSelection::All
     } else {

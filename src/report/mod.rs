@@ -2,6 +2,7 @@
 //! class and channel statistics ([`stats`]).
 
 pub mod imageset;
+pub mod inspect;
 pub mod score;
 pub mod split;
 pub mod stats;

@@ -112,6 +112,40 @@ fn splitmix64(state: &mut u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The val drives that `rule` picks among `drives` (each with its number of selected frames).
+pub fn val_drives(rule: &SplitRule, drives: &[(DriveKey, usize)]) -> Result<BTreeSet<DriveKey>> {
+    Ok(match rule {
+        SplitRule::Drives(set) => set.clone(),
+        SplitRule::Random { fraction, seed } => {
+            if !(0.0..=1.0).contains(fraction) {
+                return Err(Error::Config(format!("val fraction {fraction} must be in [0, 1]")));
+            }
+            let mut order: Vec<usize> = (0..drives.len()).collect();
+            let mut state = *seed;
+            for i in (1..order.len()).rev() {
+                let j = (splitmix64(&mut state) % (i as u64 + 1)) as usize;
+                order.swap(i, j);
+            }
+            let total: usize = drives.iter().map(|(_, n)| n).sum();
+            let target = fraction * total as f64;
+            let mut taken = 0usize;
+            let mut set = BTreeSet::new();
+            for i in order {
+                let n = drives[i].1;
+                if n == 0 {
+                    continue;
+                }
+                // Take the drive when that brings val closer to the target.
+                if ((taken + n) as f64 - target).abs() < (taken as f64 - target).abs() {
+                    taken += n;
+                    set.insert(drives[i].0.clone());
+                }
+            }
+            set
+        }
+    })
+}
+
 /// Builds the lists for the drives under `root`.
 pub fn split(root: &Path, selection: FrameSelection, rule: &SplitRule) -> Result<SplitLists> {
     let drives = discover(root)?;
@@ -120,39 +154,8 @@ pub fn split(root: &Path, selection: FrameSelection, rule: &SplitRule) -> Result
         let frames = drive_frames(&d, selection)?;
         per_drive.push((d, frames));
     }
-    let val: BTreeSet<DriveKey> = match rule {
-        SplitRule::Drives(set) => set.clone(),
-        SplitRule::Random { fraction, seed } => {
-            if !(0.0..=1.0).contains(fraction) {
-                return Err(Error::Config(format!(
-                    "val fraction {fraction} must be in [0, 1]"
-                )));
-            }
-            let mut order: Vec<usize> = (0..per_drive.len()).collect();
-            let mut state = *seed;
-            for i in (1..order.len()).rev() {
-                let j = (splitmix64(&mut state) % (i as u64 + 1)) as usize;
-                order.swap(i, j);
-            }
-            let total: usize = per_drive.iter().map(|(_, f)| f.len()).sum();
-            let target = fraction * total as f64;
-            let mut taken = 0usize;
-            let mut set = BTreeSet::new();
-            for i in order {
-                let n = per_drive[i].1.len();
-                if n == 0 {
-                    continue;
-                }
-                // Take the drive when that brings val closer to the target.
-                if ((taken + n) as f64 - target).abs() < (taken as f64 - target).abs() {
-                    taken += n;
-                    let d = &per_drive[i].0;
-                    set.insert((d.date.clone(), d.number));
-                }
-            }
-            set
-        }
-    };
+    let counts: Vec<(DriveKey, usize)> = per_drive.iter().map(|(d, f)| ((d.date.clone(), d.number), f.len())).collect();
+    let val = val_drives(rule, &counts)?;
     let mut out = SplitLists::default();
     for (d, frames) in &per_drive {
         let is_val = val.contains(&(d.date.clone(), d.number));

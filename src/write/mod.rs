@@ -4,6 +4,8 @@
 //! place, so a crash or a full disk never leaves a half-written file under a final name.
 
 pub mod npy;
+pub mod shard;
+pub mod viz;
 
 use std::io::Write;
 use std::path::Path;
@@ -24,8 +26,7 @@ pub fn atomic_write(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
         path: path.into(),
         source,
     };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".tmp-")
+    let mut tmp = temp_builder()
         .tempfile_in(dir)
         .map_err(|source| Error::Write {
             path: dir.into(),
@@ -37,6 +38,20 @@ pub fn atomic_write(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
     }
     tmp.persist(path).map_err(|e| werr(e.error))?;
     Ok(())
+}
+
+/// A temporary-file builder for outputs: hidden `.tmp-` name, and on Unix the mode of an
+/// ordinary new file (0666 less the umask) instead of tempfile's private 0600, so that the file
+/// keeps normal permissions once renamed into place.
+pub fn temp_builder() -> tempfile::Builder<'static, 'static> {
+    let mut b = tempfile::Builder::new();
+    b.prefix(".tmp-");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        b.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    b
 }
 
 /// Creates a folder and its parents, naming it in the error.
