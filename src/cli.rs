@@ -276,7 +276,10 @@ impl SplitRuleArgs {
     pub fn rule(&self) -> kitti2pgm::Result<kitti2pgm::report::split::SplitRule> {
         use kitti2pgm::report::split::SplitRule;
         match (self.random_val, self.val_drives.is_empty()) {
-            (Some(fraction), _) => Ok(SplitRule::Random { fraction, seed: self.seed }),
+            (Some(fraction), _) => Ok(SplitRule::Random {
+                fraction,
+                seed: self.seed,
+            }),
             (None, false) => SplitRule::parse_drives(&self.val_drives),
             (None, true) => Ok(SplitRule::squeezeseg()),
         }

@@ -27,7 +27,9 @@ use crate::project::camera::{CameraProjector, Sampling};
 use crate::project::frame::{assemble, PgmFrame};
 use crate::project::{project, PgmSpec, Projection};
 use crate::report::split::{val_drives, SplitRule};
-use crate::write::shard::{shard_is_intact, shard_name, FrameMsg, ShardCompression, ShardMetadata, ShardWriter};
+use crate::write::shard::{
+    shard_is_intact, shard_name, FrameMsg, ShardCompression, ShardMetadata, ShardWriter,
+};
 use crate::write::viz::VizFrame;
 use crate::write::{atomic_write, create_dir, label_file_bytes, npy};
 
@@ -123,9 +125,15 @@ impl ConvertOptions {
     pub fn validate(&self) -> Result<()> {
         self.spec.validate()?;
         if !self.write_npy && !self.write_labels && self.shards.is_none() {
-            return Err(Error::Config("nothing to write: enable .npy, .label or shard output".into()));
+            return Err(Error::Config(
+                "nothing to write: enable .npy, .label or shard output".into(),
+            ));
         }
-        if self.shards.as_ref().is_some_and(|s| s.frames_per_shard == Some(0)) {
+        if self
+            .shards
+            .as_ref()
+            .is_some_and(|s| s.frames_per_shard == Some(0))
+        {
             return Err(Error::Config("--shard-frames must be at least 1".into()));
         }
         if let Some(rgb) = &self.rgb {
@@ -466,7 +474,12 @@ pub struct Produced {
 
 /// Reads and converts one frame (no output written). `want_viz` keeps the scan points, boxes
 /// and camera PNG for the visualisation topics.
-pub fn produce(dp: &DrivePlan, frame: u32, opts: &ConvertOptions, want_viz: bool) -> Result<Produced> {
+pub fn produce(
+    dp: &DrivePlan,
+    frame: u32,
+    opts: &ConvertOptions,
+    want_viz: bool,
+) -> Result<Produced> {
     let id = dp.drive.frame_id(frame);
     let scan = Scan::read(&dp.drive.scan_path(frame))?;
     let boxes = dp.boxes(frame);
@@ -479,18 +492,35 @@ pub fn produce(dp: &DrivePlan, frame: u32, opts: &ConvertOptions, want_viz: bool
             if want_viz {
                 png_bytes = Some(bytes);
             }
-            let proj = CameraProjector { velo_to_image: dp.calib.velo_to_image(rgb.camera as usize), sampling: rgb.sampling };
+            let proj = CameraProjector {
+                velo_to_image: dp.calib.velo_to_image(rgb.camera as usize),
+                sampling: rgb.sampling,
+            };
             Some((proj, img))
         }
         None => None,
     };
-    let out = process(&id, &scan, &boxes, &opts.spec, camera.as_ref().map(|(p, i)| (p, i)));
+    let out = process(
+        &id,
+        &scan,
+        &boxes,
+        &opts.spec,
+        camera.as_ref().map(|(p, i)| (p, i)),
+    );
     let viz = want_viz.then(|| {
         let class_of = |i: usize| Class::from_id(out.point_class[i]).unwrap_or_default();
         let file_idx = scan.file_indices();
         VizFrame {
-            points: scan.points.iter().enumerate().map(|(k, p)| (*p, scan.reflectance[k], class_of(file_idx[k] as usize))).collect(),
-            boxes: boxes.into_iter().filter(|b| b.class != Class::Background).collect(),
+            points: scan
+                .points
+                .iter()
+                .enumerate()
+                .map(|(k, p)| (*p, scan.reflectance[k], class_of(file_idx[k] as usize)))
+                .collect(),
+            boxes: boxes
+                .into_iter()
+                .filter(|b| b.class != Class::Background)
+                .collect(),
             png: png_bytes,
             camera: opts.rgb.map_or(2, |r| r.camera),
         }
@@ -499,7 +529,12 @@ pub fn produce(dp: &DrivePlan, frame: u32, opts: &ConvertOptions, want_viz: bool
 }
 
 /// Writes a converted frame's `.npy` and `.label` files, as the options ask.
-pub fn write_frame_files(dp: &DrivePlan, frame: u32, out: &Converted, opts: &ConvertOptions) -> Result<()> {
+pub fn write_frame_files(
+    dp: &DrivePlan,
+    frame: u32,
+    out: &Converted,
+    opts: &ConvertOptions,
+) -> Result<()> {
     if opts.write_npy {
         let p = &out.pgm;
         let bytes = npy::encode_f32(&[p.rows as u64, p.cols as u64, p.depth() as u64], &p.data);
@@ -507,7 +542,11 @@ pub fn write_frame_files(dp: &DrivePlan, frame: u32, out: &Converted, opts: &Con
     }
     if opts.write_labels {
         let path = opts.label_path(&dp.drive, frame);
-        atomic_write(&path, &label_file_bytes(&out.point_class, &out.point_instance), opts.sync)?;
+        atomic_write(
+            &path,
+            &label_file_bytes(&out.point_class, &out.point_instance),
+            opts.sync,
+        )?;
     }
     Ok(())
 }
@@ -647,7 +686,11 @@ pub fn convert(
         add(r);
     };
     let record_err = |what: String, frames: u64, e: Error| {
-        let f = FrameFailure { what, frames, error: e.to_string() };
+        let f = FrameFailure {
+            what,
+            frames,
+            error: e.to_string(),
+        };
         progress(FrameOutcome::Failed(&f));
         let mut s = summary.lock().expect("no panic while holding the lock");
         s.frames_failed += frames;
@@ -670,7 +713,11 @@ pub fn convert(
         pool.install(|| {
             shards.par_iter().for_each(|sp| {
                 let path = dir.join(shard_name(&sp.split, sp.index));
-                let ids: Vec<String> = sp.jobs.iter().map(|&(d, f)| plan.drives[d].drive.frame_id(f).to_string()).collect();
+                let ids: Vec<String> = sp
+                    .jobs
+                    .iter()
+                    .map(|&(d, f)| plan.drives[d].drive.frame_id(f).to_string())
+                    .collect();
                 let others_present = sp.jobs.iter().all(|&(d, f)| {
                     let dp = &plan.drives[d];
                     (!opts.write_npy || opts.npy_path(&dp.drive.frame_id(f)).is_file())
@@ -680,7 +727,9 @@ pub fn convert(
                     progress(FrameOutcome::Skipped(ids.len() as u64));
                     let mut s = summary.lock().expect("no panic while holding the lock");
                     s.shards_skipped += 1;
-                    *s.frames_skipped.entry("already in a complete, intact shard".into()).or_default() += ids.len() as u64;
+                    *s.frames_skipped
+                        .entry("already in a complete, intact shard".into())
+                        .or_default() += ids.len() as u64;
                     return;
                 }
                 let meta = ShardMetadata {
@@ -695,7 +744,10 @@ pub fn convert(
                 match write_shard(plan, opts, sh, sp, &path, meta, progress, &record_err) {
                     Ok(reports) => {
                         reports.iter().for_each(add);
-                        summary.lock().expect("no panic while holding the lock").shards_written += 1;
+                        summary
+                            .lock()
+                            .expect("no panic while holding the lock")
+                            .shards_written += 1;
                     }
                     // The shard is lost (its temporary file is removed), so are its frames.
                     Err(e) => record_err(format!("shard {}", path.display()), frames, e),
@@ -739,7 +791,9 @@ fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardOptions) -> Result<
     let mut counts: BTreeMap<(String, u32), usize> = BTreeMap::new();
     for &(d, _) in &plan.jobs {
         let drive = &plan.drives[d].drive;
-        *counts.entry((drive.date.clone(), drive.number)).or_default() += 1;
+        *counts
+            .entry((drive.date.clone(), drive.number))
+            .or_default() += 1;
     }
     let counts: Vec<_> = counts.into_iter().collect();
     let val = val_drives(&sh.split, &counts)?;
@@ -756,7 +810,11 @@ fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardOptions) -> Result<
             })
             .collect();
         for (index, chunk) in jobs.chunks(per_shard).enumerate() {
-            out.push(ShardPlan { split: split.into(), index, jobs: chunk.to_vec() });
+            out.push(ShardPlan {
+                split: split.into(),
+                index,
+                jobs: chunk.to_vec(),
+            });
         }
     }
     Ok(out)
@@ -778,9 +836,9 @@ fn write_shard(
     let mut writer = ShardWriter::create(path, sh.compression, sh.viz)?;
     let mut reports = Vec::with_capacity(sp.jobs.len());
     let batch = rayon::current_num_threads().max(1) * 2;
-    for jobs in sp.jobs.chunks(batch) {
-        let done: Vec<Result<(Produced, FrameMsg, u64)>> = jobs
-            .par_iter()
+    type Done = Vec<Result<(Produced, FrameMsg, u64)>>;
+    let produce_batch = |jobs: &[(usize, u32)]| -> Done {
+        jobs.par_iter()
             .map(|&(d, f)| {
                 let dp = &plan.drives[d];
                 let p = produce(dp, f, opts, sh.viz)?;
@@ -788,24 +846,52 @@ fn write_shard(
                 let ts = dp.timestamp(f).map(|t| t.0.max(0) as u64);
                 // Without a timestamp, frames are spaced at the scanner's 10 Hz.
                 let log_time = ts.unwrap_or(f as u64 * 100_000_000);
-                let msg = FrameMsg::from_frame(&p.out.pgm, &p.out.report.id, &dp.drive.name(), f, ts.unwrap_or(0), &sp.split);
+                let msg = FrameMsg::from_frame(
+                    &p.out.pgm,
+                    &p.out.report.id,
+                    &dp.drive.name(),
+                    f,
+                    ts.unwrap_or(0),
+                    &sp.split,
+                );
                 Ok((p, msg, log_time))
             })
-            .collect();
-        for (r, &(d, f)) in done.into_iter().zip(jobs) {
-            match r {
-                Ok((p, msg, log_time)) => {
-                    writer.write(&msg, log_time, p.viz.as_ref())?;
-                    progress(FrameOutcome::Done(&p.out.report));
-                    reports.push(p.out.report);
-                }
-                Err(e) => {
-                    let id = plan.drives[d].drive.frame_id(f).to_string();
-                    meta.failed.push(id.clone());
-                    record_err(id, 1, e);
+            .collect()
+    };
+    // Appends a finished batch in frame order (sequential: the writer compresses here).
+    let mut write_batch =
+        |done: Done, jobs: &[(usize, u32)], meta: &mut ShardMetadata| -> Result<()> {
+            for (r, &(d, f)) in done.into_iter().zip(jobs) {
+                match r {
+                    Ok((p, msg, log_time)) => {
+                        writer.write(&msg, log_time, p.viz.as_ref())?;
+                        progress(FrameOutcome::Done(&p.out.report));
+                        reports.push(p.out.report);
+                    }
+                    Err(e) => {
+                        let id = plan.drives[d].drive.frame_id(f).to_string();
+                        meta.failed.push(id.clone());
+                        record_err(id, 1, e);
+                    }
                 }
             }
-        }
+            Ok(())
+        };
+    // Pipeline: batch k is written (compressed) while batch k + 1 is produced.
+    let mut pending: Option<(Done, &[(usize, u32)])> = None;
+    for jobs in sp.jobs.chunks(batch) {
+        let (written, done) = rayon::join(
+            || match pending.take() {
+                Some((d, j)) => write_batch(d, j, &mut meta),
+                None => Ok(()),
+            },
+            || produce_batch(jobs),
+        );
+        written?;
+        pending = Some((done, jobs));
+    }
+    if let Some((d, j)) = pending.take() {
+        write_batch(d, j, &mut meta)?;
     }
     writer.finish(&meta)?;
     Ok(reports)

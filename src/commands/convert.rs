@@ -6,10 +6,10 @@ use kitti2pgm::pipeline::{
     convert, ConvertOptions, ConvertSummary, FrameOutcome, FrameSelection, Plan, RgbOptions,
     ShardOptions,
 };
-use kitti2pgm::report::split::SplitRule;
-use kitti2pgm::write::shard::ShardCompression;
 use kitti2pgm::project::camera::Sampling;
 use kitti2pgm::project::{PgmSpec, RowMode};
+use kitti2pgm::report::split::SplitRule;
+use kitti2pgm::write::shard::ShardCompression;
 
 use super::{progress, Global};
 use crate::cli::{CompressionArg, ConvertArgs, FormatArg, RowModeArg, SamplingArg};
@@ -123,7 +123,11 @@ fn table(s: &ConvertSummary) -> String {
         s.ring_fallbacks
     );
     if s.shards_written + s.shards_skipped > 0 {
-        let _ = writeln!(t, "shards written      {:>12}  ({} left as they were: complete and intact)", s.shards_written, s.shards_skipped);
+        let _ = writeln!(
+            t,
+            "shards written      {:>12}  ({} left as they were: complete and intact)",
+            s.shards_written, s.shards_skipped
+        );
     }
     if s.rgb_cells > 0 {
         let _ = writeln!(

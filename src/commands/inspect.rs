@@ -22,15 +22,47 @@ pub fn run(a: InspectArgs) -> anyhow::Result<Outcome> {
     } else {
         for i in &infos {
             println!("{}", i.path);
-            println!("  frames          {} ({} .. {})", i.frames, i.first_frame.as_deref().unwrap_or("-"), i.last_frame.as_deref().unwrap_or("-"));
+            println!(
+                "  frames          {} ({} .. {})",
+                i.frames,
+                i.first_frame.as_deref().unwrap_or("-"),
+                i.last_frame.as_deref().unwrap_or("-")
+            );
             if let Some([h, w]) = i.shape {
-                println!("  map             {h} x {w}, channels {}", i.channels.join(","));
+                println!(
+                    "  map             {h} x {w}, channels {}",
+                    i.channels.join(",")
+                );
             }
             println!("  split           {}", i.metadata.split);
-            println!("  size            {:.1} MB on disk, {:.1} MB uncompressed, ratio {:.2} ({})", i.file_bytes as f64 / 1e6, i.uncompressed_bytes as f64 / 1e6, i.compression_ratio, i.compression.join(","));
-            println!("  topics          {}", i.topics.iter().map(|(t, n)| format!("{t} ({n})")).collect::<Vec<_>>().join(", "));
-            println!("  class cells     {}", i.class_cells.iter().map(|(c, n)| format!("{c} {n}")).collect::<Vec<_>>().join(", "));
-            println!("  written by      kitti2pgm {}; drives {}", i.metadata.version, i.metadata.drives.len());
+            println!(
+                "  size            {:.1} MB on disk, {:.1} MB uncompressed, ratio {:.2} ({})",
+                i.file_bytes as f64 / 1e6,
+                i.uncompressed_bytes as f64 / 1e6,
+                i.compression_ratio,
+                i.compression.join(",")
+            );
+            println!(
+                "  topics          {}",
+                i.topics
+                    .iter()
+                    .map(|(t, n)| format!("{t} ({n})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            println!(
+                "  class cells     {}",
+                i.class_cells
+                    .iter()
+                    .map(|(c, n)| format!("{c} {n}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            println!(
+                "  written by      kitti2pgm {}; drives {}",
+                i.metadata.version,
+                i.metadata.drives.len()
+            );
             if !i.metadata.failed.is_empty() {
                 println!("  failed frames   {}", i.metadata.failed.join(" "));
             }
@@ -39,5 +71,9 @@ pub fn run(a: InspectArgs) -> anyhow::Result<Outcome> {
     if failed == a.shards.len() {
         anyhow::bail!("no shard could be read");
     }
-    Ok(if failed > 0 { Outcome::Partial } else { Outcome::Ok })
+    Ok(if failed > 0 {
+        Outcome::Partial
+    } else {
+        Outcome::Ok
+    })
 }

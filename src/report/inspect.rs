@@ -63,7 +63,11 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
     for c in &summary.chunk_indexes {
         compressed += c.compressed_size;
         uncompressed += c.uncompressed_size;
-        let name = if c.compression.is_empty() { "none".to_string() } else { c.compression.clone() };
+        let name = if c.compression.is_empty() {
+            "none".to_string()
+        } else {
+            c.compression.clone()
+        };
         if !compression.contains(&name) {
             compression.push(name);
         }
@@ -78,17 +82,30 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
     }
     Ok(ShardInfo {
         path: path.display().to_string(),
-        frames: topics.get(FRAME_TOPIC).copied().unwrap_or(frames.len() as u64),
+        frames: topics
+            .get(FRAME_TOPIC)
+            .copied()
+            .unwrap_or(frames.len() as u64),
         first_frame: frames.first().map(|f| f.id.clone()),
         last_frame: frames.last().map(|f| f.id.clone()),
         shape: frames.first().map(|f| [f.height, f.width]),
-        channels: frames.first().map(|f| f.channels.clone()).unwrap_or_default(),
+        channels: frames
+            .first()
+            .map(|f| f.channels.clone())
+            .unwrap_or_default(),
         topics,
         file_bytes: shard.bytes().len() as u64,
         uncompressed_bytes: uncompressed,
         compression,
-        compression_ratio: if compressed == 0 { 1.0 } else { uncompressed as f64 / compressed as f64 },
-        class_cells: Class::ALL.iter().map(|c| (c.name(), cells[*c as usize])).collect(),
+        compression_ratio: if compressed == 0 {
+            1.0
+        } else {
+            uncompressed as f64 / compressed as f64
+        },
+        class_cells: Class::ALL
+            .iter()
+            .map(|c| (c.name(), cells[*c as usize]))
+            .collect(),
         metadata,
     })
 }

@@ -118,7 +118,9 @@ pub fn val_drives(rule: &SplitRule, drives: &[(DriveKey, usize)]) -> Result<BTre
         SplitRule::Drives(set) => set.clone(),
         SplitRule::Random { fraction, seed } => {
             if !(0.0..=1.0).contains(fraction) {
-                return Err(Error::Config(format!("val fraction {fraction} must be in [0, 1]")));
+                return Err(Error::Config(format!(
+                    "val fraction {fraction} must be in [0, 1]"
+                )));
             }
             let mut order: Vec<usize> = (0..drives.len()).collect();
             let mut state = *seed;
@@ -154,7 +156,10 @@ pub fn split(root: &Path, selection: FrameSelection, rule: &SplitRule) -> Result
         let frames = drive_frames(&d, selection)?;
         per_drive.push((d, frames));
     }
-    let counts: Vec<(DriveKey, usize)> = per_drive.iter().map(|(d, f)| ((d.date.clone(), d.number), f.len())).collect();
+    let counts: Vec<(DriveKey, usize)> = per_drive
+        .iter()
+        .map(|(d, f)| ((d.date.clone(), d.number), f.len()))
+        .collect();
     let val = val_drives(rule, &counts)?;
     let mut out = SplitLists::default();
     for (d, frames) in &per_drive {

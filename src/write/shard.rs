@@ -74,7 +74,14 @@ pub struct FrameMsg {
 
 impl FrameMsg {
     /// Builds the message of a converted frame.
-    pub fn from_frame(pgm: &PgmFrame, id: &str, drive: &str, frame_index: u32, timestamp_ns: u64, split: &str) -> FrameMsg {
+    pub fn from_frame(
+        pgm: &PgmFrame,
+        id: &str,
+        drive: &str,
+        frame_index: u32,
+        timestamp_ns: u64,
+        split: &str,
+    ) -> FrameMsg {
         let depth = pgm.depth();
         let inputs: Vec<usize> = (0..depth).filter(|&c| pgm.channels[c] != "label").collect();
         let mut tensor = Vec::with_capacity(pgm.rows * pgm.cols * inputs.len() * 4);
@@ -90,7 +97,10 @@ impl FrameMsg {
             timestamp_ns,
             height: pgm.rows as u32,
             width: pgm.cols as u32,
-            channels: inputs.iter().map(|&c| pgm.channels[c].to_string()).collect(),
+            channels: inputs
+                .iter()
+                .map(|&c| pgm.channels[c].to_string())
+                .collect(),
             tensor,
             label: pgm.label.clone(),
             instance: pgm.instance.iter().flat_map(|v| v.to_le_bytes()).collect(),
@@ -111,34 +121,59 @@ impl FrameMsg {
         ];
         for (what, got, want) in checks {
             if got != want {
-                return Err(Error::format(path, format!("frame {}: {what} has {got} bytes, expected {want}", self.id)));
+                return Err(Error::format(
+                    path,
+                    format!("frame {}: {what} has {got} bytes, expected {want}", self.id),
+                ));
             }
         }
         if !self.rgb_valid.is_empty() && self.rgb_valid.len() != cells {
-            return Err(Error::format(path, format!("frame {}: rgb_valid has {} bytes, expected {cells}", self.id, self.rgb_valid.len())));
+            return Err(Error::format(
+                path,
+                format!(
+                    "frame {}: rgb_valid has {} bytes, expected {cells}",
+                    self.id,
+                    self.rgb_valid.len()
+                ),
+            ));
         }
         Ok(())
     }
 
     /// The tensor as float32 values.
     pub fn tensor_f32(&self) -> Vec<f32> {
-        self.tensor.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+        self.tensor
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect()
     }
 }
 
 /// The `FileDescriptorSet` of `kitti2pgm/frame.proto`, stored as the schema of the frame topic.
 pub fn frame_descriptor_set() -> Vec<u8> {
     use prost_types::field_descriptor_proto::{Label, Type};
-    use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
+    use prost_types::{
+        DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet,
+    };
     let field = |name: &str, number: i32, ty: Type, repeated: bool| FieldDescriptorProto {
         name: Some(name.into()),
         number: Some(number),
-        label: Some(if repeated { Label::Repeated } else { Label::Optional } as i32),
+        label: Some(if repeated {
+            Label::Repeated
+        } else {
+            Label::Optional
+        } as i32),
         r#type: Some(ty as i32),
         json_name: Some(
             name.split('_')
                 .enumerate()
-                .map(|(i, p)| if i == 0 { p.to_string() } else { p[..1].to_uppercase() + &p[1..] })
+                .map(|(i, p)| {
+                    if i == 0 {
+                        p.to_string()
+                    } else {
+                        p[..1].to_uppercase() + &p[1..]
+                    }
+                })
                 .collect(),
         ),
         ..Default::default()
@@ -161,7 +196,11 @@ pub fn frame_descriptor_set() -> Vec<u8> {
     let file = FileDescriptorProto {
         name: Some("kitti2pgm/frame.proto".into()),
         package: Some("kitti2pgm".into()),
-        message_type: vec![DescriptorProto { name: Some("Frame".into()), field: fields, ..Default::default() }],
+        message_type: vec![DescriptorProto {
+            name: Some("Frame".into()),
+            field: fields,
+            ..Default::default()
+        }],
         syntax: Some("proto3".into()),
         ..Default::default()
     };
@@ -208,8 +247,14 @@ impl ShardWriter {
     /// Starts a shard that will be named `path`.
     pub fn create(path: &Path, compression: ShardCompression, viz: bool) -> Result<ShardWriter> {
         let dir = path.parent().unwrap_or(Path::new("."));
-        let werr = |source| Error::Write { path: path.into(), source };
-        let tmp = crate::write::temp_builder().suffix(".mcap").tempfile_in(dir).map_err(werr)?;
+        let werr = |source| Error::Write {
+            path: path.into(),
+            source,
+        };
+        let tmp = crate::write::temp_builder()
+            .suffix(".mcap")
+            .tempfile_in(dir)
+            .map_err(werr)?;
         let (file, tmp) = tmp.into_parts();
         let merr = |e: mcap::McapError| Error::format(path, format!("MCAP writer: {e}"));
         let mut writer = mcap::WriteOptions::new()
@@ -219,10 +264,25 @@ impl ShardWriter {
             .chunk_size(Some(CHUNK_BYTES))
             .create(std::io::BufWriter::with_capacity(1 << 20, file))
             .map_err(merr)?;
-        let schema = writer.add_schema(FRAME_SCHEMA, "protobuf", &frame_descriptor_set()).map_err(merr)?;
-        let frame_channel = writer.add_channel(schema, FRAME_TOPIC, "protobuf", &BTreeMap::new()).map_err(merr)?;
-        let viz = if viz { Some(crate::write::viz::VizChannels::add(&mut writer).map_err(merr)?) } else { None };
-        Ok(ShardWriter { writer, tmp, path: path.into(), frame_channel, sequence: 0, viz })
+        let schema = writer
+            .add_schema(FRAME_SCHEMA, "protobuf", &frame_descriptor_set())
+            .map_err(merr)?;
+        let frame_channel = writer
+            .add_channel(schema, FRAME_TOPIC, "protobuf", &BTreeMap::new())
+            .map_err(merr)?;
+        let viz = if viz {
+            Some(crate::write::viz::VizChannels::add(&mut writer).map_err(merr)?)
+        } else {
+            None
+        };
+        Ok(ShardWriter {
+            writer,
+            tmp,
+            path: path.into(),
+            frame_channel,
+            sequence: 0,
+            viz,
+        })
     }
 
     fn merr(&self, e: mcap::McapError) -> Error {
@@ -230,14 +290,21 @@ impl ShardWriter {
     }
 
     /// Appends a frame (and its visualisation messages when `viz` is given and enabled).
-    pub fn write(&mut self, msg: &FrameMsg, log_time: u64, viz: Option<&crate::write::viz::VizFrame>) -> Result<()> {
+    pub fn write(
+        &mut self,
+        msg: &FrameMsg,
+        log_time: u64,
+        viz: Option<&crate::write::viz::VizFrame>,
+    ) -> Result<()> {
         let header = mcap::records::MessageHeader {
             channel_id: self.frame_channel,
             sequence: self.sequence,
             log_time,
             publish_time: log_time,
         };
-        self.writer.write_to_known_channel(&header, &msg.encode_to_vec()).map_err(|e| self.merr(e))?;
+        self.writer
+            .write_to_known_channel(&header, &msg.encode_to_vec())
+            .map_err(|e| self.merr(e))?;
         if let (Some(ch), Some(v)) = (&self.viz, viz) {
             let r = ch.write(&mut self.writer, v, self.sequence, log_time);
             r.map_err(|e| self.merr(e))?;
@@ -248,13 +315,25 @@ impl ShardWriter {
 
     /// Writes the metadata record, finishes the file (summary, indexes) and renames it into place.
     pub fn finish(mut self, metadata: &ShardMetadata) -> Result<()> {
-        let md = mcap::records::Metadata { name: METADATA_NAME.into(), metadata: metadata.to_map() };
+        let md = mcap::records::Metadata {
+            name: METADATA_NAME.into(),
+            metadata: metadata.to_map(),
+        };
         self.writer.write_metadata(&md).map_err(|e| self.merr(e))?;
         self.writer.finish().map_err(|e| self.merr(e))?;
         let buf = self.writer.into_inner();
-        let file = buf.into_inner().map_err(|e| Error::Write { path: self.path.clone(), source: e.into_error() })?;
-        file.sync_data().map_err(|source| Error::Write { path: self.path.clone(), source })?;
-        self.tmp.persist(&self.path).map_err(|e| Error::Write { path: self.path.clone(), source: e.error })?;
+        let file = buf.into_inner().map_err(|e| Error::Write {
+            path: self.path.clone(),
+            source: e.into_error(),
+        })?;
+        file.sync_data().map_err(|source| Error::Write {
+            path: self.path.clone(),
+            source,
+        })?;
+        self.tmp.persist(&self.path).map_err(|e| Error::Write {
+            path: self.path.clone(),
+            source: e.error,
+        })?;
         Ok(())
     }
 }
@@ -289,7 +368,11 @@ impl ShardMetadata {
     }
 
     fn from_map(m: &BTreeMap<String, String>) -> ShardMetadata {
-        let list = |k: &str| m.get(k).map(|s| s.lines().map(String::from).collect()).unwrap_or_default();
+        let list = |k: &str| {
+            m.get(k)
+                .map(|s| s.lines().map(String::from).collect())
+                .unwrap_or_default()
+        };
         ShardMetadata {
             version: m.get("version").cloned().unwrap_or_default(),
             params: m.get("params").cloned().unwrap_or_default(),
@@ -315,7 +398,10 @@ impl Shard {
         // SAFETY: the file is opened read-only and only read; a shard is never modified in
         // place (it is written under a temporary name and renamed), so the mapping is stable.
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(path, e))?;
-        Ok(Shard { path: path.into(), map })
+        Ok(Shard {
+            path: path.into(),
+            map,
+        })
     }
 
     /// The raw bytes.
@@ -327,8 +413,14 @@ impl Shard {
     pub fn summary(&self) -> Result<mcap::read::Summary> {
         match mcap::read::Summary::read(&self.map) {
             Ok(Some(s)) => Ok(s),
-            Ok(None) => Err(Error::format(&self.path, "no summary section: the shard was not finished")),
-            Err(e) => Err(Error::format(&self.path, format!("unreadable summary (truncated or corrupted shard?): {e}"))),
+            Ok(None) => Err(Error::format(
+                &self.path,
+                "no summary section: the shard was not finished",
+            )),
+            Err(e) => Err(Error::format(
+                &self.path,
+                format!("unreadable summary (truncated or corrupted shard?): {e}"),
+            )),
         }
     }
 
@@ -339,8 +431,11 @@ impl Shard {
             .metadata_indexes
             .iter()
             .find(|m| m.name == METADATA_NAME)
-            .ok_or_else(|| Error::format(&self.path, format!("no `{METADATA_NAME}` metadata record")))?;
-        let md = mcap::read::metadata(&self.map, index).map_err(|e| Error::format(&self.path, format!("metadata record: {e}")))?;
+            .ok_or_else(|| {
+                Error::format(&self.path, format!("no `{METADATA_NAME}` metadata record"))
+            })?;
+        let md = mcap::read::metadata(&self.map, index)
+            .map_err(|e| Error::format(&self.path, format!("metadata record: {e}")))?;
         Ok(ShardMetadata::from_map(&md.metadata))
     }
 
@@ -350,11 +445,19 @@ impl Shard {
         let mut out = Vec::new();
         let stream = match mcap::MessageStream::new(&self.map) {
             Ok(s) => s,
-            Err(e) => return (out, Some(Error::format(&self.path, format!("not an MCAP file: {e}")))),
+            Err(e) => {
+                return (
+                    out,
+                    Some(Error::format(&self.path, format!("not an MCAP file: {e}"))),
+                )
+            }
         };
         for m in stream {
             let fail = |out: &Vec<FrameMsg>, what: String| {
-                let after = out.last().map(|f: &FrameMsg| format!(" after frame {}", f.id)).unwrap_or_default();
+                let after = out
+                    .last()
+                    .map(|f: &FrameMsg| format!(" after frame {}", f.id))
+                    .unwrap_or_default();
                 Error::format(&self.path, format!("frame #{}{after}: {what}", out.len()))
             };
             match m {
@@ -381,16 +484,32 @@ impl Shard {
 
 /// Whether the shard at `path` is finished, intact and holds exactly `frames` under `params`.
 pub fn shard_is_intact(path: &Path, frames: &[String], params: &str) -> bool {
-    let Ok(shard) = Shard::open(path) else { return false };
-    let Ok(summary) = shard.summary() else { return false };
-    let Ok(md) = shard.metadata() else { return false };
+    let Ok(shard) = Shard::open(path) else {
+        return false;
+    };
+    let Ok(summary) = shard.summary() else {
+        return false;
+    };
+    let Ok(md) = shard.metadata() else {
+        return false;
+    };
     let count = summary
         .channels
         .iter()
         .filter(|(_, c)| c.topic == FRAME_TOPIC)
-        .map(|(id, _)| summary.stats.as_ref().and_then(|s| s.channel_message_counts.get(id)).copied().unwrap_or(0))
+        .map(|(id, _)| {
+            summary
+                .stats
+                .as_ref()
+                .and_then(|s| s.channel_message_counts.get(id))
+                .copied()
+                .unwrap_or(0)
+        })
         .sum::<u64>();
-    md.failed.is_empty() && md.frames == frames && md.params == params && count == frames.len() as u64
+    md.failed.is_empty()
+        && md.frames == frames
+        && md.params == params
+        && count == frames.len() as u64
 }
 
 /// The name of shard `index` of a split: `<split>-<NNNNN>.mcap`.

@@ -43,8 +43,10 @@ pub struct VizChannels {
 }
 
 fn schema(title: &str, props: &[&str]) -> Vec<u8> {
-    let properties: serde_json::Map<String, serde_json::Value> = props.iter().map(|p| (p.to_string(), json!({}))).collect();
-    serde_json::to_vec(&json!({ "title": title, "type": "object", "properties": properties })).expect("static JSON")
+    let properties: serde_json::Map<String, serde_json::Value> =
+        props.iter().map(|p| (p.to_string(), json!({}))).collect();
+    serde_json::to_vec(&json!({ "title": title, "type": "object", "properties": properties }))
+        .expect("static JSON")
 }
 
 fn time(ns: u64) -> serde_json::Value {
@@ -53,23 +55,46 @@ fn time(ns: u64) -> serde_json::Value {
 
 impl VizChannels {
     /// Adds the schemas and channels.
-    pub fn add<W: std::io::Write + std::io::Seek>(w: &mut mcap::Writer<W>) -> mcap::McapResult<VizChannels> {
+    pub fn add<W: std::io::Write + std::io::Seek>(
+        w: &mut mcap::Writer<W>,
+    ) -> mcap::McapResult<VizChannels> {
         let none = BTreeMap::new();
         let s = w.add_schema(
             "foxglove.PointCloud",
             "jsonschema",
-            &schema("foxglove.PointCloud", &["timestamp", "frame_id", "pose", "point_stride", "fields", "data"]),
+            &schema(
+                "foxglove.PointCloud",
+                &[
+                    "timestamp",
+                    "frame_id",
+                    "pose",
+                    "point_stride",
+                    "fields",
+                    "data",
+                ],
+            ),
         )?;
         let points = w.add_channel(s, POINTS_TOPIC, "json", &none)?;
-        let s = w.add_schema("foxglove.SceneUpdate", "jsonschema", &schema("foxglove.SceneUpdate", &["deletions", "entities"]))?;
+        let s = w.add_schema(
+            "foxglove.SceneUpdate",
+            "jsonschema",
+            &schema("foxglove.SceneUpdate", &["deletions", "entities"]),
+        )?;
         let boxes = w.add_channel(s, BOXES_TOPIC, "json", &none)?;
         let s = w.add_schema(
             "foxglove.CompressedImage",
             "jsonschema",
-            &schema("foxglove.CompressedImage", &["timestamp", "frame_id", "data", "format"]),
+            &schema(
+                "foxglove.CompressedImage",
+                &["timestamp", "frame_id", "data", "format"],
+            ),
         )?;
         let image = w.add_channel(s, IMAGE_TOPIC, "json", &none)?;
-        Ok(VizChannels { points, boxes, image })
+        Ok(VizChannels {
+            points,
+            boxes,
+            image,
+        })
     }
 
     /// Writes one frame's visualisation messages.
@@ -81,7 +106,12 @@ impl VizChannels {
         log_time: u64,
     ) -> mcap::McapResult<()> {
         let b64 = base64::engine::general_purpose::STANDARD;
-        let header = |channel_id| mcap::records::MessageHeader { channel_id, sequence, log_time, publish_time: log_time };
+        let header = |channel_id| mcap::records::MessageHeader {
+            channel_id,
+            sequence,
+            log_time,
+            publish_time: log_time,
+        };
         // x, y, z, intensity: float32 (7); class, red, green, blue, alpha: uint8 (1). 21 bytes.
         let mut data = Vec::with_capacity(v.points.len() * 21);
         for (p, i, c) in &v.points {
@@ -101,7 +131,10 @@ impl VizChannels {
                        field("class", 16, 1), field("red", 17, 1), field("green", 18, 1), field("blue", 19, 1), field("alpha", 20, 1)],
             "data": b64.encode(&data),
         });
-        w.write_to_known_channel(&header(self.points), &serde_json::to_vec(&cloud).expect("JSON"))?;
+        w.write_to_known_channel(
+            &header(self.points),
+            &serde_json::to_vec(&cloud).expect("JSON"),
+        )?;
         let cubes: Vec<serde_json::Value> = v
             .boxes
             .iter()
@@ -126,7 +159,10 @@ impl VizChannels {
                 "triangles": [], "texts": [], "models": [],
             }],
         });
-        w.write_to_known_channel(&header(self.boxes), &serde_json::to_vec(&scene).expect("JSON"))?;
+        w.write_to_known_channel(
+            &header(self.boxes),
+            &serde_json::to_vec(&scene).expect("JSON"),
+        )?;
         if let Some(png) = &v.png {
             let img = json!({
                 "timestamp": time(log_time),
@@ -134,7 +170,10 @@ impl VizChannels {
                 "data": b64.encode(png),
                 "format": "png",
             });
-            w.write_to_known_channel(&header(self.image), &serde_json::to_vec(&img).expect("JSON"))?;
+            w.write_to_known_channel(
+                &header(self.image),
+                &serde_json::to_vec(&img).expect("JSON"),
+            )?;
         }
         Ok(())
     }

@@ -8,4 +8,5 @@ mod project;
 mod readers;
 mod reports;
 mod score;
+mod shards;
 mod util;

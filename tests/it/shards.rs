@@ -1,0 +1,315 @@
+//! MCAP shards: round trip against the `.npy` output, metadata, viz topics, corruption,
+//! interruption and re-runs.
+
+use std::path::Path;
+
+use kitti2pgm::write::npy::read_f32;
+use kitti2pgm::write::shard::{Shard, FRAME_TOPIC};
+
+use crate::util::*;
+
+fn convert_both(out: &Path, extra: &[&str]) -> serde_json::Value {
+    let root = fixtures();
+    let mut a = vec![
+        "convert",
+        s(&root),
+        "--out",
+        s(out),
+        "--format",
+        "npy,mcap",
+        "--rgb",
+        "--json",
+    ];
+    a.extend_from_slice(extra);
+    let (code, stdout, stderr) = run_text(&a);
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str(&stdout).unwrap()
+}
+
+#[test]
+fn shards_hold_exactly_the_npy_frames() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let j = convert_both(&out, &["--val-drives", "52"]);
+    assert_eq!(j["shards_written"], 2);
+    let train = Shard::open(&out.join("shards/train-00000.mcap")).unwrap();
+    let val = Shard::open(&out.join("shards/val-00000.mcap")).unwrap();
+    let (tf, e) = train.frames();
+    assert!(e.is_none());
+    let (vf, e) = val.frames();
+    assert!(e.is_none());
+    assert_eq!(
+        tf.iter().map(|f| f.id.as_str()).collect::<Vec<_>>(),
+        ["2011_09_26_0001_0000000000", "2011_09_26_0001_0000000045"]
+    );
+    assert_eq!(vf.len(), 1);
+    for f in tf.iter().chain(&vf) {
+        let (shape, npy) = read_f32(&out.join(format!("lidar_2d/{}.npy", f.id))).unwrap();
+        assert_eq!(shape, vec![64, 512, 9]);
+        assert_eq!((f.height, f.width), (64, 512));
+        assert_eq!(
+            f.channels,
+            ["x", "y", "z", "intensity", "range", "r", "g", "b"]
+        );
+        let tensor = f.tensor_f32();
+        for (cell, (n, s8)) in npy.chunks_exact(9).zip(tensor.chunks_exact(8)).enumerate() {
+            let expect: Vec<u32> = [0, 1, 2, 3, 4, 6, 7, 8]
+                .iter()
+                .map(|&c| n[c].to_bits())
+                .collect();
+            assert_eq!(
+                s8.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                expect,
+                "cell {cell} of {}",
+                f.id
+            );
+            assert_eq!(f.label[cell] as f32, n[5]);
+            assert_eq!(f.mask[cell], (n[4] > 0.0) as u8);
+        }
+        assert_eq!(f.rgb_valid.len(), 64 * 512);
+        assert!(f
+            .instance
+            .chunks_exact(2)
+            .any(|w| u16::from_le_bytes([w[0], w[1]]) > 0));
+    }
+    // Frame 0 of drive 0001 has timestamps; drive 0052 has none (0).
+    assert!(tf[0].timestamp_ns > 1_300_000_000_000_000_000);
+    assert_eq!(vf[0].timestamp_ns, 0);
+    assert_eq!(vf[0].split, "val");
+    let md = train.metadata().unwrap();
+    assert_eq!(md.version, env!("CARGO_PKG_VERSION"));
+    assert_eq!(md.split, "train");
+    assert_eq!(
+        md.drives,
+        ["2011_09_26_drive_0001_sync", "2011_09_26_drive_0052_sync"]
+    );
+    assert_eq!(md.frames.len(), 2);
+    let params: serde_json::Value = serde_json::from_str(&md.params).unwrap();
+    assert_eq!(params["spec"]["rows"], 64);
+    assert_eq!(params["compression"], "Lz4");
+    // Chunk indexes and a summary are present: a reader can seek.
+    let summary = train.summary().unwrap();
+    assert!(summary.chunk_indexes.len() >= 2);
+    assert!(summary
+        .channels
+        .values()
+        .any(|c| c.topic == FRAME_TOPIC && c.message_encoding == "protobuf"));
+    assert!(summary
+        .schemas
+        .values()
+        .any(|s| s.name == "kitti2pgm.Frame" && s.encoding == "protobuf"));
+}
+
+#[test]
+fn shard_size_compression_and_inspect() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_both(
+        &out,
+        &["--shard-frames", "1", "--compression", "zstd", "--viz"],
+    );
+    let names: Vec<String> = {
+        let mut v: Vec<String> = std::fs::read_dir(out.join("shards"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(
+        names,
+        ["train-00000.mcap", "train-00001.mcap", "train-00002.mcap"],
+        "SqueezeSeg's split: all fixture drives are train"
+    );
+    let (code, stdout, stderr) =
+        run_text(&["inspect", "--json", s(&out.join("shards/train-00001.mcap"))]);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let i = &j[0];
+    assert_eq!(i["frames"], 1);
+    assert_eq!(i["first_frame"], "2011_09_26_0001_0000000045");
+    assert_eq!(i["compression"], serde_json::json!(["zstd"]));
+    assert!(i["compression_ratio"].as_f64().unwrap() > 1.2);
+    for topic in [
+        "/kitti2pgm/frame",
+        "/kitti2pgm/points",
+        "/kitti2pgm/boxes",
+        "/kitti2pgm/image",
+    ] {
+        assert_eq!(i["topics"][topic], 1, "{topic}");
+    }
+    // Class counts agree with the .npy.
+    let (_, npy) = read_f32(&out.join("lidar_2d/2011_09_26_0001_0000000045.npy")).unwrap();
+    let cars = npy
+        .chunks_exact(9)
+        .filter(|c| c[4] > 0.0 && c[5] == 1.0)
+        .count();
+    assert_eq!(i["class_cells"]["car"], cars);
+    let (code, stdout, _) = run_text(&["inspect", s(&out.join("shards/train-00000.mcap"))]);
+    assert_eq!(code, 0);
+    assert!(
+        stdout.contains("ratio") && stdout.contains("class cells"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn viz_topics_are_foxglove_json() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_both(&out, &["--viz"]);
+    let shard = Shard::open(&out.join("shards/train-00000.mcap")).unwrap();
+    let mut seen = std::collections::BTreeMap::new();
+    for m in mcap::MessageStream::new(shard.bytes()).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic == FRAME_TOPIC {
+            continue;
+        }
+        let schema = m.channel.schema.as_ref().unwrap();
+        assert_eq!(schema.encoding, "jsonschema");
+        assert_eq!(m.channel.message_encoding, "json");
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        match schema.name.as_str() {
+            "foxglove.PointCloud" => {
+                assert_eq!(v["point_stride"], 21);
+                use base64::Engine as _;
+                let data = base64::engine::general_purpose::STANDARD
+                    .decode(v["data"].as_str().unwrap())
+                    .unwrap();
+                assert_eq!(data.len() % 21, 0);
+                assert!(data.len() / 21 > 100_000, "the whole scan");
+            }
+            "foxglove.SceneUpdate" => {
+                assert!(!v["entities"][0]["cubes"].as_array().unwrap().is_empty())
+            }
+            "foxglove.CompressedImage" => assert_eq!(v["format"], "png"),
+            other => panic!("unexpected schema {other}"),
+        }
+        *seen.entry(schema.name.clone()).or_insert(0) += 1;
+    }
+    assert_eq!(seen.len(), 3);
+    assert!(seen.values().all(|&n| n == 3));
+}
+
+#[test]
+fn truncated_shard_names_the_shard_and_the_frame() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_both(&out, &[]);
+    let path = out.join("shards/train-00000.mcap");
+    let bytes = std::fs::read(&path).unwrap();
+    let cut = t.path().join("cut.mcap");
+    // Keep the first frame's chunk and part of the second.
+    let shard = Shard::open(&path).unwrap();
+    let chunks = shard.summary().unwrap().chunk_indexes;
+    let second = chunks
+        .iter()
+        .map(|c| c.chunk_start_offset)
+        .filter(|&o| o > chunks[0].chunk_start_offset)
+        .min()
+        .unwrap();
+    std::fs::write(&cut, &bytes[..second as usize + 1000]).unwrap();
+    let s2 = Shard::open(&cut).unwrap();
+    assert!(s2.summary().unwrap_err().to_string().contains("cut.mcap"));
+    let (frames, err) = s2.frames();
+    assert_eq!(frames.len(), 1, "the frame before the cut stays readable");
+    let e = err.unwrap().to_string();
+    assert!(
+        e.contains("cut.mcap") && e.contains("frame #1 after frame 2011_09_26_0001_0000000000"),
+        "{e}"
+    );
+    let (code, _, stderr) = run_text(&["inspect", s(&cut)]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains("cut.mcap"), "{stderr}");
+    // Corrupted bytes inside a chunk: the CRC or the decoder catches it.
+    let mut bad = bytes.clone();
+    let mid = (chunks[0].chunk_start_offset + chunks[0].chunk_length / 2) as usize;
+    for b in &mut bad[mid..mid + 64] {
+        *b ^= 0x5a;
+    }
+    let corrupt = t.path().join("corrupt.mcap");
+    std::fs::write(&corrupt, &bad).unwrap();
+    let (_, err) = Shard::open(&corrupt).unwrap().frames();
+    assert!(err.unwrap().to_string().contains("corrupt.mcap"));
+}
+
+#[test]
+fn reruns_skip_intact_shards_and_rewrite_the_rest() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let first = convert_both(&out, &["--shard-frames", "2"]);
+    assert_eq!(first["shards_written"], 2);
+    let again = convert_both(&out, &["--shard-frames", "2"]);
+    assert_eq!(again["shards_written"], 0);
+    assert_eq!(again["shards_skipped"], 2);
+    assert_eq!(
+        again["frames_skipped"]["already in a complete, intact shard"],
+        3
+    );
+    // A truncated shard (an interrupted copy, a full disk) is rewritten; so is one made with
+    // other parameters.
+    let p = out.join("shards/train-00001.mcap");
+    let len = std::fs::metadata(&p).unwrap().len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&p)
+        .unwrap()
+        .set_len(len / 2)
+        .unwrap();
+    let third = convert_both(&out, &["--shard-frames", "2"]);
+    assert_eq!(third["shards_written"], 1);
+    assert_eq!(third["shards_skipped"], 1);
+    assert!(Shard::open(&p).unwrap().summary().is_ok());
+    let other = convert_both(&out, &["--shard-frames", "2", "--compression", "none"]);
+    assert_eq!(other["shards_written"], 2);
+    // No temporary file is left behind.
+    assert!(std::fs::read_dir(out.join("shards")).unwrap().all(|e| !e
+        .unwrap()
+        .file_name()
+        .to_string_lossy()
+        .starts_with(".tmp-")));
+}
+
+#[test]
+fn failed_frames_are_left_out_and_recorded() {
+    let t = tmp();
+    let root = fixture_copy(t.path());
+    std::fs::write(
+        root.join("2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000045.bin"),
+        b"bad",
+    )
+    .unwrap();
+    let out = t.path().join("out");
+    let (code, stdout, _) = run_text(&[
+        "convert",
+        s(&root),
+        "--out",
+        s(&out),
+        "--format",
+        "mcap",
+        "--json",
+    ]);
+    assert_eq!(code, 3);
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["frames_converted"], 2);
+    assert!(
+        !out.join("lidar_2d").exists(),
+        "--format mcap writes no .npy"
+    );
+    let shard = Shard::open(&out.join("shards/train-00000.mcap")).unwrap();
+    let md = shard.metadata().unwrap();
+    assert_eq!(md.failed, ["2011_09_26_0001_0000000045"]);
+    assert_eq!(shard.frames().0.len(), 2);
+    // A shard with failed frames is not "intact": the re-run tries again.
+    let (_, stdout, _) = run_text(&[
+        "convert",
+        s(&root),
+        "--out",
+        s(&out),
+        "--format",
+        "mcap",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["shards_written"], 1);
+}
