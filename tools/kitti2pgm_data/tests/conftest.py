@@ -2,7 +2,6 @@
 
 import os
 import pathlib
-import shutil
 import subprocess
 
 import pytest
@@ -52,8 +51,3 @@ def lidar_zstd(tmp_path_factory):
 @pytest.fixture()
 def scratch(tmp_path):
     return tmp_path
-
-
-def copy(src: pathlib.Path, dst: pathlib.Path) -> pathlib.Path:
-    shutil.copy(src, dst)
-    return dst

@@ -8,7 +8,7 @@ import pytest
 
 from kitti2pgm_data import ShardDataset, ShardError, ShardReader, iter_frames, read_metadata
 
-from conftest import copy
+import shutil
 
 IDS = ["2011_09_26_0001_0000000000", "2011_09_26_0001_0000000045", "2011_09_26_0052_0000000000"]
 
@@ -105,7 +105,8 @@ def test_truncated_shard_names_shard_and_frame(rgb_lz4, scratch):
 
 def test_corrupted_chunk_is_reported(lidar_none, scratch):
     src = shards(lidar_none)[0]
-    bad = copy(src, scratch / "bad.mcap")
+    bad = scratch / "bad.mcap"
+    shutil.copy(src, bad)
     with ShardReader(bad) as r:
         c = r._chunks[0]
     data = bytearray(bad.read_bytes())

@@ -1,0 +1,74 @@
+#!/usr/bin/env python3
+"""Training throughput (frames/s) and inference time (ms/frame) of the six model/input
+configurations at the paper's size (64 x 512 maps, full width), on the CPU and, when present,
+the GPU. Synthetic inputs of the right shapes (speed does not depend on values).
+
+Usage: bench_models.py [--batch 32] [--steps 5] [--device cpu|cuda|all]
+"""
+import argparse
+import statistics
+import time
+
+import torch
+
+from kitti2pgm_train.models import INPUTS, MODELS, SegNet
+from kitti2pgm_train.task import masked_loss
+
+
+def sync(d):
+    if d.type == "cuda":
+        torch.cuda.synchronize()
+
+
+def bench(model, inputs, device, batch, steps):
+    net = SegNet(model, inputs).to(device)
+    xs = [torch.randn(batch, len(g), 64, 512, device=device) for g in INPUTS[inputs]]
+    label = torch.randint(0, 4, (batch, 64, 512), device=device)
+    mask = torch.ones(batch, 64, 512, dtype=torch.bool, device=device)
+    w = torch.tensor([1 / 15, 1, 10, 10], device=device)
+    opt = torch.optim.SGD(net.parameters(), lr=0.01, momentum=0.9)
+    times = []
+    for k in range(steps + 1):
+        sync(device)
+        t = time.perf_counter()
+        loss = masked_loss(net(xs), label, mask, w)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        sync(device)
+        if k:
+            times.append(time.perf_counter() - t)
+    fps = batch / statistics.median(times)
+    net.eval()
+    one = [x[:1] for x in xs]
+    inf = []
+    with torch.no_grad():
+        for k in range(steps + 2):
+            sync(device)
+            t = time.perf_counter()
+            net(one)
+            sync(device)
+            if k >= 2:
+                inf.append((time.perf_counter() - t) * 1e3)
+    return fps, statistics.median(inf)
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--batch", type=int, default=32)
+    p.add_argument("--steps", type=int, default=5)
+    p.add_argument("--device", default="all")
+    a = p.parse_args()
+    devices = ["cpu", "cuda"] if a.device == "all" else [a.device]
+    devices = [d for d in devices if d == "cpu" or torch.cuda.is_available()]
+    print(f"torch {torch.__version__}, threads {torch.get_num_threads()}, batch {a.batch}")
+    print(f"{'device':<6} {'model':<11} {'input':<12} {'train frames/s':>15} {'inference ms/frame':>19}")
+    for d in devices:
+        for m in sorted(MODELS):
+            for i in ["xyzdi", "xyzdirgb", "xyzdi+dirgb"]:
+                fps, ms = bench(m, i, torch.device(d), a.batch, a.steps)
+                print(f"{d:<6} {m:<11} {i:<12} {fps:>15.1f} {ms:>19.1f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,87 @@
+"""``python -m kitti2pgm_train``: train, evaluate (and predict) from kitti2pgm shards.
+
+    python -m kitti2pgm_train train --shards out/shards --model squeezeseg --input xyzdi+dirgb \\
+        --stats stats.json --out runs/ss-mid
+    python -m kitti2pgm_train evaluate --run runs/ss-mid --shards out/shards
+    kitti2pgm score --gt out --pred runs/ss-mid/predictions --imageset out/ImageSet/val.txt
+
+Without a subcommand, ``train`` is assumed (``python -m kitti2pgm_train --shards DIR ...``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from .models import INPUTS, MODELS
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="kitti2pgm_train", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="command", required=True)
+    t = sub.add_parser("train", help="train a model (the paper's schedule by default)")
+    t.add_argument("--shards", required=True, help="shards folder (train-*.mcap, val-*.mcap) or a convert output folder")
+    t.add_argument("--train-shards", help="explicit train shards (glob) instead of <shards>/train-*.mcap")
+    t.add_argument("--model", choices=sorted(MODELS), default="squeezeseg")
+    t.add_argument("--input", choices=sorted(INPUTS), default="xyzdi",
+                   help="xyzdi (LiDAR), xyzdirgb (early fusion), xyzdi+dirgb (mid fusion)")
+    t.add_argument("--out", required=True, help="run directory (never overwritten; see --resume)")
+    t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    t.add_argument("--stats", help="kitti2pgm stats --json output: normalisation and class weights")
+    t.add_argument("--class-weights", choices=["sqrt", "inverse", "squeezeseg", "uniform"], default="sqrt",
+                   help="with --stats: sqrt or plain inverse frequency; squeezeseg = [1/15, 1, 10, 10] (used without --stats); uniform = no weighting")
+    t.add_argument("--steps", type=int, default=50_000)
+    t.add_argument("--batch", type=int, default=32)
+    t.add_argument("--lr", type=float, default=0.01)
+    t.add_argument("--momentum", type=float, default=0.9)
+    t.add_argument("--weight-decay", type=float, default=1e-4)
+    t.add_argument("--lr-halve-every", type=int, default=10_000, help="halve the learning rate every N steps")
+    t.add_argument("--no-flip", dest="flip", action="store_false", help="no random left-right flip")
+    t.add_argument("--dropout", type=float, default=0.5)
+    t.add_argument("--crf", action="store_true", help="SqueezeSeg's recurrent CRF on the logits")
+    t.add_argument("--width-mult", type=float, default=1.0, help="channel width multiplier (1 = the paper's)")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--device", default="auto", help="auto, cpu or cuda")
+    t.add_argument("--log-every", type=int, default=50)
+    t.add_argument("--checkpoint-every", type=int, default=1000)
+    t.add_argument("--tensorboard", action="store_true", help="also log to <out>/tensorboard")
+    t.add_argument("--stop-after", type=int, default=0, help=argparse.SUPPRESS)
+    e = sub.add_parser("evaluate", help="predict the val shards, write predictions/<id>.npy, print IoUs")
+    e.add_argument("--run", required=True)
+    e.add_argument("--shards", required=True, help="shards folder (val-*.mcap is used)")
+    e.add_argument("--val-shards", help="explicit shards (glob) instead of <shards>/val-*.mcap")
+    e.add_argument("--predictions", help="where to write the .npy maps (default <run>/predictions)")
+    e.add_argument("--batch", type=int, default=8)
+    e.add_argument("--device", default="auto")
+    e.add_argument("--timing-frames", type=int, default=10, help="frames timed for inference ms/frame")
+    e.add_argument("--json", action="store_true")
+    return p
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0].startswith("--") and argv[0] not in ("--help", "-h"):
+        argv = ["train"] + argv
+    args = parser().parse_args(argv)
+    from . import task
+    try:
+        if args.command == "train":
+            r = task.train(args)
+            print(f"trained to step {r['step']}, last loss {r['loss']:.4f}; run in {args.out}")
+        else:
+            r = task.evaluate(args)
+            if args.json:
+                print(json.dumps(r, indent=2))
+            else:
+                from .metrics import Confusion
+                import torch
+                c = Confusion()
+                c.m = torch.tensor(r["confusion"])
+                print(f"{r['frames']} frames; predictions in {r['predictions']}")
+                print(c.table())
+                print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in r["inference_ms_per_frame"].items() if v))
+    except (FileExistsError, FileNotFoundError, ValueError) as e:
+        print(f"kitti2pgm_train: error: {e}", file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,153 @@
+"""Shards -> network inputs: channel selection, normalisation, masks, flip augmentation, batches.
+
+Frames come from ``kitti2pgm_data.ShardDataset``. Each input group of the model (``INPUTS``) is
+built from the frame's channels by name, normalised with per-channel mean and standard deviation
+(from ``kitti2pgm stats --json``, else SqueezeSeg's constants) and multiplied by the mask, so
+empty cells are exactly 0 as in SqueezeSeg. The batch order is a pure function of the seed and the
+step (one permutation per epoch), so a resumed run sees the same batches as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+import torch
+
+from kitti2pgm_data import ShardDataset
+
+from .models import INPUTS
+
+# SqueezeSeg's KITTI constants (x, y, z, intensity, range); colour has no published constants:
+# 0.5 / 0.25 puts [0, 1] values around zero. Used when no stats file is given.
+DEFAULT_MEAN = {"x": 10.88, "y": 0.23, "z": -1.04, "intensity": 0.21, "range": 12.12, "r": 0.5, "g": 0.5, "b": 0.5}
+DEFAULT_STD = {"x": 11.47, "y": 6.91, "z": 0.86, "intensity": 0.16, "range": 12.32, "r": 0.25, "g": 0.25, "b": 0.25}
+SQUEEZESEG_WEIGHTS = [1.0 / 15.0, 1.0, 10.0, 10.0]
+
+
+def find_shards(spec: str, split: Optional[str] = None) -> List[str]:
+    """Shard paths from a folder (its ``<split>-*.mcap``), a glob or a file."""
+    if os.path.isdir(spec):
+        pattern = os.path.join(spec, f"{split}-*.mcap" if split else "*.mcap")
+        paths = sorted(glob.glob(pattern))
+        if not paths and os.path.isdir(os.path.join(spec, "shards")):
+            paths = sorted(glob.glob(os.path.join(spec, "shards", f"{split}-*.mcap" if split else "*.mcap")))
+    else:
+        paths = sorted(glob.glob(spec))
+    if not paths:
+        raise FileNotFoundError(f"no {split + ' ' if split else ''}shard in {spec}")
+    return paths
+
+
+class Normaliser:
+    """Per-channel mean and standard deviation, by channel name."""
+
+    def __init__(self, mean: Dict[str, float], std: Dict[str, float], source: str):
+        self.mean, self.std, self.source = mean, std, source
+
+    @classmethod
+    def from_stats(cls, stats: Optional[dict]) -> "Normaliser":
+        if not stats:
+            return cls(dict(DEFAULT_MEAN), dict(DEFAULT_STD), "SqueezeSeg defaults")
+        n = stats["normalisation"]
+        mean, std = dict(DEFAULT_MEAN), dict(DEFAULT_STD)
+        for c, m, s in zip(n["channels"], n["mean"], n["std"]):
+            mean[c], std[c] = float(m), float(s) if s > 0 else 1.0
+        return cls(mean, std, f"kitti2pgm stats ({n['from_split']})")
+
+
+def class_weights(stats: Optional[dict], mode: str) -> List[float]:
+    """Loss weights: ``squeezeseg`` ([1/15, 1, 10, 10]), ``uniform`` (all 1), or from the stats
+    file: ``sqrt`` (square root of inverse frequency) or ``inverse``; a class absent from the stats
+    keeps SqueezeSeg's weight."""
+    if mode == "uniform":
+        return [1.0, 1.0, 1.0, 1.0]
+    if mode == "squeezeseg" or not stats:
+        return list(SQUEEZESEG_WEIGHTS)
+    key = {"sqrt": "sqrt_inverse_frequency", "inverse": "inverse_frequency"}[mode]
+    w = stats["class_weights"][key]
+    return [float(v) if v > 0 else SQUEEZESEG_WEIGHTS[k] for k, v in enumerate(w)]
+
+
+def load_stats(path: Optional[str]) -> Optional[dict]:
+    if not path:
+        return None
+    with open(path) as f:
+        stats = json.load(f)
+    if stats.get("version") != 1 or "normalisation" not in stats:
+        raise ValueError(f"{path}: not a kitti2pgm stats --json report (version 1)")
+    return stats
+
+
+class FrameSet:
+    """Frames of shards turned into the model's inputs."""
+
+    def __init__(self, paths: Sequence[str], inputs: str, norm: Normaliser):
+        self.ds = ShardDataset(paths)
+        self.groups = INPUTS[inputs]
+        self.norm = norm
+        first = self.ds[0]
+        self.channels = list(first["channels"])
+        missing = sorted({c for g in self.groups for c in g} - set(self.channels))
+        if missing:
+            raise ValueError(f"input {inputs!r} needs channels {missing}; the shards have {self.channels} "
+                             "(convert with --rgb for colour inputs)")
+        self.index = {c: i for i, c in enumerate(self.channels)}
+        self.height, self.width = first["tensor"].shape[:2]
+
+    def __len__(self) -> int:
+        return len(self.ds)
+
+    def item(self, i: int, flip: bool = False) -> dict:
+        f = self.ds[i]
+        t = np.asarray(f["tensor"])
+        mask = np.asarray(f["mask"]).astype(bool)
+        label = np.asarray(f["label"]).astype(np.int64)
+        if flip:
+            # Mirror the columns (left <-> right) and negate y, as SqueezeSeg's augmentation.
+            t, mask, label = t[:, ::-1], mask[:, ::-1], label[:, ::-1]
+        groups = []
+        for g in self.groups:
+            x = np.stack([t[..., self.index[c]] for c in g], 0).astype(np.float32)
+            for k, c in enumerate(g):
+                v = -x[k] if (flip and c == "y") else x[k]
+                x[k] = (v - self.norm.mean[c]) / self.norm.std[c]
+            groups.append(x * mask[None])
+        xyz = np.stack([t[..., self.index["x"]], t[..., self.index["y"]] * (-1 if flip else 1), t[..., self.index["z"]]], 0)
+        return {
+            "id": f["id"],
+            "inputs": [torch.from_numpy(np.ascontiguousarray(g)) for g in groups],
+            "xyz": torch.from_numpy(np.ascontiguousarray(xyz, dtype=np.float32)),
+            "mask": torch.from_numpy(np.ascontiguousarray(mask)),
+            "label": torch.from_numpy(np.ascontiguousarray(label)),
+        }
+
+
+def collate(items: List[dict]) -> dict:
+    return {
+        "id": [it["id"] for it in items],
+        "inputs": [torch.stack([it["inputs"][k] for it in items]) for k in range(len(items[0]["inputs"]))],
+        "xyz": torch.stack([it["xyz"] for it in items]),
+        "mask": torch.stack([it["mask"] for it in items]),
+        "label": torch.stack([it["label"] for it in items]),
+    }
+
+
+def batch_indices(n: int, batch: int, step: int, seed: int, rank: int = 0, world: int = 1) -> List[int]:
+    """The frame indices of one rank's part of global batch ``step``: a pure function of its
+    arguments (the stream is one seeded permutation of the frames per epoch)."""
+    per_step = batch * world
+    start = step * per_step + rank * batch
+    out = []
+    for pos in range(start, start + batch):
+        epoch, k = divmod(pos, n)
+        out.append(int(np.random.default_rng([seed, epoch]).permutation(n)[k]))
+    return out
+
+
+def flips(step: int, seed: int, size: int) -> List[bool]:
+    """Which items of a batch are mirrored (p = 0.5, seeded by step)."""
+    return (np.random.default_rng([seed, 1_000_003, step]).random(size) < 0.5).tolist()
