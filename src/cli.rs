@@ -75,8 +75,9 @@ pub struct InspectArgs {
 /// `kitti2pgm score`.
 #[derive(Debug, ClapArgs)]
 pub struct ScoreArgs {
-    /// Ground truth: a `kitti2pgm convert` output folder.
-    #[arg(long, value_name = "DIR")]
+    /// Ground truth: a `kitti2pgm convert` output folder (lidar_2d/), or its shards (a .mcap
+    /// file, a folder of them, or a convert folder holding only shards/; cell protocol only).
+    #[arg(long, value_name = "PATH")]
     pub gt: PathBuf,
     /// Predictions: a folder (searched recursively) or one file.
     #[arg(long, value_name = "PATH")]

@@ -8,8 +8,8 @@ use kitti2pgm::pipeline::SUMMARY_FILE;
 use kitti2pgm::project::PgmSpec;
 use kitti2pgm::report::imageset;
 use kitti2pgm::report::score::{
-    confusion_chart, frame_chart, report, score, score_frame, Predictions, Protocol, ScoreOptions,
-    ScoreReport,
+    confusion_chart, frame_chart, report, score, score_frame, score_shards, Predictions, Protocol,
+    ScoreOptions, ScoreReport,
 };
 use kitti2pgm::report::stats::{converted_frames, npy_path};
 use kitti2pgm::write::atomic_write;
@@ -49,14 +49,63 @@ fn png(img: &image::RgbImage, path: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Ground truth shards, when `--gt` names shards (a .mcap file, a folder of them, or a convert
+/// folder holding only shards/).
+fn gt_shards(gt: &std::path::Path) -> anyhow::Result<Option<Vec<std::path::PathBuf>>> {
+    if gt.is_file() && gt.extension().is_some_and(|e| e == "mcap") {
+        return Ok(Some(vec![gt.to_path_buf()]));
+    }
+    if !gt.is_dir() {
+        anyhow::bail!("{}: no such ground-truth folder or shard", gt.display());
+    }
+    if gt.join("lidar_2d").is_dir() {
+        return Ok(None);
+    }
+    for dir in [gt.to_path_buf(), gt.join("shards")] {
+        let mut v: Vec<_> = std::fs::read_dir(&dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+            .collect();
+        if !v.is_empty() {
+            v.sort();
+            return Ok(Some(v));
+        }
+    }
+    anyhow::bail!(
+        "{}: neither a convert output folder (lidar_2d/) nor shards (*.mcap)",
+        gt.display()
+    )
+}
+
+fn shard_spec(first: &std::path::Path) -> anyhow::Result<PgmSpec> {
+    let md = kitti2pgm::write::shard::Shard::open(first)?.metadata()?;
+    let v: serde_json::Value = serde_json::from_str(&md.params)
+        .with_context(|| format!("{}: shard parameters are not JSON", first.display()))?;
+    Ok(serde_json::from_value(v["spec"].clone()).with_context(|| {
+        format!(
+            "{}: no map specification in the shard parameters",
+            first.display()
+        )
+    })?)
+}
+
 pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
-    let frames = match &a.imageset {
-        Some(list) => imageset::read(list)?,
-        None => converted_frames(&a.gt)?,
-    };
-    let first = frames.first().context("the ImageSet list is empty")?;
-    let spec = gt_spec(&a, first)?;
     let preds = Predictions::index(&a.pred)?;
+    let shards = gt_shards(&a.gt)?;
+    let listed = a.imageset.as_ref().map(|l| imageset::read(l)).transpose()?;
+    let spec = match (&shards, &listed) {
+        (Some(s), _) => shard_spec(&s[0])?,
+        (None, Some(l)) => gt_spec(&a, l.first().context("the ImageSet list is empty")?)?,
+        (None, None) => gt_spec(
+            &a,
+            converted_frames(&a.gt)?
+                .first()
+                .context("no converted frame")?,
+        )?,
+    };
     let opts = ScoreOptions {
         protocol: if a.points {
             Protocol::Points
@@ -67,14 +116,51 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         raw: a.raw.clone(),
         spec,
     };
-    let pb = progress::bar(frames.len() as u64, g.progress, "scoring");
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(g.threads)
         .build()?;
-    let scores = pool
-        .install(|| score(&a.gt, &frames, &preds, &opts, &|n| pb.inc(n)))
-        .with_context(|| format!("scoring {} against {}", a.pred.display(), a.gt.display()))?;
-    pb.finish_and_clear();
+    let context = || format!("scoring {} against {}", a.pred.display(), a.gt.display());
+    let (scores, frames): (Vec<_>, Vec<kitti2pgm::kitti::FrameId>) = match &shards {
+        Some(sh) => {
+            let pb = progress::bar(
+                listed.as_ref().map_or(0, |l| l.len() as u64),
+                g.progress,
+                "scoring",
+            );
+            let only: Option<std::collections::BTreeSet<_>> =
+                listed.clone().map(|l| l.into_iter().collect());
+            let (s, _) = pool
+                .install(|| {
+                    score_shards(
+                        sh,
+                        only.as_ref(),
+                        &preds,
+                        &opts,
+                        &Default::default(),
+                        &|n| pb.inc(n),
+                    )
+                })
+                .with_context(context)?;
+            pb.finish_and_clear();
+            let ids = s
+                .iter()
+                .map(|x| x.id.parse().expect("ids come from the shards"))
+                .collect();
+            (s, ids)
+        }
+        None => {
+            let frames = match listed.clone() {
+                Some(l) => l,
+                None => converted_frames(&a.gt)?,
+            };
+            let pb = progress::bar(frames.len() as u64, g.progress, "scoring");
+            let s = pool
+                .install(|| score(&a.gt, &frames, &preds, &opts, &|n| pb.inc(n)))
+                .with_context(context)?;
+            pb.finish_and_clear();
+            (s, frames)
+        }
+    };
     let rep = report(opts.protocol, &scores, a.per_frame);
     if let Some(p) = &a.confusion {
         png(&confusion_chart(&rep.confusion), p)?;
@@ -86,18 +172,29 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
             .filter_map(|(i, s)| s.confusion.miou_present().map(|m| (m, i)))
             .collect();
         ranked.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        ranked.truncate(n);
         std::fs::create_dir_all(&a.worst_dir)
             .with_context(|| format!("creating {}", a.worst_dir.display()))?;
-        for (rank, (m, i)) in ranked.iter().take(n).enumerate() {
+        let mut maps = match &shards {
+            Some(sh) => {
+                let want: std::collections::BTreeSet<String> =
+                    ranked.iter().map(|(_, i)| scores[*i].id.clone()).collect();
+                let only: std::collections::BTreeSet<_> =
+                    ranked.iter().map(|(_, i)| frames[*i].clone()).collect();
+                pool.install(|| score_shards(sh, Some(&only), &preds, &opts, &want, &|_| {}))?
+                    .1
+            }
+            None => Default::default(),
+        };
+        for (rank, (m, i)) in ranked.iter().enumerate() {
             let id = &frames[*i];
-            let (_, maps) = score_frame(&a.gt, id, &preds, &opts, true)?;
-            let img = frame_chart(
-                &id.to_string(),
-                &maps.expect("asked for"),
-                spec.rows,
-                spec.cols,
-                Some(*m),
-            );
+            let frame_maps = match maps.remove(&id.to_string()) {
+                Some(fm) => fm,
+                None => score_frame(&a.gt, id, &preds, &opts, true)?
+                    .1
+                    .expect("asked for"),
+            };
+            let img = frame_chart(&id.to_string(), &frame_maps, spec.rows, spec.cols, Some(*m));
             png(&img, &a.worst_dir.join(format!("{:03}_{id}.png", rank + 1)))?;
         }
     }

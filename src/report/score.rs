@@ -25,6 +25,7 @@ use crate::label::Class;
 use crate::project::{project_with_point_cells, PgmSpec, EMPTY};
 use crate::report::stats::{label_path, npy_path};
 use crate::write::npy::{read_any, read_f32, NpyArray};
+use crate::write::shard::{FrameMsg, Shard};
 
 /// Number of classes.
 const K: usize = Class::COUNT;
@@ -455,7 +456,13 @@ pub fn score_frame(
     opts: &ScoreOptions,
     want_maps: bool,
 ) -> Result<(FrameScore, Option<FrameMaps>)> {
-    let (rows, cols) = (opts.spec.rows, opts.spec.cols);
+    let truth = truth_from_npy(gt_dir, id, &opts.spec)?;
+    score_with_truth(Some(gt_dir), id, truth, preds, opts, want_maps)
+}
+
+/// The ground-truth class of each cell of a converted frame (`u8::MAX` where range is 0).
+fn truth_from_npy(gt_dir: &Path, id: &FrameId, spec: &PgmSpec) -> Result<Vec<u8>> {
+    let (rows, cols) = (spec.rows, spec.cols);
     let gt_path = npy_path(gt_dir, id);
     let (shape, gt) = read_f32(&gt_path)?;
     let depth = match shape.as_slice() {
@@ -469,8 +476,7 @@ pub fn score_frame(
             ))
         }
     };
-    let cells = rows * cols;
-    let truth: Vec<u8> = (0..cells)
+    Ok((0..rows * cols)
         .map(|i| {
             if gt[i * depth + 4] > 0.0 {
                 gt[i * depth + 5] as u8
@@ -478,7 +484,39 @@ pub fn score_frame(
                 u8::MAX
             }
         })
-        .collect();
+        .collect())
+}
+
+/// The ground-truth class of each cell of a shard frame (`u8::MAX` where the mask is 0).
+fn truth_from_msg(f: &FrameMsg, spec: &PgmSpec, shard: &Path) -> Result<Vec<u8>> {
+    if (f.height as usize, f.width as usize) != (spec.rows, spec.cols) {
+        return Err(Error::format(
+            shard,
+            format!(
+                "frame {} is {}x{}, the other ground truth {}x{}",
+                f.id, f.height, f.width, spec.rows, spec.cols
+            ),
+        ));
+    }
+    Ok(f.label
+        .iter()
+        .zip(&f.mask)
+        .map(|(l, m)| if *m != 0 { *l } else { u8::MAX })
+        .collect())
+}
+
+/// Scores one frame against its ground truth per cell; `gt_dir` (a convert folder) is needed
+/// for the point protocol, whose ground truth is the `.label` files.
+fn score_with_truth(
+    gt_dir: Option<&Path>,
+    id: &FrameId,
+    truth: Vec<u8>,
+    preds: &Predictions,
+    opts: &ScoreOptions,
+    want_maps: bool,
+) -> Result<(FrameScore, Option<FrameMaps>)> {
+    let (rows, cols) = (opts.spec.rows, opts.spec.cols);
+    let cells = rows * cols;
     let pred_file = preds.files.get(id);
     if pred_file.is_none() && !opts.missing_as_background {
         return Err(Error::Input {
@@ -563,6 +601,9 @@ pub fn score_frame(
             }
         }
         Protocol::Points => {
+            let gt_dir = gt_dir.ok_or_else(|| {
+                Error::Config("the point protocol needs a convert output folder as ground truth (its .label files), not shards".into())
+            })?;
             let lp = label_path(gt_dir, id);
             let gt_points = read_point_labels(&lp)?;
             let pred_points = match (pred_file, preds.points) {
@@ -651,6 +692,65 @@ pub fn score(
         }
     }
     Ok(out)
+}
+
+/// Scores the frames of ground-truth shards (cell protocol), streaming each shard; with
+/// `only`, just those frames (every one of them must be in the shards). Results come sorted by
+/// frame id. `maps_for` names frames whose label maps are returned too (for pictures).
+pub fn score_shards(
+    shards: &[PathBuf],
+    only: Option<&std::collections::BTreeSet<FrameId>>,
+    preds: &Predictions,
+    opts: &ScoreOptions,
+    maps_for: &std::collections::BTreeSet<String>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Vec<FrameScore>, BTreeMap<String, FrameMaps>)> {
+    if opts.protocol == Protocol::Points {
+        return Err(Error::Config("the point protocol needs a convert output folder as ground truth (its .label files), not shards".into()));
+    }
+    type Part = Result<(Vec<FrameScore>, Vec<(String, FrameMaps)>)>;
+    let parts: Vec<Part> = shards
+        .par_iter()
+        .map(|path| {
+            let shard = Shard::open(path)?;
+            let mut scores = Vec::new();
+            let mut maps = Vec::new();
+            for f in shard.frame_iter() {
+                let f = f?;
+                let id: FrameId = f.id.parse().map_err(|e: String| Error::format(path, e))?;
+                if only.is_some_and(|o| !o.contains(&id)) {
+                    continue;
+                }
+                let truth = truth_from_msg(&f, &opts.spec, path)?;
+                let want = maps_for.contains(&f.id);
+                let (s, m) = score_with_truth(None, &id, truth, preds, opts, want)?;
+                if let Some(m) = m {
+                    maps.push((f.id.clone(), m));
+                }
+                scores.push(s);
+                progress(1);
+            }
+            Ok((scores, maps))
+        })
+        .collect();
+    let mut scores = Vec::new();
+    let mut maps = BTreeMap::new();
+    for p in parts {
+        let (s, m) = p?;
+        scores.extend(s);
+        maps.extend(m);
+    }
+    scores.sort_by(|a, b| a.id.cmp(&b.id));
+    if let Some(o) = only {
+        let have: std::collections::BTreeSet<&str> = scores.iter().map(|s| s.id.as_str()).collect();
+        if let Some(missing) = o.iter().find(|id| !have.contains(id.to_string().as_str())) {
+            return Err(Error::Input {
+                path: shards.first().cloned().unwrap_or_default(),
+                message: format!("ImageSet frame {missing} is not in the ground-truth shards"),
+            });
+        }
+    }
+    Ok((scores, maps))
 }
 
 /// A picture of the confusion matrix: rows = truth, columns = prediction, each cell shaded by

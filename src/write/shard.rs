@@ -443,43 +443,84 @@ impl Shard {
     /// returned; the error names the shard and the frame after the last good one.
     pub fn frames(&self) -> (Vec<FrameMsg>, Option<Error>) {
         let mut out = Vec::new();
-        let stream = match mcap::MessageStream::new(&self.map) {
-            Ok(s) => s,
-            Err(e) => {
-                return (
-                    out,
-                    Some(Error::format(&self.path, format!("not an MCAP file: {e}"))),
-                )
-            }
-        };
-        for m in stream {
-            let fail = |out: &Vec<FrameMsg>, what: String| {
-                let after = out
-                    .last()
-                    .map(|f: &FrameMsg| format!(" after frame {}", f.id))
-                    .unwrap_or_default();
-                Error::format(&self.path, format!("frame #{}{after}: {what}", out.len()))
-            };
-            match m {
-                Ok(m) if m.channel.topic == FRAME_TOPIC => match FrameMsg::decode(&m.data[..]) {
-                    Ok(f) => match f.validate(&self.path) {
-                        Ok(()) => out.push(f),
-                        Err(e) => return (out, Some(e)),
-                    },
-                    Err(e) => {
-                        let e = fail(&out, format!("undecodable message: {e}"));
-                        return (out, Some(e));
-                    }
-                },
-                Ok(_) => {}
-                Err(e) => {
-                    let e = fail(&out, format!("corrupted or truncated: {e}"));
-                    return (out, Some(e));
-                }
+        for f in self.frame_iter() {
+            match f {
+                Ok(f) => out.push(f),
+                Err(e) => return (out, Some(e)),
             }
         }
         (out, None)
     }
+
+    /// The frame messages one at a time, in file order (constant memory). After an error
+    /// (naming the shard and the frame after the last good one) the iterator ends.
+    pub fn frame_iter(&self) -> impl Iterator<Item = Result<FrameMsg>> + '_ {
+        let mut state = FrameIter {
+            stream: None,
+            count: 0,
+            last: None,
+            done: false,
+            first_error: None,
+        };
+        match mcap::MessageStream::new(&self.map) {
+            Ok(s) => state.stream = Some(s),
+            Err(e) => {
+                state.first_error =
+                    Some(Error::format(&self.path, format!("not an MCAP file: {e}")))
+            }
+        }
+        let path = self.path.clone();
+        std::iter::from_fn(move || {
+            if state.done {
+                return None;
+            }
+            if let Some(e) = state.first_error.take() {
+                state.done = true;
+                return Some(Err(e));
+            }
+            let fail = |st: &FrameIter, what: String| {
+                let after = st
+                    .last
+                    .as_ref()
+                    .map(|id| format!(" after frame {id}"))
+                    .unwrap_or_default();
+                Error::format(&path, format!("frame #{}{after}: {what}", st.count))
+            };
+            loop {
+                let next = state.stream.as_mut().and_then(Iterator::next);
+                let r = match next {
+                    None => {
+                        state.done = true;
+                        return None;
+                    }
+                    Some(Ok(m)) if m.channel.topic == FRAME_TOPIC => {
+                        match FrameMsg::decode(&m.data[..]) {
+                            Ok(f) => f.validate(&path).map(|()| f),
+                            Err(e) => Err(fail(&state, format!("undecodable message: {e}"))),
+                        }
+                    }
+                    Some(Ok(_)) => continue,
+                    Some(Err(e)) => Err(fail(&state, format!("corrupted or truncated: {e}"))),
+                };
+                match &r {
+                    Ok(f) => {
+                        state.count += 1;
+                        state.last = Some(f.id.clone());
+                    }
+                    Err(_) => state.done = true,
+                }
+                return Some(r);
+            }
+        })
+    }
+}
+
+struct FrameIter<'a> {
+    stream: Option<mcap::MessageStream<'a>>,
+    count: usize,
+    last: Option<String>,
+    done: bool,
+    first_error: Option<Error>,
 }
 
 /// Whether the shard at `path` is finished, intact and holds exactly `frames` under `params`.

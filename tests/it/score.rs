@@ -414,3 +414,98 @@ fn bad_predictions_name_the_frame() {
         2
     );
 }
+
+#[test]
+fn ground_truth_shards_score_like_the_npy_folder() {
+    let t = tmp();
+    let gt = t.path().join("gt");
+    assert_eq!(
+        run_text(&[
+            "convert",
+            s(&fixtures()),
+            "--out",
+            s(&gt),
+            "--format",
+            "npy,mcap",
+            "--shard-frames",
+            "2"
+        ])
+        .0,
+        0
+    );
+    let (_, data) = read_f32(&gt.join("lidar_2d/2011_09_26_0001_0000000045.npy")).unwrap();
+    let pdir = t.path().join("pred");
+    for e in std::fs::read_dir(gt.join("lidar_2d")).unwrap() {
+        let p = e.unwrap().path();
+        let (_, d) = read_f32(&p).unwrap();
+        let pred: Vec<i64> = d
+            .chunks_exact(6)
+            .enumerate()
+            .map(|(i, c)| if i % 7 == 0 { 2 } else { c[5] as i64 })
+            .collect();
+        write_i64(&pdir.join(p.file_name().unwrap()), &[64, 512], &pred);
+    }
+    assert!(!data.is_empty());
+    let from_npy = score_json(&["--gt", s(&gt), "--pred", s(&pdir)]);
+    let from_shards = score_json(&["--gt", s(&gt.join("shards")), "--pred", s(&pdir)]);
+    assert_eq!(from_npy["confusion"], from_shards["confusion"]);
+    assert_eq!(from_shards["frames"], 3);
+    let one = score_json(&[
+        "--gt",
+        s(&gt.join("shards/train-00001.mcap")),
+        "--pred",
+        s(&pdir),
+    ]);
+    assert_eq!(one["frames"], 1);
+    // An ImageSet restricts the frames; one naming a frame absent from the shards is an error.
+    let list = t.path().join("val.txt");
+    std::fs::write(&list, "2011_09_26_0052_0000000000\n").unwrap();
+    let j = score_json(&[
+        "--gt",
+        s(&gt.join("shards")),
+        "--pred",
+        s(&pdir),
+        "--imageset",
+        s(&list),
+        "--worst",
+        "1",
+        "--worst-dir",
+        s(&t.path().join("w")),
+    ]);
+    assert_eq!(j["frames"], 1);
+    assert!(t
+        .path()
+        .join("w/001_2011_09_26_0052_0000000000.png")
+        .is_file());
+    std::fs::write(&list, "2011_09_26_0052_0000000001\n").unwrap();
+    let (code, _, stderr) = run_text(&[
+        "score",
+        "--gt",
+        s(&gt.join("shards")),
+        "--pred",
+        s(&pdir),
+        "--imageset",
+        s(&list),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("2011_09_26_0052_0000000001")
+            && stderr.contains("not in the ground-truth shards"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = run_text(&[
+        "score",
+        "--gt",
+        s(&gt.join("shards")),
+        "--pred",
+        s(&pdir),
+        "--points",
+        "--raw",
+        s(&fixtures()),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("point protocol needs a convert output folder"),
+        "{stderr}"
+    );
+}
