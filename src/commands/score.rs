@@ -84,12 +84,12 @@ fn shard_spec(first: &std::path::Path) -> anyhow::Result<PgmSpec> {
     let md = kitti2pgm::write::shard::Shard::open(first)?.metadata()?;
     let v: serde_json::Value = serde_json::from_str(&md.params)
         .with_context(|| format!("{}: shard parameters are not JSON", first.display()))?;
-    Ok(serde_json::from_value(v["spec"].clone()).with_context(|| {
+    serde_json::from_value(v["spec"].clone()).with_context(|| {
         format!(
             "{}: no map specification in the shard parameters",
             first.display()
         )
-    })?)
+    })
 }
 
 pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
