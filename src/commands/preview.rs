@@ -26,12 +26,7 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
                 let stem = input.file_stem().context("input has no file name")?;
                 a.out.join(stem).with_extension("png")
             };
-            let mut bytes = Vec::new();
-            img.write_to(
-                &mut std::io::Cursor::new(&mut bytes),
-                image::ImageFormat::Png,
-            )?;
-            kitti2pgm::write::atomic_write(&out, &bytes, false)?;
+            kitti2pgm::write::write_png(&out, &img)?;
             Ok(())
         })();
         if let Err(e) = result {

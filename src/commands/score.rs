@@ -12,7 +12,7 @@ use kitti2pgm::report::score::{
     ScoreOptions, ScoreReport,
 };
 use kitti2pgm::report::stats::{converted_frames, npy_path};
-use kitti2pgm::write::atomic_write;
+use kitti2pgm::write::write_png;
 
 use super::{progress, Global};
 use crate::cli::ScoreArgs;
@@ -40,13 +40,7 @@ fn gt_spec(a: &ScoreArgs, first: &kitti2pgm::kitti::FrameId) -> anyhow::Result<P
 }
 
 fn png(img: &image::RgbImage, path: &std::path::Path) -> anyhow::Result<()> {
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )?;
-    atomic_write(path, &bytes, false)?;
-    Ok(())
+    Ok(write_png(path, img)?)
 }
 
 /// Ground truth shards, when `--gt` names shards (a .mcap file, a folder of them, or a convert

@@ -64,12 +64,7 @@ pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
         .with_context(|| format!("statistics of {}", a.dir.display()))?;
     pb.finish_and_clear();
     if let Some(png) = &a.chart {
-        let mut bytes = Vec::new();
-        balance_chart(&s).write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )?;
-        kitti2pgm::write::atomic_write(png, &bytes, false)?;
+        kitti2pgm::write::write_png(png, &balance_chart(&s))?;
     }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);

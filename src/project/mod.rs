@@ -146,32 +146,15 @@ pub fn rings(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
             if seen_rear && q.y < 0.0 && p.y >= 0.0 && q.x > 0.0 && p.x > 0.0 {
                 current += 1;
                 seen_rear = false;
-                if current >= LASERS {
-                    // Keep counting for the report, but the ring ids are no longer usable.
-                    let more = count_remaining(&points[i..]);
-                    return (None, current + 1 + more);
-                }
             }
         }
         seen_rear |= p.x < 0.0;
-        ring[i] = current as u8;
+        // Saturates past 255 rings; such a scan is rejected below anyway.
+        ring[i] = current.min(u8::MAX as usize) as u8;
         prev = Some(p);
     }
     let found = if points.is_empty() { 0 } else { current + 1 };
     ((found == LASERS).then_some(ring), found)
-}
-
-fn count_remaining(points: &[Point3]) -> usize {
-    let (mut n, mut seen_rear) = (0, false);
-    for w in points.windows(2) {
-        let (q, p) = (&w[0], &w[1]);
-        if seen_rear && q.y < 0.0 && p.y >= 0.0 && q.x > 0.0 && p.x > 0.0 {
-            n += 1;
-            seen_rear = false;
-        }
-        seen_rear |= p.x < 0.0;
-    }
-    n
 }
 
 /// Sentinel of an empty cell in [`Projection::cell_point`].

@@ -54,6 +54,20 @@ pub fn temp_builder() -> tempfile::Builder<'static, 'static> {
     b
 }
 
+/// Encodes `img` as PNG and writes it atomically to `path`.
+pub fn write_png(path: &Path, img: &image::RgbImage) -> Result<()> {
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .map_err(|source| Error::Image {
+        path: path.into(),
+        source,
+    })?;
+    atomic_write(path, &bytes, false)
+}
+
 /// Creates a folder and its parents, naming it in the error.
 pub fn create_dir(path: &Path) -> Result<()> {
     std::fs::create_dir_all(path).map_err(|source| Error::Write {
