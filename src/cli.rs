@@ -24,7 +24,7 @@ pub struct Args {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Convert KITTI raw drives to 64x512 Polar Grid Maps (.npy) and per-point .label files.
+    /// Convert KITTI raw drives to 64x512 Polar Grid Maps (.npy), per-point .label files and MCAP shards.
     ///
     /// RAW_ROOT is a KITTI raw root (<date>/calib_*.txt and <date>/<date>_drive_NNNN_sync/),
     /// one date folder, or one drive folder. Writes DIR/lidar_2d/<date>_<drive4>_<frame10>.npy

@@ -5,7 +5,7 @@
 //! - [`kitti`] READ: drives, velodyne scans, calibration, tracklets, timestamps, OXTS, images;
 //! - [`label`] LABEL: points in tracklet boxes (parry containment tests) -> class and instance;
 //! - [`project`] PROJECT: points -> 64 x 512 Polar Grid Map (rings from the scan order), RGB;
-//! - [`write`] WRITE: `.npy` tensors and `.label` files, atomically;
+//! - [`write`](mod@write) WRITE: `.npy` tensors and `.label` files, atomically;
 //! - [`pipeline`] runs them over frames in parallel; [`preview`] draws a converted frame.
 //!
 //! ```no_run
