@@ -15,8 +15,6 @@ import zlib
 from typing import Dict, Iterable, Iterator, List, Optional, Union
 
 import numpy as np
-import lz4.frame
-import zstandard
 from mcap.reader import NonSeekingReader, make_reader
 
 FRAME_TOPIC = "/kitti2pgm/frame"
@@ -165,8 +163,12 @@ class ShardReader:
         if compression == "":
             data = payload
         elif compression == "lz4":
+            import lz4.frame  # installed with mcap, which needs it too
+
             data = memoryview(lz4.frame.decompress(payload))
         elif compression == "zstd":
+            import zstandard  # installed with mcap, which needs it too
+
             data = memoryview(zstandard.ZstdDecompressor().decompress(payload, max_output_size=usize))
         else:
             raise ValueError(f"unsupported chunk compression {compression!r}")
