@@ -557,3 +557,67 @@ pub fn shard_is_intact(path: &Path, frames: &[String], params: &str) -> bool {
 pub fn shard_name(split: &str, index: usize) -> String {
     format!("{split}-{index:05}.mcap")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use prost_types::field_descriptor_proto::Type;
+
+    /// The schema stored in every shard describes exactly the message the writer encodes.
+    #[test]
+    fn descriptor_matches_the_message() {
+        let set = prost_types::FileDescriptorSet::decode(&frame_descriptor_set()[..]).unwrap();
+        let file = &set.file[0];
+        assert_eq!(file.package(), "kitti2pgm");
+        let msg = &file.message_type[0];
+        assert_eq!(format!("{}.{}", file.package(), msg.name()), FRAME_SCHEMA);
+        let fields: Vec<(String, i32, Type)> = msg
+            .field
+            .iter()
+            .map(|f| (f.name().to_string(), f.number(), f.r#type()))
+            .collect();
+        let m = FrameMsg {
+            id: "a".into(),
+            drive: "b".into(),
+            frame_index: 1,
+            timestamp_ns: 2,
+            height: 3,
+            width: 4,
+            channels: vec!["c".into()],
+            tensor: vec![5],
+            label: vec![6],
+            instance: vec![7],
+            mask: vec![8],
+            rgb_valid: vec![9],
+            split: "d".into(),
+        };
+        // Every field present once: walk the encoded message's keys and compare with the schema.
+        let bytes = m.encode_to_vec();
+        let mut seen = Vec::new();
+        let mut buf = &bytes[..];
+        while !buf.is_empty() {
+            let key = prost::encoding::decode_varint(&mut buf).unwrap();
+            let (number, wire) = ((key >> 3) as i32, key & 7);
+            let f = fields
+                .iter()
+                .find(|f| f.1 == number)
+                .unwrap_or_else(|| panic!("field {number} not in the schema"));
+            let expected_wire = match f.2 {
+                Type::String | Type::Bytes => 2,
+                Type::Uint32 | Type::Uint64 => 0,
+                other => panic!("unexpected type {other:?}"),
+            };
+            assert_eq!(wire, expected_wire, "{}", f.0);
+            if wire == 0 {
+                prost::encoding::decode_varint(&mut buf).unwrap();
+            } else {
+                let n = prost::encoding::decode_varint(&mut buf).unwrap() as usize;
+                buf = &buf[n..];
+            }
+            seen.push(number);
+        }
+        seen.sort();
+        assert_eq!(seen, (1..=13).collect::<Vec<_>>());
+        assert_eq!(fields.len(), 13);
+    }
+}

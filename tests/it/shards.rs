@@ -313,3 +313,29 @@ fn failed_frames_are_left_out_and_recorded() {
     let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(j["shards_written"], 1);
 }
+
+#[test]
+fn shards_are_identical_whatever_the_thread_count() {
+    let t = tmp();
+    let (a, b) = (t.path().join("a"), t.path().join("b"));
+    for (dir, threads) in [(&a, "1"), (&b, "3")] {
+        let (code, _, stderr) = run_text(&[
+            "--threads",
+            threads,
+            "convert",
+            s(&fixtures()),
+            "--out",
+            s(dir),
+            "--format",
+            "mcap",
+            "--rgb",
+            "--viz",
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+    }
+    let read = |d: &Path| std::fs::read(d.join("shards/train-00000.mcap")).unwrap();
+    assert!(
+        read(&a) == read(&b),
+        "shards differ between 1 and 3 threads"
+    );
+}
