@@ -25,7 +25,7 @@ use crate::label::Class;
 use crate::project::{project_with_point_cells, PgmSpec, EMPTY};
 use crate::report::stats::{label_path, npy_path};
 use crate::write::npy::{read_any, read_f32, NpyArray};
-use crate::write::shard::{FrameMsg, Shard};
+use crate::write::shard::{FrameMsg, Shard, FRAME_TOPIC};
 
 /// Number of classes.
 const K: usize = Class::COUNT;
@@ -122,15 +122,47 @@ pub enum PredFormat {
     PointLabels,
 }
 
-/// Prediction files by frame id, all of one format family.
-#[derive(Debug, Clone)]
+/// Topic of prediction messages in prediction shards (the trainer's `evaluate --format mcap`).
+pub const PREDICTION_TOPIC: &str = "/kitti2pgm/prediction";
+
+/// Predictions by frame id, all of one format family: `.npy` maps, `.label` files, or shards.
 pub struct Predictions {
     /// The folder or file given.
     pub root: PathBuf,
-    /// Files by frame.
+    /// Files by frame (`.npy` or `.label`).
     pub files: BTreeMap<FrameId, PathBuf>,
-    /// Whether they are per-point `.label` files (else `.npy` maps).
+    /// Whether they are per-point `.label` files (else `.npy` maps or shards).
     pub points: bool,
+    /// Prediction shards, and where each frame's message is: (shard, chunk).
+    shards: Vec<(Shard, mcap::read::Summary)>,
+    in_shard: BTreeMap<FrameId, (usize, usize)>,
+}
+
+/// The frame messages of one chunk of a shard.
+fn chunk_frames<'a>(
+    shard: &'a Shard,
+    summary: &'a mcap::read::Summary,
+    chunk: usize,
+) -> Result<impl Iterator<Item = Result<FrameMsg>> + 'a> {
+    let index = &summary.chunk_indexes[chunk];
+    let stream = summary.stream_chunk(shard.bytes(), index).map_err(|e| {
+        Error::format(
+            &shard.path,
+            format!("chunk at byte {}: {e}", index.chunk_start_offset),
+        )
+    })?;
+    Ok(stream.filter_map(move |m| match m {
+        Ok(m) if m.channel.topic == PREDICTION_TOPIC || m.channel.topic == FRAME_TOPIC => Some(
+            <FrameMsg as prost::Message>::decode(&m.data[..]).map_err(|e| {
+                Error::format(&shard.path, format!("undecodable prediction message: {e}"))
+            }),
+        ),
+        Ok(_) => None,
+        Err(e) => Some(Err(Error::format(
+            &shard.path,
+            format!("corrupted or truncated: {e}"),
+        ))),
+    }))
 }
 
 fn frame_id_of(path: &Path) -> Option<FrameId> {
@@ -180,6 +212,11 @@ impl Predictions {
         paths.sort();
         let mut files = BTreeMap::new();
         let (mut npy, mut label) = (None::<PathBuf>, None::<PathBuf>);
+        let mcaps: Vec<PathBuf> = paths
+            .iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+            .cloned()
+            .collect();
         for p in paths {
             let Some(id) = frame_id_of(&p) else { continue };
             if p.extension().is_some_and(|e| e == "npy") {
@@ -204,17 +241,99 @@ impl Predictions {
                 ),
             });
         }
-        if files.is_empty() {
+        if let (Some(a), Some(b)) = (npy.as_ref().or(label.as_ref()), mcaps.first()) {
             return Err(Error::Input {
                 path: root.into(),
-                message: "no prediction file (<frame id>.npy or <drive>/<frame>.label)".into(),
+                message: format!(
+                    "mixed formats: prediction files ({}) and shards ({})",
+                    a.display(),
+                    b.display()
+                ),
+            });
+        }
+        let mut shards = Vec::new();
+        let mut in_shard = BTreeMap::new();
+        for p in &mcaps {
+            let shard = Shard::open(p)?;
+            let summary = shard.summary()?;
+            for chunk in 0..summary.chunk_indexes.len() {
+                for f in chunk_frames(&shard, &summary, chunk)? {
+                    let f = f?;
+                    let id: FrameId = f.id.parse().map_err(|e: String| Error::format(p, e))?;
+                    if in_shard.insert(id.clone(), (shards.len(), chunk)).is_some() {
+                        return Err(Error::Input {
+                            path: p.clone(),
+                            message: format!("second prediction for {id}"),
+                        });
+                    }
+                }
+            }
+            shards.push((shard, summary));
+        }
+        if files.is_empty() && in_shard.is_empty() {
+            return Err(Error::Input {
+                path: root.into(),
+                message:
+                    "no prediction (<frame id>.npy, <drive>/<frame>.label or prediction shards)"
+                        .into(),
             });
         }
         Ok(Predictions {
             root: root.into(),
             files,
             points: label.is_some(),
+            shards,
+            in_shard,
         })
+    }
+}
+
+impl Predictions {
+    /// The label map of frame `id` from prediction shard `k`, chunk `chunk`, checked.
+    fn shard_prediction(
+        &self,
+        k: usize,
+        chunk: usize,
+        id: &FrameId,
+        rows: usize,
+        cols: usize,
+    ) -> Result<Vec<u8>> {
+        let (shard, summary) = &self.shards[k];
+        let want = id.to_string();
+        for f in chunk_frames(shard, summary, chunk)? {
+            let f = f?;
+            if f.id != want {
+                continue;
+            }
+            if (f.height as usize, f.width as usize) != (rows, cols) || f.label.len() != rows * cols
+            {
+                return Err(Error::format(
+                    &shard.path,
+                    format!(
+                        "prediction for {id} is {}x{} ({} labels), the ground truth {rows}x{cols}",
+                        f.height,
+                        f.width,
+                        f.label.len()
+                    ),
+                ));
+            }
+            if let Some((i, v)) = f.label.iter().enumerate().find(|(_, v)| **v as usize >= K) {
+                return Err(Error::format(
+                    &shard.path,
+                    format!(
+                        "prediction for {id}: cell ({}, {}) is {v}, not a class id 0-{}",
+                        i / cols,
+                        i % cols,
+                        K - 1
+                    ),
+                ));
+            }
+            return Ok(f.label);
+        }
+        Err(Error::format(
+            &shard.path,
+            format!("prediction for {id} vanished from its chunk"),
+        ))
     }
 }
 
@@ -518,13 +637,14 @@ fn score_with_truth(
     let (rows, cols) = (opts.spec.rows, opts.spec.cols);
     let cells = rows * cols;
     let pred_file = preds.files.get(id);
-    if pred_file.is_none() && !opts.missing_as_background {
+    let pred_shard = preds.in_shard.get(id);
+    if pred_file.is_none() && pred_shard.is_none() && !opts.missing_as_background {
         return Err(Error::Input {
             path: preds.root.clone(),
             message: format!("no prediction for ground-truth frame {id} (use --missing-as-background to score it as background)"),
         });
     }
-    let missing = pred_file.is_none();
+    let missing = pred_file.is_none() && pred_shard.is_none();
     let needs_scan = opts.protocol == Protocol::Points || (preds.points && !missing);
     // Per point: (cell, file index) of each point in the field of view, from the scan.
     let mut point_cells: Vec<(u32, u32)> = Vec::new();
@@ -566,7 +686,10 @@ fn score_with_truth(
     }
     // Predicted class per cell.
     let pred_cells: Vec<u8> = match (pred_file, preds.points) {
-        (None, _) => vec![0; cells],
+        (None, _) => match pred_shard {
+            Some(&(k, chunk)) => preds.shard_prediction(k, chunk, id, rows, cols)?,
+            None => vec![0; cells],
+        },
         (Some(p), false) => read_cell_prediction(p, rows, cols)?.labels,
         (Some(p), true) => {
             let pl = read_point_labels(p)?;

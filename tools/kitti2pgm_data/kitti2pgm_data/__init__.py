@@ -14,9 +14,13 @@ from .reader import (
     read_metadata,
 )
 from .dataset import ShardDataset
+from .writer import PREDICTION_TOPIC, encode_prediction, write_predictions
 
 __all__ = [
     "FRAME_TOPIC",
+    "PREDICTION_TOPIC",
+    "encode_prediction",
+    "write_predictions",
     "ShardDataset",
     "ShardError",
     "ShardReader",

@@ -89,12 +89,16 @@ def decode_frame(data: Union[bytes, memoryview]) -> Dict[str, object]:
             raise ValueError(f"{name} has {len(b)} bytes, expected {need}")
         return np.frombuffer(b, dtype=dtype).reshape(shape)
 
+    def optional(name: str, dtype: str, shape):
+        # Absent in prediction messages, which carry the label map only.
+        return arr(name, dtype, shape) if len(raw.get(name, b"")) else None
+
     fields["channels"] = channels
-    fields["tensor"] = arr("tensor", "<f4", (h, w, c))
+    fields["tensor"] = arr("tensor", "<f4", (h, w, c)) if c else optional("tensor", "<f4", (h, w, c))
     fields["label"] = arr("label", "u1", (h, w))
-    fields["instance"] = arr("instance", "<u2", (h, w))
-    fields["mask"] = arr("mask", "u1", (h, w))
-    fields["rgb_valid"] = arr("rgb_valid", "u1", (h, w)) if len(raw.get("rgb_valid", b"")) else None
+    fields["instance"] = optional("instance", "<u2", (h, w))
+    fields["mask"] = optional("mask", "u1", (h, w))
+    fields["rgb_valid"] = optional("rgb_valid", "u1", (h, w))
     return fields
 
 

@@ -51,3 +51,9 @@ def lidar_zstd(tmp_path_factory):
 @pytest.fixture()
 def scratch(tmp_path):
     return tmp_path
+
+
+@pytest.fixture(scope="session")
+def kitti2pgm_path():
+    """The kitti2pgm binary's path."""
+    return kitti2pgm_bin()

@@ -116,3 +116,25 @@ def test_corrupted_chunk_is_reported(lidar_none, scratch):
     with ShardReader(bad, validate_crc=True) as r:
         with pytest.raises(ShardError, match="bad.mcap: frame #0: chunk CRC mismatch"):
             r[0]
+
+
+def test_prediction_shards_decode_and_score(rgb_lz4, scratch, kitti2pgm_path):
+    """A prediction shard decodes with the same reader and kitti2pgm score reads it."""
+    import json
+    import subprocess
+
+    from kitti2pgm_data import write_predictions
+    from kitti2pgm_data.reader import decode_frame
+
+    frames = list(iter_frames(shards(rgb_lz4)))
+    preds = [{"id": f["id"], "label": f["label"], "drive": f["drive"], "frame_index": f["frame_index"]} for f in frames]
+    out = scratch / "pred.mcap"
+    assert write_predictions(out, preds, schema_from=shards(rgb_lz4)[0], metadata={"run": "test"}) == 3
+    from mcap.reader import make_reader
+    with open(out, "rb") as f:
+        msgs = [m for _, _, m in make_reader(f).iter_messages(topics=["/kitti2pgm/prediction"])]
+    d = decode_frame(msgs[0].data)
+    assert d["id"] == IDS[0] and np.array_equal(d["label"], frames[0]["label"])
+    r = subprocess.run([kitti2pgm_path, "score", "--gt", str(rgb_lz4), "--pred", str(out), "--json"],
+                       capture_output=True, text=True, check=True)
+    assert json.loads(r.stdout)["classes"]["car"]["iou"] == 1.0

@@ -52,6 +52,8 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--shards", required=True, help="shards folder (val-*.mcap is used)")
     e.add_argument("--val-shards", help="explicit shards (glob) instead of <shards>/val-*.mcap")
     e.add_argument("--predictions", help="where to write the .npy maps (default <run>/predictions)")
+    e.add_argument("--format", choices=["npy", "mcap", "both"], default="npy",
+                   help="predictions as <id>.npy maps, as one prediction shard <run>/predictions.mcap, or both")
     e.add_argument("--batch", type=int, default=8)
     e.add_argument("--device", default="auto")
     e.add_argument("--timing-frames", type=int, default=10, help="frames timed for inference ms/frame")
@@ -78,7 +80,7 @@ def main(argv=None) -> int:
                 import torch
                 c = Confusion()
                 c.m = torch.tensor(r["confusion"])
-                print(f"{r['frames']} frames; predictions in {r['predictions']}")
+                print(f"{r['frames']} frames; predictions in {r['predictions'] or r['prediction_shard']}")
                 print(c.table())
                 print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in r["inference_ms_per_frame"].items() if v))
     except (FileExistsError, FileNotFoundError, ValueError) as e:

@@ -217,23 +217,41 @@ def evaluate(args) -> dict:
     paths = find_shards(args.shards, "val") if not args.val_shards else find_shards(args.val_shards)
     data = FrameSet(paths, config["args"]["input"], norm)
     out = args.predictions or os.path.join(args.run, "predictions")
-    os.makedirs(out, exist_ok=True)
+    write_npy = args.format in ("npy", "both")
+    if write_npy:
+        os.makedirs(out, exist_ok=True)
     conf = Confusion()
     progress = Progress(len(data), "evaluating")
-    for start in range(0, len(data), args.batch):
-        batch = collate([data.item(i) for i in range(start, min(start + args.batch, len(data)))])
-        mask = batch["mask"].to(device)
-        logits = model([x.to(device) for x in batch["inputs"]], mask=mask, xyz=batch["xyz"].to(device))
-        pred = logits.argmax(1)
-        conf.add(pred, batch["label"].to(device), mask)
-        for fid, p in zip(batch["id"], pred.to(torch.uint8).cpu().numpy()):
-            tmp = os.path.join(out, f".{fid}.tmp.npy")
-            np.save(tmp, p)
-            os.replace(tmp, os.path.join(out, f"{fid}.npy"))
-        progress.update(min(start + args.batch, len(data)))
+
+    def predictions():
+        for start in range(0, len(data), args.batch):
+            batch = collate([data.item(i) for i in range(start, min(start + args.batch, len(data)))])
+            mask = batch["mask"].to(device)
+            logits = model([x.to(device) for x in batch["inputs"]], mask=mask, xyz=batch["xyz"].to(device))
+            pred = logits.argmax(1)
+            conf.add(pred, batch["label"].to(device), mask)
+            for fid, p in zip(batch["id"], pred.to(torch.uint8).cpu().numpy()):
+                if write_npy:
+                    tmp = os.path.join(out, f".{fid}.tmp.npy")
+                    np.save(tmp, p)
+                    os.replace(tmp, os.path.join(out, f"{fid}.npy"))
+                yield {"id": fid, "label": p}
+            progress.update(min(start + args.batch, len(data)))
+
+    shard_out = None
+    if args.format in ("mcap", "both"):
+        from kitti2pgm_data import write_predictions
+        shard_out = os.path.join(args.run, "predictions.mcap")
+        write_predictions(shard_out, predictions(), schema_from=paths[0],
+                          metadata={"run": os.path.abspath(args.run), "model": config["args"]["model"],
+                                    "input": config["args"]["input"]})
+    else:
+        for _ in predictions():
+            pass
     progress.close()
     timing = inference_time(model, data, device, args.timing_frames)
-    result = {"frames": len(data), "predictions": out, **conf.as_dict(), "inference_ms_per_frame": timing}
+    result = {"frames": len(data), "predictions": out if write_npy else None, "prediction_shard": shard_out,
+              **conf.as_dict(), "inference_ms_per_frame": timing}
     with open(os.path.join(args.run, "eval.json"), "w") as f:
         json.dump(result, f, indent=2)
     return result

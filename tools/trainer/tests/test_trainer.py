@@ -75,7 +75,7 @@ def test_overfits_real_frames_and_agrees_with_kitti2pgm_score(converted, tmp_pat
     shards = converted / "shards"
     _train(run, shards, 300)
     assert main(["evaluate", "--run", str(run), "--shards", str(shards), "--val-shards", str(shards / "train-*.mcap"),
-                 "--device", "cpu", "--timing-frames", "1"]) == 0
+                 "--device", "cpu", "--timing-frames", "1", "--format", "both"]) == 0
     ev = json.loads((run / "eval.json").read_text())
     assert ev["frames"] == 3
     assert ev["iou"]["car"] >= 0.6, ev["iou"]
@@ -87,6 +87,9 @@ def test_overfits_real_frames_and_agrees_with_kitti2pgm_score(converted, tmp_pat
     for c in ("background", "car", "pedestrian", "cyclist"):
         assert score["classes"][c]["iou"] == ev["iou"][c]
     assert score["miou"] == ev["miou"]
+    # The prediction shard scores the same.
+    r = kitti2pgm("score", "--gt", str(converted), "--pred", str(run / "predictions.mcap"), "--json")
+    assert json.loads(r.stdout)["confusion"] == score["confusion"]
     # After a single step the same network is far from it: the IoU was learnt.
     run0 = tmp_path / "run0"
     _train(run0, shards, 1)
