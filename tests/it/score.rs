@@ -493,6 +493,10 @@ fn ground_truth_shards_score_like_the_npy_folder() {
             && stderr.contains("not in the ground-truth shards"),
         "{stderr}"
     );
+    // Shards as predictions: their label maps, matched by frame id (perfect against themselves).
+    let j = score_json(&["--gt", s(&gt), "--pred", s(&gt.join("shards"))]);
+    assert_eq!(iou(&j, "car"), 1.0);
+    assert_eq!(j["frames"], 3);
     let (code, _, stderr) = run_text(&[
         "score",
         "--gt",
