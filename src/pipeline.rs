@@ -149,15 +149,12 @@ impl ConvertOptions {
 
     /// Path of a frame's `.npy`.
     pub fn npy_path(&self, id: &FrameId) -> PathBuf {
-        self.out_dir.join("lidar_2d").join(format!("{id}.npy"))
+        crate::write::npy_path(&self.out_dir, id)
     }
 
     /// Path of a frame's `.label`.
     pub fn label_path(&self, drive: &Drive, frame: u32) -> PathBuf {
-        self.out_dir
-            .join("labels")
-            .join(drive.name())
-            .join(format!("{frame:010}.label"))
+        crate::write::label_path(&self.out_dir, &drive.frame_id(frame))
     }
 }
 

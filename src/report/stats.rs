@@ -173,17 +173,7 @@ pub fn converted_frames(dir: &Path) -> Result<Vec<FrameId>> {
     Ok(ids)
 }
 
-/// Path of a frame's `.npy` in a convert output folder.
-pub fn npy_path(dir: &Path, id: &FrameId) -> PathBuf {
-    dir.join("lidar_2d").join(format!("{id}.npy"))
-}
-
-/// Path of a frame's `.label` in a convert output folder.
-pub fn label_path(dir: &Path, id: &FrameId) -> PathBuf {
-    dir.join("labels")
-        .join(format!("{}_drive_{:04}_sync", id.date, id.drive))
-        .join(format!("{:010}.label", id.frame))
-}
+pub use crate::write::{label_path, npy_path};
 
 /// Sums of one frame or chunk.
 #[derive(Debug, Clone)]

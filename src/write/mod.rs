@@ -54,6 +54,19 @@ pub fn temp_builder() -> tempfile::Builder<'static, 'static> {
     b
 }
 
+/// Path of a frame's `.npy` in a convert output folder: `DIR/lidar_2d/<frame id>.npy`.
+pub fn npy_path(dir: &Path, id: &crate::kitti::FrameId) -> std::path::PathBuf {
+    dir.join("lidar_2d").join(format!("{id}.npy"))
+}
+
+/// Path of a frame's `.label` in a convert output folder:
+/// `DIR/labels/<date>_drive_<NNNN>_sync/<frame10>.label`.
+pub fn label_path(dir: &Path, id: &crate::kitti::FrameId) -> std::path::PathBuf {
+    dir.join("labels")
+        .join(format!("{}_drive_{:04}_sync", id.date, id.drive))
+        .join(format!("{:010}.label", id.frame))
+}
+
 /// Encodes `img` as PNG and writes it atomically to `path`.
 pub fn write_png(path: &Path, img: &image::RgbImage) -> Result<()> {
     let mut bytes = Vec::new();
