@@ -42,6 +42,7 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--crf", action="store_true", help="SqueezeSeg's recurrent CRF on the logits")
     t.add_argument("--width-mult", type=float, default=1.0, help="channel width multiplier (1 = the paper's)")
     t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--workers", type=int, default=2, help="DataLoader worker processes reading the shards (0 = in the training process)")
     t.add_argument("--device", default="auto", help="auto, cpu or cuda")
     t.add_argument("--log-every", type=int, default=50)
     t.add_argument("--checkpoint-every", type=int, default=1000)

@@ -151,3 +151,35 @@ def batch_indices(n: int, batch: int, step: int, seed: int, rank: int = 0, world
 def flips(step: int, seed: int, size: int) -> List[bool]:
     """Which items of a batch are mirrored (p = 0.5, seeded by step)."""
     return (np.random.default_rng([seed, 1_000_003, step]).random(size) < 0.5).tolist()
+
+
+class StepBatches(torch.utils.data.Sampler):
+    """The batches of steps ``start .. steps`` as lists of (frame index, flip), for a DataLoader
+    with ``batch_sampler``: the same batches as the single-process loop, in any number of workers."""
+
+    def __init__(self, n: int, batch: int, start: int, steps: int, seed: int, flip: bool, rank: int = 0, world: int = 1):
+        self.n, self.batch, self.start, self.steps = n, batch, start, steps
+        self.seed, self.flip, self.rank, self.world = seed, flip, rank, world
+
+    def __len__(self) -> int:
+        return max(self.steps - self.start, 0)
+
+    def __iter__(self):
+        for step in range(self.start, self.steps):
+            idx = batch_indices(self.n, self.batch, step, self.seed, self.rank, self.world)
+            fl = flips(step, self.seed, len(idx))
+            yield [(i, f and self.flip) for i, f in zip(idx, fl)]
+
+
+class TorchFrames(torch.utils.data.Dataset):
+    """``FrameSet`` as a torch Dataset indexed by (frame index, flip)."""
+
+    def __init__(self, frames: FrameSet):
+        self.frames = frames
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __getitem__(self, key):
+        i, flip = key
+        return self.frames.item(i, flip=flip)

@@ -25,7 +25,7 @@ import torch
 import torch.nn.functional as F
 
 from . import __version__
-from .data import FrameSet, Normaliser, batch_indices, class_weights, collate, find_shards, flips, load_stats
+from .data import FrameSet, Normaliser, class_weights, collate, find_shards, load_stats
 from .metrics import Confusion
 from .models import SegNet
 
@@ -157,14 +157,25 @@ def train(args) -> dict:
     progress = Progress(args.steps, "training") if rank == 0 else None
     t_last, frames_since = time.perf_counter(), 0
     loss_value = float("nan")
-    for step in range(start, args.steps):
+    from .data import StepBatches, TorchFrames
+    loader = torch.utils.data.DataLoader(
+        TorchFrames(data),
+        batch_sampler=StepBatches(len(data), args.batch, start, args.steps, args.seed, args.flip, rank, world),
+        collate_fn=collate,
+        num_workers=args.workers,
+        pin_memory=device.type == "cuda",
+        # Its own generator: the loader's worker seed must not consume the global RNG that
+        # dropout draws from, or a resumed run would diverge.
+        generator=torch.Generator().manual_seed(args.seed),
+    )
+    done = start
+    for step, batch in zip(range(start, args.steps), loader):
         lr = lr_at(step, args.lr, args.lr_halve_every)
         for g in opt.param_groups:
             g["lr"] = lr
-        idx = batch_indices(len(data), args.batch, step, args.seed, rank, world)
-        batch = collate([data.item(i, flip=fl and args.flip) for i, fl in zip(idx, flips(step, args.seed, len(idx)))])
-        inputs = [x.to(device) for x in batch["inputs"]]
-        mask, label = batch["mask"].to(device), batch["label"].to(device)
+        idx = batch["id"]
+        inputs = [x.to(device, non_blocking=True) for x in batch["inputs"]]
+        mask, label = batch["mask"].to(device, non_blocking=True), batch["label"].to(device, non_blocking=True)
         logits = model(inputs, mask=mask, xyz=batch["xyz"].to(device))
         loss = masked_loss(logits, label, mask, weight)
         opt.zero_grad(set_to_none=True)
@@ -195,7 +206,7 @@ def train(args) -> dict:
         log.close()
     if world > 1:
         torch.distributed.destroy_process_group()
-    return {"step": done if args.steps > start else start, "loss": loss_value}
+    return {"step": done, "loss": loss_value}
 
 
 def load_run(run: str, device: torch.device):
