@@ -46,6 +46,14 @@ pub enum FrameSelection {
     All,
 }
 
+impl FrameSelection {
+    /// Whether a frame that has a velodyne scan is selected, given its drive's tracklets (empty
+    /// when the drive has no `tracklet_labels.xml`).
+    pub fn keeps(self, tracklets: &Tracklets, frame: u32) -> bool {
+        self == FrameSelection::All || tracklets.count_at(frame) > 0
+    }
+}
+
 /// Colour channels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct RgbOptions {
@@ -302,8 +310,7 @@ impl Plan {
             let index = plan.drives.len();
             let has_file = dp.drive.tracklets_path().exists();
             for &f in &frames {
-                let annotated = dp.tracklets.count_at(f) > 0;
-                if selection == FrameSelection::All || annotated {
+                if selection.keeps(&dp.tracklets, f) {
                     plan.jobs.push((index, f));
                 } else {
                     let why = if has_file {

@@ -85,18 +85,16 @@ impl Scan {
 
     /// The file index of each kept point.
     pub fn file_indices(&self) -> Vec<u32> {
-        let kept: Vec<u32> = (0..self.points.len() as u32).collect();
-        if self.dropped.is_empty() {
-            return kept;
-        }
-        let spread = self.to_file_order(&kept, u32::MAX);
-        let mut out = vec![0u32; self.points.len()];
-        for (file_i, &k) in spread.iter().enumerate() {
-            if k != u32::MAX {
-                out[k as usize] = file_i as u32;
-            }
-        }
-        out
+        let mut dropped = self.dropped.iter().peekable();
+        (0..self.file_len as u32)
+            .filter(|i| {
+                let is_dropped = dropped.peek() == Some(&i);
+                if is_dropped {
+                    dropped.next();
+                }
+                !is_dropped
+            })
+            .collect()
     }
 
     /// Spreads a per-point value over the file's order, putting `fill` at dropped points.

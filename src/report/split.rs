@@ -95,11 +95,15 @@ pub fn drive_frames(drive: &Drive, selection: FrameSelection) -> Result<Vec<u32>
         return Ok(scans);
     }
     let path = drive.tracklets_path();
-    if !path.exists() {
-        return Ok(Vec::new());
-    }
-    let t = Tracklets::read(&path)?;
-    Ok(scans.into_iter().filter(|f| t.count_at(*f) > 0).collect())
+    let t = if path.exists() {
+        Tracklets::read(&path)?
+    } else {
+        Tracklets::default()
+    };
+    Ok(scans
+        .into_iter()
+        .filter(|f| selection.keeps(&t, *f))
+        .collect())
 }
 
 /// splitmix64: a tiny, fully specified generator, so that a seed gives the same split with every
