@@ -4,6 +4,7 @@
 mod bad_input;
 mod cli;
 mod label;
+mod pinned;
 mod project;
 mod readers;
 mod reports;
