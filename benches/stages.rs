@@ -8,16 +8,18 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use kitti2pgm::convert::{convert_frame, process, ConvertOptions};
+use kitti2pgm::format::atomic_write;
+use kitti2pgm::format::npy::encode_f32;
 use kitti2pgm::kitti::calib::Calibration;
 use kitti2pgm::kitti::camera::read_image;
 use kitti2pgm::kitti::velodyne::Scan;
 use kitti2pgm::kitti::Drive;
-use kitti2pgm::label::Labeller;
-use kitti2pgm::pipeline::{convert_frame, process, ConvertOptions, DrivePlan, RgbOptions};
+use kitti2pgm::label::{ClassMap, Labeller};
+use kitti2pgm::plan::DrivePlan;
+use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
 use kitti2pgm::project::{project, PgmSpec};
-use kitti2pgm::write::atomic_write;
-use kitti2pgm::write::npy::encode_f32;
 
 /// The same allocator as the binary, so that stage costs match what `convert` pays.
 #[global_allocator]
@@ -45,7 +47,8 @@ fn stages(c: &mut Criterion) {
     let img_path = dp.drive.image_path(2, f);
     let scan = Scan::read(&scan_path).unwrap();
     let img = read_image(&img_path).unwrap();
-    let boxes = dp.boxes(f);
+    let classes = ClassMap::kitti_paper();
+    let boxes = dp.boxes(f, &classes);
     let spec = PgmSpec::default();
     let cam = CameraProjector {
         velo_to_image: dp.calib.velo_to_image(2),
@@ -70,18 +73,18 @@ fn stages(c: &mut Criterion) {
         })
     });
     g.bench_function("label", |b| {
-        b.iter(|| Labeller::new(black_box(&boxes)).label(&scan.points))
+        b.iter(|| Labeller::new(black_box(&boxes), classes.background).label(&scan.points))
     });
     g.bench_function("project", |b| {
         b.iter(|| project(black_box(&scan.points), &spec))
     });
     g.bench_function("process_lidar", |b| {
-        b.iter(|| process(&id, &scan, &boxes, &spec, None))
+        b.iter(|| process(&id, &scan, &boxes, &spec, &classes, None))
     });
     g.bench_function("process_rgb", |b| {
-        b.iter(|| process(&id, &scan, &boxes, &spec, Some((&cam, &img))))
+        b.iter(|| process(&id, &scan, &boxes, &spec, &classes, Some((&cam, &img))))
     });
-    let out = process(&id, &scan, &boxes, &spec, Some((&cam, &img)));
+    let out = process(&id, &scan, &boxes, &spec, &classes, Some((&cam, &img)));
     g.bench_function("encode_npy_9ch", |b| {
         b.iter(|| encode_f32(&[64, 512, 9], black_box(&out.pgm.data)))
     });
@@ -104,7 +107,7 @@ fn stages(c: &mut Criterion) {
     g.bench_function("convert_lidar", |b| {
         b.iter(|| convert_frame(&dp, f, &opts).unwrap())
     });
-    opts.rgb = Some(RgbOptions {
+    opts.params.map.rgb = Some(RgbOptions {
         camera: 2,
         sampling: Sampling::Nearest,
     });

@@ -274,8 +274,8 @@ pub struct SplitRuleArgs {
 
 impl SplitRuleArgs {
     /// The library's rule.
-    pub fn rule(&self) -> kitti2pgm::Result<kitti2pgm::report::split::SplitRule> {
-        use kitti2pgm::report::split::SplitRule;
+    pub fn rule(&self) -> kitti2pgm::Result<kitti2pgm::plan::split::SplitRule> {
+        use kitti2pgm::plan::split::SplitRule;
         match (self.random_val, self.val_drives.is_empty()) {
             (Some(fraction), _) => Ok(SplitRule::Random {
                 fraction,

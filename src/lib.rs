@@ -1,15 +1,20 @@
 //! kitti2pgm: KITTI raw -> labelled Polar Grid Maps for LiDAR(+camera) semantic segmentation.
 //!
-//! Data flows one way, one module per stage:
+//! Data flows one way, one module per stage (`docs/architecture.md` draws it):
 //!
 //! - [`kitti`] READ: drives, velodyne scans, calibration, tracklets, timestamps, OXTS, images;
-//! - [`label`] LABEL: points in tracklet boxes (parry containment tests) -> class and instance;
-//! - [`project`] PROJECT: points -> 64 x 512 Polar Grid Map (rings from the scan order), RGB;
-//! - [`write`](mod@write) WRITE: `.npy` tensors and `.label` files, atomically;
-//! - [`pipeline`] runs them over frames in parallel; [`preview`] draws a converted frame.
+//! - [`plan`] which frames, which split: the selection and split rules, on the input side;
+//! - [`label`] LABEL: the [`ClassMap`](label::ClassMap) and points in boxes (parry containment);
+//! - [`project`] PROJECT: points -> Polar Grid Map (rings from the scan order), named channels, RGB;
+//! - [`format`] WRITE: the one owner of every file kind (`.npy`, `.label`, layout, summary,
+//!   ImageSet, shards, PNG), written atomically and read back;
+//! - [`convert`] runs them over frames in parallel, with the typed [`params`] as provenance;
+//! - [`report`] reads what was written: ground truth, statistics, scores, shard inspection;
+//! - [`draw`] pictures: previews and charts.
 //!
 //! ```no_run
-//! use kitti2pgm::pipeline::{convert, ConvertOptions, FrameSelection, Plan};
+//! use kitti2pgm::convert::{convert, ConvertOptions};
+//! use kitti2pgm::plan::{FrameSelection, Plan};
 //! let plan = Plan::build("fixtures/raw".as_ref(), FrameSelection::Annotated)?;
 //! let summary = convert(&plan, &ConvertOptions::new("out"), &|_| {})?;
 //! println!("{} frames, fill {:.3}", summary.frames_converted, summary.fill_ratio());
@@ -17,14 +22,16 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod convert;
+pub mod draw;
 pub mod error;
+pub mod format;
 pub mod geom;
 pub mod kitti;
 pub mod label;
-pub mod pipeline;
-pub mod preview;
+pub mod params;
+pub mod plan;
 pub mod project;
 pub mod report;
-pub mod write;
 
 pub use error::{Error, Result};

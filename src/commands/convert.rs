@@ -1,73 +1,78 @@
-//! `kitti2pgm convert`: the CLI over [`kitti2pgm::pipeline`].
+//! `kitti2pgm convert`: the CLI over [`kitti2pgm::convert`].
 
 use anyhow::Context;
+use kitti2pgm::convert::{convert, ConvertOptions, FrameOutcome};
+use kitti2pgm::format::layout::OutputDir;
+use kitti2pgm::format::summary::ConvertSummary;
 use kitti2pgm::geom::Degrees;
-use kitti2pgm::pipeline::{
-    convert, ConvertOptions, ConvertSummary, FrameOutcome, FrameSelection, Plan, RgbOptions,
-    ShardOptions,
-};
-use kitti2pgm::project::camera::Sampling;
+use kitti2pgm::label::ClassMap;
+use kitti2pgm::params::{ConvertParams, MapParams, ShardCompression, ShardParams};
+use kitti2pgm::plan::{FrameSelection, Plan};
+use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{PgmSpec, RowMode};
-use kitti2pgm::report::split::SplitRule;
-use kitti2pgm::write::shard::ShardCompression;
 
 use super::{progress, Global};
 use crate::cli::{CompressionArg, ConvertArgs, FormatArg, RowModeArg, SamplingArg};
 use crate::Outcome;
 
-impl From<&ConvertArgs> for ConvertOptions {
-    fn from(a: &ConvertArgs) -> Self {
-        ConvertOptions {
-            out_dir: a.out.clone(),
-            spec: PgmSpec {
-                rows: a.rows,
-                cols: a.cols,
-                fov: Degrees(a.fov_deg),
-                fov_up: Degrees(a.fov_up_deg),
-                fov_down: Degrees(a.fov_down_deg),
-                row_mode: match a.row_mode {
-                    RowModeArg::Rings => RowMode::Rings,
-                    RowModeArg::Elevation => RowMode::Elevation,
+impl ConvertArgs {
+    /// The library's parameters (validated by the library).
+    fn params(&self) -> kitti2pgm::Result<ConvertParams> {
+        Ok(ConvertParams {
+            map: MapParams {
+                spec: PgmSpec {
+                    rows: self.rows,
+                    cols: self.cols,
+                    fov: Degrees(self.fov_deg),
+                    fov_up: Degrees(self.fov_up_deg),
+                    fov_down: Degrees(self.fov_down_deg),
+                    row_mode: match self.row_mode {
+                        RowModeArg::Rings => RowMode::Rings,
+                        RowModeArg::Elevation => RowMode::Elevation,
+                    },
                 },
+                rgb: self.rgb.then_some(RgbOptions {
+                    camera: self.camera,
+                    sampling: match self.rgb_sampling {
+                        SamplingArg::Nearest => Sampling::Nearest,
+                        SamplingArg::Bilinear => Sampling::Bilinear,
+                    },
+                }),
+                selection: if self.all_frames {
+                    FrameSelection::All
+                } else {
+                    FrameSelection::Annotated
+                },
+                class_map: ClassMap::kitti_paper(),
             },
-            rgb: a.rgb.then_some(RgbOptions {
-                camera: a.camera,
-                sampling: match a.rgb_sampling {
-                    SamplingArg::Nearest => Sampling::Nearest,
-                    SamplingArg::Bilinear => Sampling::Bilinear,
-                },
-            }),
-            selection: if a.all_frames {
-                FrameSelection::All
-            } else {
-                FrameSelection::Annotated
+            npy: self.format.contains(&FormatArg::Npy),
+            labels: !self.no_point_labels,
+            shards: match self.format.contains(&FormatArg::Mcap) {
+                true => Some(ShardParams {
+                    compression: match self.compression {
+                        CompressionArg::Lz4 => ShardCompression::Lz4,
+                        CompressionArg::Zstd => ShardCompression::Zstd,
+                        CompressionArg::None => ShardCompression::None,
+                    },
+                    frames_per_shard: self.shard_frames,
+                    viz: self.viz,
+                    split: self.split.rule()?,
+                }),
+                false => None,
             },
-            write_npy: a.format.contains(&FormatArg::Npy),
-            write_labels: !a.no_point_labels,
-            threads: 0,
-            sync: a.sync,
-            shards: a.format.contains(&FormatArg::Mcap).then(|| ShardOptions {
-                compression: match a.compression {
-                    CompressionArg::Lz4 => ShardCompression::Lz4,
-                    CompressionArg::Zstd => ShardCompression::Zstd,
-                    CompressionArg::None => ShardCompression::None,
-                },
-                frames_per_shard: a.shard_frames,
-                viz: a.viz,
-                split: SplitRule::squeezeseg(),
-            }),
-        }
+        })
     }
 }
 
 pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
-    let mut opts = ConvertOptions::from(&a);
-    opts.threads = g.threads;
-    if let Some(sh) = opts.shards.as_mut() {
-        sh.split = a.split.rule()?;
-    }
-    opts.validate()?;
-    let plan = Plan::build(&a.raw_root, opts.selection)
+    let opts = ConvertOptions {
+        out: OutputDir::new(&a.out),
+        params: a.params()?,
+        threads: g.threads,
+        sync: a.sync,
+    };
+    opts.params.validate()?;
+    let plan = Plan::build(&a.raw_root, opts.params.map.selection)
         .with_context(|| format!("reading {}", a.raw_root.display()))?;
     let pb = progress::bar(plan.jobs.len() as u64, g.progress, "converting");
     let summary = convert(&plan, &opts, &|o| match o {
@@ -110,17 +115,18 @@ fn table(s: &ConvertSummary) -> String {
     }
     let _ = writeln!(t, "points              {:>12}", s.points);
     let _ = writeln!(t, "non-finite dropped  {:>12}", s.dropped_nonfinite);
-    let _ = writeln!(t, "points in FOV       {:>12}", s.in_fov);
+    let _ = writeln!(t, "points in FOV       {:>12}", s.projection.in_fov);
+    let p = &s.projection;
     let _ = writeln!(t, "fill ratio          {:>12.4}", s.fill_ratio());
     let _ = writeln!(
         t,
         "cell collisions     {:>12}  (nearest point kept)",
-        s.collisions
+        p.collisions
     );
     let _ = writeln!(
         t,
         "ring fallbacks      {:>12}  (frames binned by elevation)",
-        s.ring_fallbacks
+        p.ring_fallbacks
     );
     if s.shards_written + s.shards_skipped > 0 {
         let _ = writeln!(
@@ -134,22 +140,22 @@ fn table(s: &ConvertSummary) -> String {
             t,
             "cells with colour   {:>12}  ({:.1}% of filled)",
             s.rgb_cells,
-            pct(s.rgb_cells, s.filled_cells)
+            pct(s.rgb_cells, p.filled_cells)
         );
     }
     let _ = writeln!(t, "\nclass        points        %        cells        %");
-    let (p, c) = (s.labelled_points.to_array(), s.labelled_cells.to_array());
-    let (tp, tc) = (p.iter().sum::<u64>(), c.iter().sum::<u64>());
-    for k in kitti2pgm::label::Class::ALL {
-        let i = k as usize;
+    let (pts, cells) = (&s.labelled_points, &s.labelled_cells);
+    let (tp, tc) = (pts.values().sum::<u64>(), cells.values().sum::<u64>());
+    for name in s.params.map.class_map.names() {
+        let (np, nc) = (pts[name], cells[name]);
         let _ = writeln!(
             t,
             "{:<10} {:>10} {:>7.3}% {:>12} {:>7.3}%",
-            k.name(),
-            p[i],
-            pct(p[i], tp),
-            c[i],
-            pct(c[i], tc)
+            name,
+            np,
+            pct(np, tp),
+            nc,
+            pct(nc, tc)
         );
     }
     for f in &s.failures {

@@ -1,7 +1,9 @@
 //! `kitti2pgm preview`: converted frames to PNG.
 
 use anyhow::{bail, Context};
-use kitti2pgm::write::npy::read_f32;
+use kitti2pgm::format::layout::OutputDir;
+use kitti2pgm::format::{pgm, png, summary};
+use kitti2pgm::label::ClassMap;
 
 use crate::cli::PreviewArgs;
 use crate::Outcome;
@@ -17,8 +19,8 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
     let mut failed = 0;
     for input in &a.inputs {
         let result = (|| -> anyhow::Result<()> {
-            let (shape, data) = read_f32(input)?;
-            let img = kitti2pgm::preview::render(&shape, &data)
+            let map = pgm::read(input)?;
+            let img = kitti2pgm::draw::preview::render(&map, &class_map(input)?)
                 .with_context(|| input.display().to_string())?;
             let out = if single_file {
                 a.out.clone()
@@ -26,7 +28,7 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
                 let stem = input.file_stem().context("input has no file name")?;
                 a.out.join(stem).with_extension("png")
             };
-            kitti2pgm::write::write_png(&out, &img)?;
+            png::write(&out, &img)?;
             Ok(())
         })();
         if let Err(e) = result {
@@ -41,5 +43,17 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
         Outcome::Partial
     } else {
         Outcome::Ok
+    })
+}
+
+/// The class map of a converted frame: its convert folder's (`OUT/lidar_2d/<id>.npy`), else
+/// the paper's.
+fn class_map(npy: &std::path::Path) -> anyhow::Result<ClassMap> {
+    let out = npy.parent().and_then(|d| d.parent()).map(OutputDir::new);
+    Ok(match out {
+        Some(o) => summary::read(&o.summary_path())?
+            .map(|s| s.params.map.class_map)
+            .unwrap_or_default(),
+        None => ClassMap::default(),
     })
 }

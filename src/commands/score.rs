@@ -1,105 +1,34 @@
 //! `kitti2pgm score`: the CLI over [`kitti2pgm::report::score`].
 
+use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
 use anyhow::Context;
-use kitti2pgm::label::Class;
-use kitti2pgm::pipeline::SUMMARY_FILE;
-use kitti2pgm::project::PgmSpec;
-use kitti2pgm::report::imageset;
+use kitti2pgm::draw::charts::{confusion_chart, frame_chart};
+use kitti2pgm::format::{imageset, png};
+use kitti2pgm::kitti::FrameId;
+use kitti2pgm::label::ClassMap;
 use kitti2pgm::report::score::{
-    confusion_chart, frame_chart, report, score, score_frame, score_shards, Predictions, Protocol,
-    ScoreOptions, ScoreReport,
+    report, score, worst, Predictions, Protocol, ScoreOptions, ScoreReport,
 };
-use kitti2pgm::report::stats::{converted_frames, npy_path};
-use kitti2pgm::write::write_png;
+use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
 use super::{progress, Global};
 use crate::cli::ScoreArgs;
 use crate::Outcome;
 
-/// The map the ground truth was made with: its convert summary's, else the default with the
-/// first frame's rows and columns.
-fn gt_spec(a: &ScoreArgs, first: &kitti2pgm::kitti::FrameId) -> anyhow::Result<PgmSpec> {
-    let summary = a.gt.join(SUMMARY_FILE);
-    if let Ok(text) = std::fs::read_to_string(&summary) {
-        let v: serde_json::Value = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not JSON", summary.display()))?;
-        if !v["spec"].is_null() {
-            return serde_json::from_value(v["spec"].clone()).with_context(|| {
-                format!("{}: `spec` is not a map specification", summary.display())
-            });
-        }
-    }
-    let (shape, _) = kitti2pgm::write::npy::read_f32(&npy_path(&a.gt, first))?;
-    Ok(PgmSpec {
-        rows: shape[0] as usize,
-        cols: shape[1] as usize,
-        ..PgmSpec::default()
-    })
-}
-
-fn png(img: &image::RgbImage, path: &std::path::Path) -> anyhow::Result<()> {
-    Ok(write_png(path, img)?)
-}
-
-/// Ground truth shards, when `--gt` names shards (a .mcap file, a folder of them, or a convert
-/// folder holding only shards/).
-fn gt_shards(gt: &std::path::Path) -> anyhow::Result<Option<Vec<std::path::PathBuf>>> {
-    if gt.is_file() && gt.extension().is_some_and(|e| e == "mcap") {
-        return Ok(Some(vec![gt.to_path_buf()]));
-    }
-    if !gt.is_dir() {
-        anyhow::bail!("{}: no such ground-truth folder or shard", gt.display());
-    }
-    if gt.join("lidar_2d").is_dir() {
-        return Ok(None);
-    }
-    for dir in [gt.to_path_buf(), gt.join("shards")] {
-        let mut v: Vec<_> = std::fs::read_dir(&dir)
-            .into_iter()
-            .flatten()
-            .flatten()
-            .map(|e| e.path())
-            .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
-            .collect();
-        if !v.is_empty() {
-            v.sort();
-            return Ok(Some(v));
-        }
-    }
-    anyhow::bail!(
-        "{}: neither a convert output folder (lidar_2d/) nor shards (*.mcap)",
-        gt.display()
-    )
-}
-
-fn shard_spec(first: &std::path::Path) -> anyhow::Result<PgmSpec> {
-    let md = kitti2pgm::write::shard::Shard::open(first)?.metadata()?;
-    let v: serde_json::Value = serde_json::from_str(&md.params)
-        .with_context(|| format!("{}: shard parameters are not JSON", first.display()))?;
-    serde_json::from_value(v["spec"].clone()).with_context(|| {
-        format!(
-            "{}: no map specification in the shard parameters",
-            first.display()
-        )
-    })
-}
-
 pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     let preds = Predictions::index(&a.pred)?;
-    let shards = gt_shards(&a.gt)?;
-    let listed = a.imageset.as_ref().map(|l| imageset::read(l)).transpose()?;
-    let spec = match (&shards, &listed) {
-        (Some(s), _) => shard_spec(&s[0])?,
-        (None, Some(l)) => gt_spec(&a, l.first().context("the ImageSet list is empty")?)?,
-        (None, None) => gt_spec(
-            &a,
-            converted_frames(&a.gt)?
-                .first()
-                .context("no converted frame")?,
-        )?,
-    };
+    let gt = GroundTruth::open(&a.gt)?;
+    if gt.provenance == Provenance::Assumed {
+        eprintln!("kitti2pgm: {}", gt.provenance_note());
+    }
+    let only: Option<BTreeSet<FrameId>> = a
+        .imageset
+        .as_ref()
+        .map(|l| imageset::read(l))
+        .transpose()?
+        .map(|l| l.into_iter().collect());
     let opts = ScoreOptions {
         protocol: if a.points {
             Protocol::Points
@@ -108,99 +37,59 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         },
         missing_as_background: a.missing_as_background,
         raw: a.raw.clone(),
-        spec,
     };
+    let map = &gt.params.class_map;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(g.threads)
         .build()?;
     let context = || format!("scoring {} against {}", a.pred.display(), a.gt.display());
-    let (scores, frames): (Vec<_>, Vec<kitti2pgm::kitti::FrameId>) = match &shards {
-        Some(sh) => {
-            let pb = progress::bar(
-                listed.as_ref().map_or(0, |l| l.len() as u64),
-                g.progress,
-                "scoring",
-            );
-            let only: Option<std::collections::BTreeSet<_>> =
-                listed.clone().map(|l| l.into_iter().collect());
-            let (s, _) = pool
-                .install(|| {
-                    score_shards(
-                        sh,
-                        only.as_ref(),
-                        &preds,
-                        &opts,
-                        &Default::default(),
-                        &|n| pb.inc(n),
-                    )
-                })
-                .with_context(context)?;
-            pb.finish_and_clear();
-            let ids = s
-                .iter()
-                .map(|x| x.id.parse().expect("ids come from the shards"))
-                .collect();
-            (s, ids)
-        }
-        None => {
-            let frames = match listed.clone() {
-                Some(l) => l,
-                None => converted_frames(&a.gt)?,
-            };
-            let pb = progress::bar(frames.len() as u64, g.progress, "scoring");
-            let s = pool
-                .install(|| score(&a.gt, &frames, &preds, &opts, &|n| pb.inc(n)))
-                .with_context(context)?;
-            pb.finish_and_clear();
-            (s, frames)
-        }
-    };
-    let rep = report(opts.protocol, &scores, a.per_frame);
+    let total = only.as_ref().map_or(gt.frames.len(), |o| o.len());
+    let pb = progress::bar(total as u64, g.progress, "scoring");
+    let none = BTreeSet::new();
+    let (scores, _) = pool
+        .install(|| score(&gt, only.as_ref(), &preds, &opts, &none, &|n| pb.inc(n)))
+        .with_context(context)?;
+    pb.finish_and_clear();
+    let rep = report(opts.protocol, &scores, map, a.per_frame);
     if let Some(p) = &a.confusion {
-        png(&confusion_chart(&rep.confusion), p)?;
+        png::write(p, &confusion_chart(&rep.confusion, map))?;
     }
     if let Some(n) = a.worst {
-        let mut ranked: Vec<(f64, usize)> = scores
-            .iter()
-            .enumerate()
-            .filter_map(|(i, s)| s.confusion.miou_present().map(|m| (m, i)))
-            .collect();
-        ranked.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-        ranked.truncate(n);
+        let ranked = worst(&scores, n, map);
         std::fs::create_dir_all(&a.worst_dir)
             .with_context(|| format!("creating {}", a.worst_dir.display()))?;
-        let mut maps = match &shards {
-            Some(sh) => {
-                let want: std::collections::BTreeSet<String> =
-                    ranked.iter().map(|(_, i)| scores[*i].id.clone()).collect();
-                let only: std::collections::BTreeSet<_> =
-                    ranked.iter().map(|(_, i)| frames[*i].clone()).collect();
-                pool.install(|| score_shards(sh, Some(&only), &preds, &opts, &want, &|_| {}))?
-                    .1
-            }
-            None => Default::default(),
-        };
-        for (rank, (m, i)) in ranked.iter().enumerate() {
-            let id = &frames[*i];
-            let frame_maps = match maps.remove(&id.to_string()) {
-                Some(fm) => fm,
-                None => score_frame(&a.gt, id, &preds, &opts, true)?
-                    .1
-                    .expect("asked for"),
-            };
-            let img = frame_chart(&id.to_string(), &frame_maps, spec.rows, spec.cols, Some(*m));
-            png(&img, &a.worst_dir.join(format!("{:03}_{id}.png", rank + 1)))?;
+        let ids: BTreeSet<FrameId> = ranked
+            .iter()
+            .map(|(i, _)| {
+                scores[*i]
+                    .id
+                    .parse()
+                    .expect("ids come from the ground truth")
+            })
+            .collect();
+        let (_, mut maps) = pool
+            .install(|| score(&gt, Some(&ids), &preds, &opts, &ids, &|_| {}))
+            .with_context(context)?;
+        let shape = (gt.params.spec.rows, gt.params.spec.cols);
+        for (rank, (i, m)) in ranked.iter().enumerate() {
+            let id: FrameId = scores[*i]
+                .id
+                .parse()
+                .expect("ids come from the ground truth");
+            let frame_maps = maps.remove(&id).expect("asked for");
+            let img = frame_chart(&id.to_string(), &frame_maps, shape, Some(*m), map);
+            png::write(&a.worst_dir.join(format!("{:03}_{id}.png", rank + 1)), &img)?;
         }
     }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
     } else {
-        print!("{}", table(&rep));
+        print!("{}", table(&rep, map));
     }
     Ok(Outcome::Ok)
 }
 
-fn table(r: &ScoreReport) -> String {
+fn table(r: &ScoreReport, map: &ClassMap) -> String {
     let mut t = String::new();
     let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into());
     let what = if r.protocol == Protocol::Cells {
@@ -218,12 +107,12 @@ fn table(r: &ScoreReport) -> String {
         "\n{:<12} {:>8} {:>10} {:>8} {:>12}",
         "class", "IoU", "precision", "recall", "support"
     );
-    for c in Class::ALL {
-        let s = &r.classes[c.name()];
+    for name in map.names() {
+        let s = &r.classes[name];
         let _ = writeln!(
             t,
             "{:<12} {:>8} {:>10} {:>8} {:>12}",
-            c.name(),
+            name,
             f(s.iou),
             f(s.precision),
             f(s.recall),
@@ -232,39 +121,35 @@ fn table(r: &ScoreReport) -> String {
     }
     let _ = writeln!(
         t,
-        "\nmIoU (car, pedestrian, cyclist; absent classes left out): {:.4}",
+        "\nmIoU ({}; absent classes left out): {:.4}",
+        r.miou_classes.join(", "),
         r.miou
     );
     let _ = writeln!(t, "\nconfusion (rows: truth, columns: prediction)");
     let _ = write!(t, "{:<12}", "");
-    for c in Class::ALL {
-        let _ = write!(t, "{:>13}", c.name());
+    for name in map.names() {
+        let _ = write!(t, "{name:>13}");
     }
     let _ = writeln!(t);
-    for g in Class::ALL {
-        let _ = write!(t, "{:<12}", g.name());
-        for p in Class::ALL {
-            let _ = write!(t, "{:>13}", r.confusion.m[g as usize][p as usize]);
+    for (g, name) in map.names().iter().enumerate() {
+        let _ = write!(t, "{name:<12}");
+        for v in &r.confusion.m[g] {
+            let _ = write!(t, "{v:>13}");
         }
         let _ = writeln!(t);
     }
     if let Some(pf) = &r.per_frame {
-        let _ = writeln!(
-            t,
-            "\n{:<28} {:>8} {:>8} {:>11} {:>8} {:>10}",
-            "frame", "car", "ped", "cyclist", "mIoU*", "elements"
-        );
+        let _ = write!(t, "\n{:<28}", "frame");
+        for name in &r.miou_classes {
+            let _ = write!(t, " {:>11}", name.chars().take(11).collect::<String>());
+        }
+        let _ = writeln!(t, " {:>8} {:>10}", "mIoU*", "elements");
         for p in pf {
-            let _ = writeln!(
-                t,
-                "{:<28} {:>8} {:>8} {:>11} {:>8} {:>10}",
-                p.id,
-                f(p.iou["car"]),
-                f(p.iou["pedestrian"]),
-                f(p.iou["cyclist"]),
-                f(p.miou_present),
-                p.elements
-            );
+            let _ = write!(t, "{:<28}", p.id);
+            for name in &r.miou_classes {
+                let _ = write!(t, " {:>11}", f(p.iou[name]));
+            }
+            let _ = writeln!(t, " {:>8} {:>10}", f(p.miou_present), p.elements);
         }
         let _ = writeln!(t, "(* mean over the object classes present in the frame)");
     }

@@ -1,10 +1,10 @@
-//! `kitti2pgm split`: the CLI over [`kitti2pgm::report::split`].
+//! `kitti2pgm split`: the CLI over [`kitti2pgm::plan::split`].
 
 use anyhow::Context;
-use kitti2pgm::pipeline::FrameSelection;
-use kitti2pgm::report::imageset;
-use kitti2pgm::report::split::split;
-use kitti2pgm::write::{atomic_write, create_dir};
+use kitti2pgm::format::layout::OutputDir;
+use kitti2pgm::format::{create_dir, imageset};
+use kitti2pgm::plan::split::split;
+use kitti2pgm::plan::FrameSelection;
 
 use crate::cli::SplitArgs;
 use crate::Outcome;
@@ -18,18 +18,14 @@ pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
     };
     let lists = split(&a.raw_root, selection, &rule)
         .with_context(|| format!("reading {}", a.raw_root.display()))?;
-    let dir = a.out.join("ImageSet");
+    let dir = OutputDir::new(&a.out).imageset_dir();
     create_dir(&dir)?;
     for (name, ids) in [
         ("all", &lists.all),
         ("train", &lists.train),
         ("val", &lists.val),
     ] {
-        atomic_write(
-            &dir.join(format!("{name}.txt")),
-            imageset::to_text(ids).as_bytes(),
-            false,
-        )?;
+        imageset::write(&dir.join(format!("{name}.txt")), ids)?;
     }
     if a.json {
         let j = serde_json::json!({

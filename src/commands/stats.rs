@@ -4,9 +4,10 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Context;
-use kitti2pgm::label::Class;
-use kitti2pgm::report::imageset;
-use kitti2pgm::report::stats::{balance_chart, stats, SplitFrames, Stats};
+use kitti2pgm::draw::charts::balance_chart;
+use kitti2pgm::format::{imageset, png};
+use kitti2pgm::report::stats::{stats, SplitFrames, Stats};
+use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
 use super::{progress, Global};
 use crate::cli::StatsArgs;
@@ -47,11 +48,13 @@ fn split_lists(paths: &[std::path::PathBuf]) -> anyhow::Result<Vec<SplitFrames>>
 }
 
 pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
+    let gt = GroundTruth::open(&a.dir)?;
+    if gt.provenance == Provenance::Assumed {
+        eprintln!("kitti2pgm: {}", gt.provenance_note());
+    }
     let splits = split_lists(&a.imageset)?;
     let total = if splits.is_empty() {
-        kitti2pgm::report::stats::converted_frames(&a.dir)
-            .map(|v| v.len())
-            .unwrap_or(0)
+        gt.frames.len()
     } else {
         splits.iter().map(|s| s.frames.len()).sum()
     };
@@ -60,11 +63,11 @@ pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
         .num_threads(g.threads)
         .build()?;
     let s = pool
-        .install(|| stats(&a.dir, &splits, a.raw.as_deref(), &|n| pb.inc(n)))
+        .install(|| stats(&gt, &splits, a.raw.as_deref(), &|n| pb.inc(n)))
         .with_context(|| format!("statistics of {}", a.dir.display()))?;
     pb.finish_and_clear();
-    if let Some(png) = &a.chart {
-        kitti2pgm::write::write_png(png, &balance_chart(&s))?;
+    if let Some(chart) = &a.chart {
+        png::write(chart, &balance_chart(&s, &s.class_map))?;
     }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
@@ -105,59 +108,59 @@ fn table(s: &Stats, chart: Option<&Path>) -> String {
             format!("{:.1}%", 100.0 * s.splits[n].rgb_coverage.unwrap_or(0.0))
         });
     }
-    for c in Class::ALL {
-        row(&mut t, &format!("{} cells", c.name()), &|n| {
-            s.splits[n].cells[c.name()].to_string()
+    let map = &s.class_map;
+    let all = map.names();
+    let labelled: Vec<&str> = map.labelled().into_iter().map(|c| map.name(c)).collect();
+    for c in &all {
+        row(&mut t, &format!("{c} cells"), &|n| {
+            s.splits[n].cells[*c].to_string()
         });
     }
     if s.splits.values().all(|x| x.points.is_some()) {
-        for c in Class::ALL {
-            row(&mut t, &format!("{} points", c.name()), &|n| {
+        for c in &all {
+            row(&mut t, &format!("{c} points"), &|n| {
                 s.splits[n]
                     .points
                     .as_ref()
-                    .map(|p| p[c.name()].to_string())
+                    .map(|p| p[*c].to_string())
                     .unwrap_or_default()
             });
         }
     }
-    for c in &Class::ALL[1..] {
-        row(&mut t, &format!("{} % of labelled cells", c.name()), &|n| {
-            format!(
-                "{:.2}%",
-                100.0 * s.splits[n].share_of_labelled_cells[c.name()]
-            )
+    for c in &labelled {
+        row(&mut t, &format!("{c} % of labelled cells"), &|n| {
+            format!("{:.2}%", 100.0 * s.splits[n].share_of_labelled_cells[*c])
         });
-        row(&mut t, &format!("{} frames", c.name()), &|n| {
-            s.splits[n].frames_with[c.name()].to_string()
+        row(&mut t, &format!("{c} frames"), &|n| {
+            s.splits[n].frames_with[*c].to_string()
         });
     }
     if s.splits.values().all(|x| x.tracklets.is_some()) {
-        for c in &Class::ALL[1..] {
-            row(&mut t, &format!("{} instances", c.name()), &|n| {
+        for c in &labelled {
+            row(&mut t, &format!("{c} instances"), &|n| {
                 s.splits[n]
                     .tracklets
                     .as_ref()
-                    .map(|x| x.instances[c.name()].to_string())
+                    .map(|x| x.instances[*c].to_string())
                     .unwrap_or_default()
             });
-            row(&mut t, &format!("{} poses", c.name()), &|n| {
+            row(&mut t, &format!("{c} poses"), &|n| {
                 s.splits[n]
                     .tracklets
                     .as_ref()
-                    .map(|x| x.poses[c.name()].to_string())
+                    .map(|x| x.poses[*c].to_string())
                     .unwrap_or_default()
             });
         }
     }
     if names.len() > 1 {
         let _ = writeln!(t, "\nshare of each class's cells per split");
-        for c in &Class::ALL[1..] {
+        for c in &labelled {
             let shares: Vec<String> = names
                 .iter()
-                .map(|n| format!("{n} {:.1}%", 100.0 * s.class_split_share[c.name()][n]))
+                .map(|n| format!("{n} {:.1}%", 100.0 * s.class_split_share[*c][n]))
                 .collect();
-            let _ = writeln!(t, "  {:<12} {}", c.name(), shares.join("  "));
+            let _ = writeln!(t, "  {c:<12} {}", shares.join("  "));
         }
     }
     let nm = &s.normalisation;
@@ -178,7 +181,8 @@ fn table(s: &Stats, chart: Option<&Path>) -> String {
     let w = &s.class_weights;
     let _ = writeln!(
         t,
-        "\nclass weights (background, car, pedestrian, cyclist; from {})",
+        "\nclass weights ({}; from {})",
+        all.join(", "),
         w.from_split
     );
     let _ = writeln!(
@@ -191,16 +195,14 @@ fn table(s: &Stats, chart: Option<&Path>) -> String {
         "  sqrt inverse frequency  [{}]",
         fmt(&w.sqrt_inverse_frequency)
     );
-    let _ = writeln!(
-        t,
-        "  SqueezeSeg default      [{}]",
-        fmt(&w.squeezeseg_default)
-    );
+    if let Some(r) = &w.reference {
+        let _ = writeln!(t, "  reference (SqueezeSeg)  [{}]", fmt(r));
+    }
     if let Some(cs) = &s.convert_summary {
         let _ = writeln!(
             t,
             "\nconversion: {} collisions, {} ring fallbacks",
-            cs["collisions"], cs["ring_fallbacks"]
+            cs.projection.collisions, cs.projection.ring_fallbacks
         );
     }
     if let Some(p) = chart {

@@ -41,6 +41,18 @@ pub struct FrameId {
     pub frame: u32,
 }
 
+impl FrameId {
+    /// The drive folder of the frame, `<date>_drive_<NNNN>_sync`.
+    pub fn drive_name(&self) -> String {
+        drive_name(&self.date, self.drive)
+    }
+}
+
+/// The drive folder name `<date>_drive_<NNNN>_sync`: the one place it is spelled.
+pub fn drive_name(date: &str, number: u32) -> String {
+    format!("{date}_drive_{number:04}_sync")
+}
+
 impl fmt::Display for FrameId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}_{:04}_{:010}", self.date, self.drive, self.frame)
@@ -113,7 +125,7 @@ impl Drive {
 
     /// `<date>_drive_<NNNN>_sync`.
     pub fn name(&self) -> String {
-        format!("{}_drive_{:04}_sync", self.date, self.number)
+        drive_name(&self.date, self.number)
     }
 
     /// The date folder holding the calibration files.

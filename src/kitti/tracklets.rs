@@ -16,7 +16,6 @@ use roxmltree::Node;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::label::Class;
 
 /// The annotated object type (`objectType`).
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -69,17 +68,6 @@ impl ObjectType {
             ObjectType::Tram => "Tram",
             ObjectType::Misc => "Misc",
             ObjectType::Other(s) => s,
-        }
-    }
-
-    /// The segmentation class of this type (Car, Van, Truck -> car; Pedestrian,
-    /// Person (sitting) -> pedestrian; Cyclist -> cyclist; the rest -> background).
-    pub fn class(&self) -> Class {
-        match self {
-            ObjectType::Car | ObjectType::Van | ObjectType::Truck => Class::Car,
-            ObjectType::Pedestrian | ObjectType::PersonSitting => Class::Pedestrian,
-            ObjectType::Cyclist => Class::Cyclist,
-            _ => Class::Background,
         }
     }
 }

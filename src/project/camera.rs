@@ -85,3 +85,12 @@ impl CameraProjector {
         }
     }
 }
+
+/// Colour channels: which camera, how sampled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+pub struct RgbOptions {
+    /// Camera 2 (left colour, default) or 3 (right colour).
+    pub camera: u8,
+    /// Sampling rule.
+    pub sampling: Sampling,
+}

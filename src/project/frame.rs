@@ -1,20 +1,16 @@
 //! PROJECT: the channels of one converted frame, assembled from a scan, its labels and the
 //! cell assignment of [`super::project`].
 //!
-//! The tensor is H x W x C float32 in row-major (HWC) order with SqueezeSeg's channel order:
-//! x, y, z, intensity, range, label, then r, g, b when colour is on. Empty cells are all zeros,
-//! which is what SqueezeSeg's loader expects (its mask is `range > 0`).
+//! The tensor is H x W x C float32 in row-major (HWC) order with SqueezeSeg's channel order
+//! ([`Channels::npy`]): x, y, z, intensity, range, label, then r, g, b when colour is on. Empty
+//! cells are all zeros, which is what SqueezeSeg's loader expects (its mask is `range > 0`).
 
 use serde::Serialize;
 
+use super::channels::{Channel, Channels};
 use super::{Projection, EMPTY};
 use crate::kitti::velodyne::Scan;
-use crate::label::{Class, PointLabels};
-
-/// Channel names of the LiDAR-only tensor, in order.
-pub const LIDAR_CHANNELS: [&str; 6] = ["x", "y", "z", "intensity", "range", "label"];
-/// Channel names of the tensor with colour, in order.
-pub const RGB_CHANNELS: [&str; 9] = ["x", "y", "z", "intensity", "range", "label", "r", "g", "b"];
+use crate::label::{ClassCounts, ClassId, PointLabels};
 
 /// One frame as a Polar Grid Map.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -23,13 +19,13 @@ pub struct PgmFrame {
     pub rows: usize,
     /// Columns.
     pub cols: usize,
-    /// Channel names, in tensor order.
-    pub channels: Vec<&'static str>,
+    /// Channel of each plane of `data`.
+    pub channels: Channels,
     /// H x W x C float32, row-major.
     pub data: Vec<f32>,
     /// Class id per cell.
-    pub label: Vec<u8>,
-    /// Instance id per cell (tracklet index + 1, 0 for none).
+    pub label: Vec<ClassId>,
+    /// Instance id per cell (box index + 1, 0 for none).
     pub instance: Vec<u16>,
     /// 1 where the cell holds a point (range > 0).
     pub mask: Vec<u8>,
@@ -43,15 +39,10 @@ impl PgmFrame {
         self.channels.len()
     }
 
-    /// Cells per class, indexed by class id (valid cells only).
-    pub fn class_cells(&self) -> [u64; Class::COUNT] {
-        let mut c = [0u64; Class::COUNT];
-        for (l, m) in self.label.iter().zip(&self.mask) {
-            if *m != 0 {
-                c[*l as usize] += 1;
-            }
-        }
-        c
+    /// Valid cells per class among `n` classes.
+    pub fn class_cells(&self, n: usize) -> ClassCounts {
+        let valid = self.label.iter().zip(&self.mask).filter(|(_, m)| **m != 0);
+        ClassCounts::count(n, valid.map(|(l, _)| *l))
     }
 }
 
@@ -62,14 +53,19 @@ pub fn assemble(
     proj: &Projection,
     colour: Option<&dyn Fn(usize) -> Option<[f32; 3]>>,
 ) -> PgmFrame {
-    let depth = if colour.is_some() {
-        RGB_CHANNELS.len()
-    } else {
-        LIDAR_CHANNELS.len()
-    };
+    let channels = Channels::npy(colour.is_some());
+    let depth = channels.len();
+    let at = |c: Channel| channels.index(c).expect("an .npy layout channel");
+    let (x, intensity, range_at, label_at) = (
+        at(Channel::X),
+        at(Channel::Intensity),
+        at(Channel::Range),
+        at(Channel::Label),
+    );
+    let rgb_at = channels.index(Channel::R);
     let cells = proj.spec.cells();
     let mut data = vec![0f32; cells * depth];
-    let mut label = vec![0u8; cells];
+    let mut label = vec![0 as ClassId; cells];
     let mut instance = vec![0u16; cells];
     let mut mask = vec![0u8; cells];
     let mut rgb_valid = colour.map(|_| vec![0u8; cells]);
@@ -82,22 +78,20 @@ pub fn assemble(
         let range = proj.cell_range[c];
         let out = &mut data[c * depth..(c + 1) * depth];
         let class = labels.class[i];
-        out[..6].copy_from_slice(&[p.x, p.y, p.z, scan.reflectance[i], range, class.id() as f32]);
-        label[c] = class.id();
+        out[x..x + 3].copy_from_slice(&[p.x, p.y, p.z]);
+        out[intensity] = scan.reflectance[i];
+        out[range_at] = range;
+        out[label_at] = class as f32;
+        label[c] = class;
         instance[c] = labels.instance[i];
         mask[c] = (range > 0.0) as u8;
-        if let (Some(f), Some(valid)) = (colour, rgb_valid.as_mut()) {
+        if let (Some(f), Some(valid), Some(r)) = (colour, rgb_valid.as_mut(), rgb_at) {
             if let Some(rgb) = f(i) {
-                out[6..9].copy_from_slice(&rgb);
+                out[r..r + 3].copy_from_slice(&rgb);
                 valid[c] = 1;
             }
         }
     }
-    let channels = if depth == RGB_CHANNELS.len() {
-        RGB_CHANNELS.to_vec()
-    } else {
-        LIDAR_CHANNELS.to_vec()
-    };
     PgmFrame {
         rows: proj.spec.rows,
         cols: proj.spec.cols,

@@ -18,9 +18,13 @@
 //! the losers are counted as collisions.
 
 pub mod camera;
+pub mod channels;
 pub mod frame;
 
-use serde::Serialize;
+pub use channels::{Channel, Channels};
+pub use frame::PgmFrame;
+
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::geom::{floor_i64, Degrees, Point3};
@@ -29,7 +33,7 @@ use crate::geom::{floor_i64, Degrees, Point3};
 pub const LASERS: usize = 64;
 
 /// How rows are assigned.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum RowMode {
     /// Rings recovered from the scan order, elevation binning as the fallback (the default).
     Rings,
@@ -38,7 +42,7 @@ pub enum RowMode {
 }
 
 /// Shape and field of view of the map.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PgmSpec {
     /// Rows (default 64).
     pub rows: usize,
@@ -157,6 +161,42 @@ pub fn rings(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
     ((found == LASERS).then_some(ring), found)
 }
 
+/// What projecting scans found; added up over frames for the conversion summary.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ProjectionStats {
+    /// Points in the field of view.
+    pub in_fov: u64,
+    /// Cells holding a point.
+    pub filled_cells: u64,
+    /// Cells of the maps.
+    pub total_cells: u64,
+    /// Points that lost their cell to a nearer one.
+    pub collisions: u64,
+    /// Frames whose rows came from elevation binning because the rings were not usable.
+    pub ring_fallbacks: u64,
+}
+
+impl ProjectionStats {
+    /// Filled cells over all cells (0 without cells).
+    pub fn fill_ratio(&self) -> f64 {
+        if self.total_cells == 0 {
+            0.0
+        } else {
+            self.filled_cells as f64 / self.total_cells as f64
+        }
+    }
+}
+
+impl std::ops::AddAssign<&ProjectionStats> for ProjectionStats {
+    fn add_assign(&mut self, o: &ProjectionStats) {
+        self.in_fov += o.in_fov;
+        self.filled_cells += o.filled_cells;
+        self.total_cells += o.total_cells;
+        self.collisions += o.collisions;
+        self.ring_fallbacks += o.ring_fallbacks;
+    }
+}
+
 /// Sentinel of an empty cell in [`Projection::cell_point`].
 pub const EMPTY: u32 = u32::MAX;
 
@@ -172,16 +212,17 @@ pub struct Projection {
     /// The cell of every point ([`EMPTY`] outside the field of view); empty unless asked for
     /// with [`project_with_point_cells`].
     pub point_cell: Vec<u32>,
-    /// Points that fell in the field of view.
-    pub in_fov: u64,
-    /// Cells holding a point.
-    pub filled: u64,
-    /// Points that lost their cell to a nearer one.
-    pub collisions: u64,
+    /// Counts (one frame's: `ring_fallbacks` is 0 or 1).
+    pub stats: ProjectionStats,
     /// Rings seen in the scan order.
     pub rings_found: usize,
+}
+
+impl Projection {
     /// Whether rows came from elevation binning because the rings were not usable.
-    pub fallback: bool,
+    pub fn fallback(&self) -> bool {
+        self.stats.ring_fallbacks > 0
+    }
 }
 
 /// Projects a scan's points onto the map.
@@ -239,11 +280,14 @@ fn project_impl(points: &[Point3], spec: &PgmSpec, keep_point_cells: bool) -> Pr
         cell_point,
         cell_range,
         point_cell,
-        in_fov,
-        filled,
-        collisions: in_fov - filled,
+        stats: ProjectionStats {
+            in_fov,
+            filled_cells: filled,
+            total_cells: spec.cells() as u64,
+            collisions: in_fov - filled,
+            ring_fallbacks: fallback as u64,
+        },
         rings_found,
-        fallback,
     }
 }
 
@@ -308,8 +352,8 @@ mod tests {
             ..Default::default()
         };
         let p = project(&pts, &spec);
-        assert_eq!(p.filled, 1);
-        assert_eq!(p.collisions, 2);
+        assert_eq!(p.stats.filled_cells, 1);
+        assert_eq!(p.stats.collisions, 2);
         let c = p.cell_point.iter().position(|&c| c != EMPTY).unwrap();
         assert_eq!(p.cell_point[c], 1);
         assert_eq!(p.cell_range[c], 10.0);

@@ -6,8 +6,8 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::error::Result;
-use crate::label::Class;
-use crate::write::shard::{Shard, ShardMetadata, FRAME_TOPIC};
+use crate::format::shard::{Shard, ShardMetadata, FRAME_TOPIC};
+use crate::label::ClassCounts;
 
 /// The inspection of one shard.
 #[derive(Debug, Clone, Serialize)]
@@ -34,21 +34,35 @@ pub struct ShardInfo {
     pub compression: Vec<String>,
     /// uncompressed / compressed chunk bytes.
     pub compression_ratio: f64,
-    /// Valid cells per class.
-    pub class_cells: BTreeMap<&'static str, u64>,
+    /// Valid cells per class (names from the class map in the metadata).
+    pub class_cells: BTreeMap<String, u64>,
     /// The kitti2pgm metadata record.
     pub metadata: ShardMetadata,
 }
 
-/// Inspects a shard, decoding every frame. Fails, naming the shard and the frame, on a truncated
-/// or corrupted shard.
+/// Inspects a shard, decoding every frame (streamed). Fails, naming the shard and the frame, on
+/// a truncated or corrupted shard, or a label that is not a class of its map.
 pub fn inspect(path: &Path) -> Result<ShardInfo> {
     let shard = Shard::open(path)?;
     let summary = shard.summary()?;
     let metadata = shard.metadata()?;
-    let (frames, err) = shard.frames();
-    if let Some(e) = err {
-        return Err(e);
+    let map = &metadata.params.map.class_map;
+    let mut cells = ClassCounts::zeros(map.len());
+    let (mut count, mut first, mut last) = (0u64, None, None);
+    for f in shard.frame_iter() {
+        let f = f?;
+        for (i, (l, m)) in f.label.iter().zip(&f.mask).enumerate() {
+            if *m != 0 {
+                map.check(*l as u64, path, || format!("frame {}, cell {i}", f.id))?;
+                cells.0[*l as usize] += 1;
+            }
+        }
+        count += 1;
+        if first.is_none() {
+            first = Some(f);
+        } else {
+            last = Some(f.id);
+        }
     }
     let mut topics = BTreeMap::new();
     if let Some(stats) = &summary.stats {
@@ -72,27 +86,16 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
             compression.push(name);
         }
     }
-    let mut cells = [0u64; Class::COUNT];
-    for f in &frames {
-        for (l, m) in f.label.iter().zip(&f.mask) {
-            if *m != 0 {
-                cells[(*l as usize).min(Class::COUNT - 1)] += 1;
-            }
-        }
-    }
     Ok(ShardInfo {
         path: path.display().to_string(),
-        frames: topics
-            .get(FRAME_TOPIC)
-            .copied()
-            .unwrap_or(frames.len() as u64),
-        first_frame: frames.first().map(|f| f.id.clone()),
-        last_frame: frames.last().map(|f| f.id.clone()),
-        shape: frames.first().map(|f| [f.height, f.width]),
-        channels: frames
-            .first()
+        frames: topics.get(FRAME_TOPIC).copied().unwrap_or(count),
+        last_frame: last.or_else(|| first.as_ref().map(|f| f.id.clone())),
+        shape: first.as_ref().map(|f| [f.height, f.width]),
+        channels: first
+            .as_ref()
             .map(|f| f.channels.clone())
             .unwrap_or_default(),
+        first_frame: first.map(|f| f.id),
         topics,
         file_bytes: shard.bytes().len() as u64,
         uncompressed_bytes: uncompressed,
@@ -102,10 +105,7 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
         } else {
             uncompressed as f64 / compressed as f64
         },
-        class_cells: Class::ALL
-            .iter()
-            .map(|c| (c.name(), cells[*c as usize]))
-            .collect(),
+        class_cells: map.keyed(&cells.0),
         metadata,
     })
 }

@@ -1,8 +1,8 @@
-//! REPORTS over what was written (and the raw tracklets): the train/val split ([`split`]) and the
-//! class and channel statistics ([`stats`]).
+//! REPORTS over what was written: ground truth opened whatever its form ([`truth`]), class and
+//! channel statistics ([`stats`]), IoU scoring of predictions ([`score`]) and what a shard holds
+//! ([`inspect`]). The split lists are made on the input side ([`crate::plan::split`]).
 
-pub mod imageset;
 pub mod inspect;
 pub mod score;
-pub mod split;
 pub mod stats;
+pub mod truth;

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use kitti2pgm::write::npy::read_f32;
+use kitti2pgm::format::npy::read_f32;
 
 use crate::util::*;
 
@@ -190,7 +190,7 @@ fn summary_table_and_preview() {
     let img = image::open(&png).unwrap().to_rgb8();
     assert_eq!((img.width(), img.height()), (512, 4 * 128 + 3 * 4));
     // The label panel (last) shows car green somewhere.
-    let green = kitti2pgm::label::Class::Car.colour();
+    let green = kitti2pgm::label::ClassMap::kitti_paper().colour(1);
     assert!((0..512).any(|x| (392..520).any(|y| img.get_pixel(x, y).0 == green)));
     // A folder output for several inputs.
     let dir = t.path().join("pngs");

@@ -38,7 +38,7 @@ fn row_elevation_falls_from_top_to_bottom() {
     for (_, path) in scans() {
         let scan = Scan::read(&path).unwrap();
         let proj = project(&scan.points, &PgmSpec::default());
-        assert!(!proj.fallback);
+        assert!(!proj.fallback());
         let mut medians = Vec::new();
         for r in 0..64 {
             let mut el: Vec<f64> = (0..512)
@@ -91,7 +91,7 @@ fn fill_ratio_matches_the_real_scans() {
     for (drive, path) in scans() {
         let scan = Scan::read(&path).unwrap();
         let rings = project(&scan.points, &PgmSpec::default());
-        let fill = rings.filled as f64 / (64.0 * 512.0);
+        let fill = rings.stats.filled_cells as f64 / (64.0 * 512.0);
         let range = if drive.number == 1 {
             0.86..0.88
         } else {
@@ -105,13 +105,16 @@ fn fill_ratio_matches_the_real_scans() {
                 ..Default::default()
             },
         );
-        let binned_fill = binned.filled as f64 / (64.0 * 512.0);
+        let binned_fill = binned.stats.filled_cells as f64 / (64.0 * 512.0);
         assert!(
             binned_fill < fill - 0.05,
             "elevation binning {binned_fill} vs rings {fill}"
         );
-        assert!(binned.collisions > rings.collisions);
-        assert_eq!(rings.in_fov, rings.filled + rings.collisions);
+        assert!(binned.stats.collisions > rings.stats.collisions);
+        assert_eq!(
+            rings.stats.in_fov,
+            rings.stats.filled_cells + rings.stats.collisions
+        );
     }
 }
 
@@ -120,13 +123,13 @@ fn partial_scan_falls_back_to_elevation_binning() {
     let scan = Scan::read(&fixture_drive(52).join("velodyne_points/data/0000000000.bin")).unwrap();
     let half = &scan.points[..scan.len() / 2];
     let p = project(half, &PgmSpec::default());
-    assert!(p.fallback);
+    assert!(p.fallback());
     assert!(
         p.rings_found < 64 && p.rings_found > 20,
         "{}",
         p.rings_found
     );
-    assert!(p.filled > 0);
+    assert!(p.stats.filled_cells > 0);
 }
 
 #[test]
@@ -140,9 +143,9 @@ fn full_circle_and_other_sizes() {
             ..Default::default()
         },
     );
-    assert!(!full.fallback);
+    assert!(!full.fallback());
     assert_eq!(
-        full.in_fov,
+        full.stats.in_fov,
         scan.len() as u64,
         "a 360-degree map takes every point"
     );
@@ -155,7 +158,7 @@ fn full_circle_and_other_sizes() {
         },
     );
     assert_eq!(small.cell_point.len(), 32 * 256);
-    assert!(small.filled as f64 / (32.0 * 256.0) > 0.9);
+    assert!(small.stats.filled_cells as f64 / (32.0 * 256.0) > 0.9);
 }
 
 proptest! {

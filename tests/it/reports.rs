@@ -3,8 +3,8 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
+use kitti2pgm::format::npy::read_f32;
 use kitti2pgm::kitti::tracklets::Tracklets;
-use kitti2pgm::write::npy::read_f32;
 
 use crate::util::*;
 
@@ -218,7 +218,7 @@ fn stats_agree_with_independent_counts() {
     ]);
     assert_eq!(code, 0, "{stderr}");
     let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    assert_eq!(j["version"], 1);
+    assert_eq!(j["version"], 2);
     assert_eq!(j["split_order"], serde_json::json!(["train", "val"]));
     let names = ["background", "car", "pedestrian", "cyclist"];
     for (split, ids) in [
@@ -285,7 +285,11 @@ fn stats_agree_with_independent_counts() {
         .iter()
         .flat_map(|&f| {
             tr.at(f)
-                .filter(|(_, t, _)| t.object_type.class() == kitti2pgm::label::Class::Car)
+                .filter(|(_, t, _)| {
+                    kitti2pgm::label::ClassMap::kitti_paper()
+                        .class_of_object(t.object_type.as_str())
+                        == 1
+                })
                 .map(|(i, _, _)| i)
         })
         .collect();
@@ -300,7 +304,7 @@ fn stats_agree_with_independent_counts() {
     );
     assert_eq!(j["class_weights"]["inverse_frequency"][1], 1.0);
     assert_eq!(
-        j["class_weights"]["squeezeseg_default"],
+        j["class_weights"]["reference"],
         serde_json::json!([1.0 / 15.0, 1.0, 10.0, 10.0])
     );
     assert_eq!(j["normalisation"]["from_split"], "train");

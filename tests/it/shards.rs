@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use kitti2pgm::write::npy::read_f32;
-use kitti2pgm::write::shard::{Shard, FRAME_TOPIC};
+use kitti2pgm::format::npy::read_f32;
+use kitti2pgm::format::shard::{Shard, FRAME_TOPIC};
 
 use crate::util::*;
 
@@ -84,9 +84,13 @@ fn shards_hold_exactly_the_npy_frames() {
         ["2011_09_26_drive_0001_sync", "2011_09_26_drive_0052_sync"]
     );
     assert_eq!(md.frames.len(), 2);
-    let params: serde_json::Value = serde_json::from_str(&md.params).unwrap();
-    assert_eq!(params["spec"]["rows"], 64);
-    assert_eq!(params["compression"], "Lz4");
+    assert_eq!(md.params.map.spec.rows, 64);
+    assert_eq!(
+        md.params.map.class_map,
+        kitti2pgm::label::ClassMap::kitti_paper()
+    );
+    let sh = md.params.shards.as_ref().unwrap();
+    assert_eq!(sh.compression, kitti2pgm::params::ShardCompression::Lz4);
     // Chunk indexes and a summary are present: a reader can seek.
     let summary = train.summary().unwrap();
     assert!(summary.chunk_indexes.len() >= 2);

@@ -1,11 +1,30 @@
-//! WRITE: files on disk, always atomically.
+//! WRITE, and the one owner of every file kind the tool writes or reads back.
+//!
+//! Each module owns one kind of file, both directions; nothing else builds a path, an encoding or
+//! a decoder for it:
+//!
+//! | module | file |
+//! |---|---|
+//! | [`npy`] | `.npy` arrays (NumPy format 1.0), any numeric dtype in, float32 out |
+//! | [`pgm`] | a converted frame as `.npy` (SqueezeSeg's H x W x 6/9 layout, named channels) |
+//! | [`label_file`] | per-point `.label` files (u32: class, instance << 16) |
+//! | [`layout`] | the output folder: paths, discovery of converted frames and shards |
+//! | [`summary`] | `convert_summary.json`, with the typed [`ConvertParams`](crate::params::ConvertParams) |
+//! | [`imageset`] | `ImageSet/*.txt` frame lists |
+//! | [`shard`] | MCAP training and prediction shards (records, write, read, viz topics) |
+//! | [`png`] | PNG pictures |
 //!
 //! Every output is first written to a temporary file in the destination folder and renamed into
 //! place, so a crash or a full disk never leaves a half-written file under a final name.
 
+pub mod imageset;
+pub mod label_file;
+pub mod layout;
 pub mod npy;
+pub mod pgm;
+pub mod png;
 pub mod shard;
-pub mod viz;
+pub mod summary;
 
 use std::io::Write;
 use std::path::Path;
@@ -54,48 +73,10 @@ pub fn temp_builder() -> tempfile::Builder<'static, 'static> {
     b
 }
 
-/// Path of a frame's `.npy` in a convert output folder: `DIR/lidar_2d/<frame id>.npy`.
-pub fn npy_path(dir: &Path, id: &crate::kitti::FrameId) -> std::path::PathBuf {
-    dir.join("lidar_2d").join(format!("{id}.npy"))
-}
-
-/// Path of a frame's `.label` in a convert output folder:
-/// `DIR/labels/<date>_drive_<NNNN>_sync/<frame10>.label`.
-pub fn label_path(dir: &Path, id: &crate::kitti::FrameId) -> std::path::PathBuf {
-    dir.join("labels")
-        .join(format!("{}_drive_{:04}_sync", id.date, id.drive))
-        .join(format!("{:010}.label", id.frame))
-}
-
-/// Encodes `img` as PNG and writes it atomically to `path`.
-pub fn write_png(path: &Path, img: &image::RgbImage) -> Result<()> {
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )
-    .map_err(|source| Error::Image {
-        path: path.into(),
-        source,
-    })?;
-    atomic_write(path, &bytes, false)
-}
-
 /// Creates a folder and its parents, naming it in the error.
 pub fn create_dir(path: &Path) -> Result<()> {
     std::fs::create_dir_all(path).map_err(|source| Error::Write {
         path: path.into(),
         source,
     })
-}
-
-/// The bytes of a `.label` file: one little-endian u32 per point, class in the low 16 bits,
-/// instance id in the high 16 bits.
-pub fn label_file_bytes(class: &[u8], instance: &[u16]) -> Vec<u8> {
-    debug_assert_eq!(class.len(), instance.len());
-    let mut out = Vec::with_capacity(class.len() * 4);
-    for (c, i) in class.iter().zip(instance) {
-        out.extend_from_slice(&((*i as u32) << 16 | *c as u32).to_le_bytes());
-    }
-    out
 }

@@ -33,3 +33,8 @@ pub fn to_text(ids: &[FrameId]) -> String {
     }
     s
 }
+
+/// Writes an ImageSet list to `path`, atomically.
+pub fn write(path: &Path, ids: &[FrameId]) -> Result<()> {
+    super::atomic_write(path, to_text(ids).as_bytes(), false)
+}

@@ -10,7 +10,7 @@ use base64::Engine as _;
 use serde_json::json;
 
 use crate::geom::Point3;
-use crate::label::{Class, LabelBox};
+use crate::label::{ClassId, LabelBox};
 
 /// Topic of the point cloud.
 pub const POINTS_TOPIC: &str = "/kitti2pgm/points";
@@ -25,13 +25,24 @@ pub const FRAME_ID: &str = "velodyne";
 #[derive(Debug, Clone, Default)]
 pub struct VizFrame {
     /// Points (velodyne frame) with reflectance and class.
-    pub points: Vec<(Point3, f32, Class)>,
+    pub points: Vec<(Point3, f32, ClassId)>,
     /// Labelled boxes.
     pub boxes: Vec<LabelBox>,
     /// The camera PNG, when colour was sampled.
     pub png: Option<Vec<u8>>,
     /// Camera number of the PNG.
     pub camera: u8,
+    /// Display colour of each class id (the class map's).
+    pub colours: Vec<[u8; 3]>,
+}
+
+impl VizFrame {
+    fn colour(&self, c: ClassId) -> [u8; 3] {
+        self.colours
+            .get(c as usize)
+            .copied()
+            .unwrap_or([128, 128, 128])
+    }
 }
 
 /// The three channels in a writer.
@@ -118,8 +129,8 @@ impl VizChannels {
             for f in [p.x, p.y, p.z, *i] {
                 data.extend_from_slice(&f.to_le_bytes());
             }
-            let [r, g, b] = c.colour();
-            data.extend_from_slice(&[c.id(), r, g, b, 255]);
+            let [r, g, b] = v.colour(*c);
+            data.extend_from_slice(&[*c, r, g, b, 255]);
         }
         let field = |name: &str, offset: u32, ty: u32| json!({ "name": name, "offset": offset, "type": ty });
         let cloud = json!({
@@ -141,7 +152,7 @@ impl VizChannels {
             .map(|b| {
                 let t = b.pose.translation.vector;
                 let q = b.pose.rotation;
-                let [r, g, bl] = b.class.colour();
+                let [r, g, bl] = v.colour(b.class);
                 let e = b.cuboid.half_extents * 2.0;
                 json!({
                     "pose": { "position": { "x": t.x, "y": t.y, "z": t.z }, "orientation": { "x": q.i, "y": q.j, "z": q.k, "w": q.w } },

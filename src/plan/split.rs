@@ -1,4 +1,4 @@
-//! The train/val split, from the tracklets and the list of velodyne files alone (no point data is
+//! PLAN: the train/val split, from the tracklets and the list of velodyne files alone (no point data is
 //! read, so the whole dataset takes seconds).
 //!
 //! SqueezeSeg's rule, verified on the real files: `all` = every frame with a velodyne scan and at
@@ -9,12 +9,12 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
+use super::selection::FrameSelection;
 use crate::error::{Error, Result};
 use crate::kitti::tracklets::Tracklets;
 use crate::kitti::{discover, Drive, FrameId};
-use crate::pipeline::FrameSelection;
 
 /// SqueezeSeg's validation drives (all of 2011_09_26).
 pub const SQUEEZESEG_VAL: [u32; 8] = [64, 70, 79, 84, 86, 87, 91, 93];
@@ -23,7 +23,7 @@ pub const SQUEEZESEG_VAL: [u32; 8] = [64, 70, 79, 84, 86, 87, 91, 93];
 pub type DriveKey = (String, u32);
 
 /// How drives are assigned to val.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum SplitRule {
     /// These drives are val, the others train.
     Drives(BTreeSet<DriveKey>),

@@ -1,0 +1,197 @@
+//! CONVERT one frame: read -> label -> project, then write its `.npy` and `.label` files.
+
+use serde::Serialize;
+
+use super::ConvertOptions;
+use crate::error::{Error, Result};
+use crate::format::shard::viz::VizFrame;
+use crate::format::{label_file, pgm};
+use crate::kitti::camera::decode_image;
+use crate::kitti::velodyne::Scan;
+use crate::kitti::FrameId;
+use crate::label::{ClassCounts, ClassMap, LabelBox, Labeller};
+use crate::plan::DrivePlan;
+use crate::project::camera::CameraProjector;
+use crate::project::frame::{assemble, PgmFrame};
+use crate::project::{project, PgmSpec, ProjectionStats};
+
+/// What converting one frame found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameReport {
+    /// The frame.
+    pub id: String,
+    /// Finite points in the scan.
+    pub points: u64,
+    /// Non-finite points dropped.
+    pub dropped_nonfinite: u64,
+    /// Boxes of a labelled class at the frame.
+    pub boxes: u64,
+    /// Points per class.
+    pub labelled_points: ClassCounts,
+    /// Valid cells per class.
+    pub labelled_cells: ClassCounts,
+    /// Projection counts of the frame (`ring_fallbacks` is 0 or 1).
+    pub projection: ProjectionStats,
+    /// Rings found in the scan order.
+    pub rings_found: u64,
+    /// Cells with a colour.
+    pub rgb_cells: u64,
+}
+
+impl FrameReport {
+    /// Whether the frame's rows came from elevation binning.
+    pub fn fallback(&self) -> bool {
+        self.projection.ring_fallbacks > 0
+    }
+}
+
+/// The products of one frame, before writing.
+#[derive(Debug, Clone)]
+pub struct Converted {
+    /// The map.
+    pub pgm: PgmFrame,
+    /// Per-point labels in file order (class ids).
+    pub point_class: Vec<u8>,
+    /// Per-point instance ids in file order.
+    pub point_instance: Vec<u16>,
+    /// What was found.
+    pub report: FrameReport,
+}
+
+/// Labels and projects one scan (no file access but the image, already decoded, if any).
+pub fn process(
+    id: &FrameId,
+    scan: &Scan,
+    boxes: &[LabelBox],
+    spec: &PgmSpec,
+    classes: &ClassMap,
+    camera: Option<(&CameraProjector, &image::RgbImage)>,
+) -> Converted {
+    let labeller = Labeller::new(boxes, classes.background);
+    let labels = labeller.label(&scan.points);
+    let proj = project(&scan.points, spec);
+    let colour_fn = camera.map(|(cam, img)| move |i: usize| cam.colour(img, &scan.points[i]));
+    let pgm = assemble(
+        scan,
+        &labels,
+        &proj,
+        colour_fn
+            .as_ref()
+            .map(|f| f as &dyn Fn(usize) -> Option<[f32; 3]>),
+    );
+    let report = FrameReport {
+        id: id.to_string(),
+        points: scan.len() as u64,
+        dropped_nonfinite: scan.dropped.len() as u64,
+        boxes: labeller.len() as u64,
+        labelled_points: labels.class_counts(classes.len()),
+        labelled_cells: pgm.class_cells(classes.len()),
+        projection: proj.stats,
+        rings_found: proj.rings_found as u64,
+        rgb_cells: pgm
+            .rgb_valid
+            .as_ref()
+            .map_or(0, |v| v.iter().map(|&b| b as u64).sum()),
+    };
+    Converted {
+        point_class: scan.to_file_order(&labels.class, classes.background),
+        point_instance: scan.to_file_order(&labels.instance, 0),
+        pgm,
+        report,
+    }
+}
+
+/// A converted frame with what the shard writer needs beside it.
+#[derive(Debug, Clone)]
+pub struct Produced {
+    /// The products.
+    pub out: Converted,
+    /// Visualisation payload, when asked for.
+    pub viz: Option<VizFrame>,
+}
+
+/// Reads and converts one frame (no output written). `want_viz` keeps the scan points, boxes
+/// and camera PNG for the visualisation topics.
+pub fn produce(
+    dp: &DrivePlan,
+    frame: u32,
+    opts: &ConvertOptions,
+    want_viz: bool,
+) -> Result<Produced> {
+    let map = &opts.params.map;
+    let id = dp.drive.frame_id(frame);
+    let scan = Scan::read(&dp.drive.scan_path(frame))?;
+    let boxes = dp.boxes(frame, &map.class_map);
+    let mut png_bytes = None;
+    let camera = match &map.rgb {
+        Some(rgb) => {
+            let path = dp.drive.image_path(rgb.camera, frame);
+            let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+            let img = decode_image(&bytes, &path)?;
+            if want_viz {
+                png_bytes = Some(bytes);
+            }
+            let proj = CameraProjector {
+                velo_to_image: dp.calib.velo_to_image(rgb.camera as usize),
+                sampling: rgb.sampling,
+            };
+            Some((proj, img))
+        }
+        None => None,
+    };
+    let out = process(
+        &id,
+        &scan,
+        &boxes,
+        &map.spec,
+        &map.class_map,
+        camera.as_ref().map(|(p, i)| (p, i)),
+    );
+    let viz = want_viz.then(|| {
+        let file_idx = scan.file_indices();
+        VizFrame {
+            points: scan
+                .points
+                .iter()
+                .enumerate()
+                .map(|(k, p)| {
+                    let class = out.point_class[file_idx[k] as usize];
+                    (*p, scan.reflectance[k], class)
+                })
+                .collect(),
+            boxes: boxes
+                .into_iter()
+                .filter(|b| b.class != map.class_map.background)
+                .collect(),
+            png: png_bytes,
+            camera: map.rgb.map_or(2, |r| r.camera),
+            colours: map.class_map.classes.iter().map(|c| c.colour).collect(),
+        }
+    });
+    Ok(Produced { out, viz })
+}
+
+/// Writes a converted frame's `.npy` and `.label` files, as the options ask.
+pub fn write_frame_files(
+    dp: &DrivePlan,
+    frame: u32,
+    out: &Converted,
+    opts: &ConvertOptions,
+) -> Result<()> {
+    let id = dp.drive.frame_id(frame);
+    if opts.params.npy {
+        pgm::write(&opts.out.npy_path(&id), &out.pgm, opts.sync)?;
+    }
+    if opts.params.labels {
+        let bytes = label_file::encode(&out.point_class, &out.point_instance);
+        crate::format::atomic_write(&opts.out.label_path(&id), &bytes, opts.sync)?;
+    }
+    Ok(())
+}
+
+/// Reads, converts and writes one frame (`.npy` and `.label` outputs).
+pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Result<FrameReport> {
+    let p = produce(dp, frame, opts, false)?;
+    write_frame_files(dp, frame, &p.out, opts)?;
+    Ok(p.out.report)
+}

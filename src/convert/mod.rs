@@ -1,0 +1,196 @@
+//! CONVERT: frame -> read -> label -> project -> write, parallel over frames.
+//!
+//! [`convert`] runs a [`Plan`] on a rayon pool; each frame's outcome goes to a callback (the
+//! CLI's progress bar) and into running totals, so memory does not grow with the number of
+//! frames. A bad frame, or a drive whose calibration or tracklets are broken, is reported and
+//! the rest of the batch goes on. Every output is written atomically and depends only on its own
+//! frame, so the files are byte-identical whatever the thread count. The summary, with the typed
+//! parameters, is written last ([`crate::format::summary`]).
+//!
+//! - [`frame`]: one frame, read to written;
+//! - [`shards`]: the shard output (frames in order, written while the next batch converts).
+
+pub mod frame;
+pub mod shards;
+
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::format::create_dir;
+use crate::format::layout::OutputDir;
+use crate::format::summary::{self, ConvertSummary};
+use crate::label::ClassCounts;
+use crate::params::ConvertParams;
+use crate::plan::{FrameFailure, Plan};
+pub use frame::{convert_frame, process, produce, write_frame_files, Converted, FrameReport};
+
+/// What to convert and where to.
+#[derive(Debug, Clone)]
+pub struct ConvertOptions {
+    /// Output folder.
+    pub out: OutputDir,
+    /// What to make (recorded in the summary and the shards).
+    pub params: ConvertParams,
+    /// Worker threads; 0 = one per core, 1 = sequential.
+    pub threads: usize,
+    /// Flush every file to the device before it is renamed into place (survives power cuts).
+    pub sync: bool,
+}
+
+impl ConvertOptions {
+    /// SqueezeSeg's conversion into `out_dir`.
+    pub fn new(out_dir: impl Into<std::path::PathBuf>) -> Self {
+        ConvertOptions {
+            out: OutputDir::new(out_dir),
+            params: ConvertParams::squeezeseg(),
+            threads: 0,
+            sync: false,
+        }
+    }
+}
+
+/// The outcome of one frame, as handed to the progress callback.
+#[derive(Debug)]
+pub enum FrameOutcome<'a> {
+    /// Converted and written.
+    Done(&'a FrameReport),
+    /// Failed; the rest of the batch goes on.
+    Failed(&'a FrameFailure),
+    /// This many frames were skipped: their shard is already complete and intact.
+    Skipped(u64),
+}
+
+/// The running totals of a conversion: the summary, and per-class counts by id.
+struct Totals {
+    summary: ConvertSummary,
+    points: ClassCounts,
+    cells: ClassCounts,
+}
+
+impl Totals {
+    fn add(&mut self, r: &FrameReport) {
+        let s = &mut self.summary;
+        s.frames_converted += 1;
+        s.points += r.points;
+        s.dropped_nonfinite += r.dropped_nonfinite;
+        s.projection += &r.projection;
+        if r.fallback() {
+            s.fallback_frames.push(r.id.clone());
+        }
+        s.rgb_cells += r.rgb_cells;
+        self.points += &r.labelled_points;
+        self.cells += &r.labelled_cells;
+    }
+
+    fn fail(&mut self, f: FrameFailure) {
+        self.summary.frames_failed += f.frames;
+        self.summary.failures.push(f);
+    }
+
+    fn finish(self) -> ConvertSummary {
+        let mut s = self.summary;
+        let map = &s.params.map.class_map;
+        s.labelled_points = map.keyed(&self.points.0);
+        s.labelled_cells = map.keyed(&self.cells.0);
+        s.failures.sort_by(|a, b| a.what.cmp(&b.what));
+        s.fallback_frames.sort();
+        s
+    }
+}
+
+/// The shared state of a running conversion, handed to the shard writer.
+pub(crate) struct Run<'a> {
+    totals: Mutex<Totals>,
+    progress: &'a (dyn Fn(FrameOutcome<'_>) + Sync),
+}
+
+impl Run<'_> {
+    fn totals(&self) -> std::sync::MutexGuard<'_, Totals> {
+        self.totals.lock().expect("no panic while holding the lock")
+    }
+
+    /// A frame converted and written.
+    pub(crate) fn done(&self, r: &FrameReport) {
+        (self.progress)(FrameOutcome::Done(r));
+        self.totals().add(r);
+    }
+
+    /// `frames` frames lost to `e`.
+    pub(crate) fn failed(&self, what: String, frames: u64, e: Error) {
+        let f = FrameFailure {
+            what,
+            frames,
+            error: e.to_string(),
+        };
+        (self.progress)(FrameOutcome::Failed(&f));
+        self.totals().fail(f);
+    }
+}
+
+/// Converts every frame of `plan`, calling `progress` after each one (from worker threads).
+/// Fails as a whole only when the output folder cannot be created.
+pub fn convert(
+    plan: &Plan,
+    opts: &ConvertOptions,
+    progress: &(dyn Fn(FrameOutcome<'_>) + Sync),
+) -> Result<ConvertSummary> {
+    let params = &opts.params;
+    params.validate()?;
+    create_dir(&opts.out.root)?;
+    if params.npy {
+        create_dir(&opts.out.lidar_dir())?;
+    }
+    if params.labels {
+        for dp in &plan.drives {
+            create_dir(&opts.out.label_dir(&dp.drive.frame_id(0)))?;
+        }
+    }
+    let n = params.map.class_map.len();
+    let run = Run {
+        totals: Mutex::new(Totals {
+            summary: ConvertSummary {
+                version: env!("CARGO_PKG_VERSION").to_string(),
+                params: params.clone(),
+                drives: (plan.drives.len() + plan.failed.len()) as u64,
+                frames_skipped: plan.skipped.clone(),
+                ..Default::default()
+            },
+            points: ClassCounts::zeros(n),
+            cells: ClassCounts::zeros(n),
+        }),
+        progress,
+    };
+    for f in &plan.failed {
+        progress(FrameOutcome::Failed(f));
+        run.totals().fail(f.clone());
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| Error::Config(format!("cannot start {} threads: {e}", opts.threads)))?;
+    if let Some(sh) = &params.shards {
+        pool.install(|| shards::convert_to_shards(plan, opts, sh, &run))?;
+    } else {
+        let one = |&(d, frame): &(usize, u32)| {
+            let dp = &plan.drives[d];
+            match convert_frame(dp, frame, opts) {
+                Ok(r) => run.done(&r),
+                Err(e) => run.failed(dp.drive.frame_id(frame).to_string(), 1, e),
+            }
+        };
+        if opts.threads == 1 {
+            plan.jobs.iter().for_each(one);
+        } else {
+            pool.install(|| plan.jobs.par_iter().for_each(one));
+        }
+    }
+    let s = run
+        .totals
+        .into_inner()
+        .expect("no panic while holding the lock")
+        .finish();
+    summary::write(&opts.out.summary_path(), &s, opts.sync)?;
+    Ok(s)
+}

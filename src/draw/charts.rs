@@ -1,0 +1,214 @@
+//! Charts: the class balance of `stats`, the confusion matrix and the worst frames of `score`.
+
+use super::{draw_text, text_width, ROW_SCALE};
+use crate::label::ClassMap;
+use crate::report::score::{Confusion, FrameMaps};
+use crate::report::stats::Stats;
+
+/// A picture of the confusion matrix: rows = truth, columns = prediction, each cell shaded by
+/// its share of the row (recall view), with the count and the share written in it.
+pub fn confusion_chart(c: &Confusion, map: &ClassMap) -> image::RgbImage {
+    let k = c.k();
+    let (cell, left, top) = (120u32, 112u32, 64u32);
+    let mut img = image::RgbImage::from_pixel(
+        left + k as u32 * cell + 16,
+        top + k as u32 * cell + 40,
+        image::Rgb([255, 255, 255]),
+    );
+    let black = [0, 0, 0];
+    draw_text(&mut img, left, 8, "prediction", black, 1);
+    draw_text(&mut img, 8, 8, "truth", black, 1);
+    for i in 0..k {
+        let name = map.name(i as u8);
+        draw_text(
+            &mut img,
+            left + i as u32 * cell + (cell - text_width(name, 1).min(cell)) / 2,
+            top - 20,
+            name,
+            black,
+            1,
+        );
+        draw_text(
+            &mut img,
+            8,
+            top + i as u32 * cell + cell / 2 - 4,
+            name,
+            black,
+            1,
+        );
+    }
+    for g in 0..k {
+        let row: u64 = c.m[g].iter().sum();
+        for p in 0..k {
+            let share = if row == 0 {
+                0.0
+            } else {
+                c.m[g][p] as f64 / row as f64
+            };
+            let shade = (255.0 - share * 200.0) as u8;
+            let colour = if g == p {
+                [shade, 255, shade]
+            } else {
+                [255, shade, shade]
+            };
+            let (x0, y0) = (left + p as u32 * cell, top + g as u32 * cell);
+            for x in x0..x0 + cell - 2 {
+                for y in y0..y0 + cell - 2 {
+                    img.put_pixel(x, y, image::Rgb(colour));
+                }
+            }
+            let count = c.m[g][p].to_string();
+            let pct = format!("{:.1}%", share * 100.0);
+            draw_text(
+                &mut img,
+                x0 + (cell - text_width(&count, 1)) / 2,
+                y0 + cell / 2 - 12,
+                &count,
+                black,
+                1,
+            );
+            draw_text(
+                &mut img,
+                x0 + (cell - text_width(&pct, 1)) / 2,
+                y0 + cell / 2 + 4,
+                &pct,
+                black,
+                1,
+            );
+        }
+    }
+    let miou = format!("mIoU {:.3}", c.miou(&map.miou));
+    draw_text(&mut img, left, top + k as u32 * cell + 12, &miou, black, 1);
+    img
+}
+
+/// Side-by-side picture of one frame: prediction above ground truth, in the class colours
+/// (empty cells black), rows doubled, with a caption.
+pub fn frame_chart(
+    id: &str,
+    maps: &FrameMaps,
+    (rows, cols): (usize, usize),
+    miou: Option<f64>,
+    map: &ClassMap,
+) -> image::RgbImage {
+    let ph = rows as u32 * ROW_SCALE;
+    let caption = 20u32;
+    let mut img =
+        image::RgbImage::from_pixel(cols as u32, 2 * (ph + caption), image::Rgb([255, 255, 255]));
+    let m = miou
+        .map(|v| format!("{v:.3}"))
+        .unwrap_or_else(|| "-".into());
+    draw_text(
+        &mut img,
+        4,
+        6,
+        &format!("{id} prediction, mIoU {m}"),
+        [0, 0, 0],
+        1,
+    );
+    draw_text(&mut img, 4, ph + caption + 6, "ground truth", [0, 0, 0], 1);
+    for (panel, labels) in [&maps.pred, &maps.truth].iter().enumerate() {
+        let y0 = panel as u32 * (ph + caption) + caption;
+        for r in 0..rows {
+            for c in 0..cols {
+                let i = r * cols + c;
+                let px = if maps.truth[i] == u8::MAX {
+                    [0, 0, 0]
+                } else {
+                    map.colour(labels[i])
+                };
+                for k in 0..ROW_SCALE {
+                    img.put_pixel(c as u32, y0 + r as u32 * ROW_SCALE + k, image::Rgb(px));
+                }
+            }
+        }
+    }
+    img
+}
+
+/// A bar chart of the class balance: one group of bars per split (each labelled class: share
+/// of the labelled cells, linear 0-100%, value on top), class colours as in the previews, a
+/// light line every 10%, the split name and frame count under each group, a legend on top.
+pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
+    let classes = map.labelled();
+    let nc = classes.len().max(1) as u32;
+    let (gap, group_gap, h, left, top, bottom) = (8u32, 48u32, 300u32, 48u32, 56u32, 40u32);
+    let bar = (168 / nc).max(12);
+    let n = s.split_order.len().max(1) as u32;
+    let group = nc * bar + (nc - 1) * gap;
+    let w = left + n * group + (n - 1) * group_gap + 24;
+    let w = w.max(420);
+    let mut img = image::RgbImage::from_pixel(w, top + h + bottom, image::Rgb([255, 255, 255]));
+    let black = [0, 0, 0];
+    draw_text(
+        &mut img,
+        left,
+        6,
+        "share of labelled cells per split",
+        black,
+        1,
+    );
+    let mut lx = left;
+    for &class in &classes {
+        for x in lx..lx + 12 {
+            for y in 22..34 {
+                img.put_pixel(x, y, image::Rgb(map.colour(class)));
+            }
+        }
+        draw_text(&mut img, lx + 16, 24, map.name(class), black, 1);
+        lx += 16 + text_width(map.name(class), 1) + 20;
+    }
+    for t in 0..=10 {
+        let y = top + h - t * h / 10;
+        for x in left..w - 8 {
+            img.put_pixel(
+                x,
+                y,
+                image::Rgb(if t == 0 { black } else { [225, 225, 225] }),
+            );
+        }
+        if t % 2 == 0 {
+            let label = format!("{}%", t * 10);
+            draw_text(
+                &mut img,
+                left.saturating_sub(text_width(&label, 1) + 4),
+                y.saturating_sub(4),
+                &label,
+                black,
+                1,
+            );
+        }
+    }
+    for (g, name) in s.split_order.iter().enumerate() {
+        let split = &s.splits[name];
+        let x_group = left + g as u32 * (group + group_gap);
+        for (b, &class) in classes.iter().enumerate() {
+            let v = split
+                .share_of_labelled_cells
+                .get(map.name(class))
+                .copied()
+                .unwrap_or(0.0);
+            let bh = (v * h as f64).round() as u32;
+            let x0 = x_group + b as u32 * (bar + gap);
+            for x in x0..x0 + bar {
+                for y in (top + h - bh)..(top + h) {
+                    img.put_pixel(x, y, image::Rgb(map.colour(class)));
+                }
+            }
+            let label = format!("{:.1}%", v * 100.0);
+            let lx = x0 + bar.saturating_sub(text_width(&label, 1)) / 2;
+            draw_text(
+                &mut img,
+                lx,
+                (top + h - bh).saturating_sub(12),
+                &label,
+                black,
+                1,
+            );
+        }
+        let caption = format!("{name} ({} frames)", split.frames);
+        let cx = x_group + group.saturating_sub(text_width(&caption, 1)) / 2;
+        draw_text(&mut img, cx, top + h + 12, &caption, black, 1);
+    }
+    img
+}

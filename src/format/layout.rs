@@ -1,0 +1,156 @@
+//! The output folder of `convert`, the one place its paths are spelled:
+//!
+//! ```text
+//! OUT/lidar_2d/<date>_<drive4>_<frame10>.npy          one map per frame (format::pgm)
+//! OUT/labels/<date>_drive_<NNNN>_sync/<frame10>.label  per-point labels (format::label_file)
+//! OUT/shards/<split>-<NNNNN>.mcap                     training shards (format::shard)
+//! OUT/convert_summary.json                            what was converted, how (format::summary)
+//! OUT/ImageSet/{all,train,val}.txt                    split lists (format::imageset)
+//! ```
+//!
+//! [`OutputDir`] also finds what a folder holds: its converted frames and its shards. A bare
+//! `lidar_2d` folder (SqueezeSeg's published data) is read through [`list_npy_frames`].
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::kitti::FrameId;
+
+/// Folder of the `.npy` maps.
+pub const LIDAR_2D: &str = "lidar_2d";
+/// Folder of the `.label` files.
+pub const LABELS: &str = "labels";
+/// Folder of the shards.
+pub const SHARDS: &str = "shards";
+/// Folder of the split lists.
+pub const IMAGESET: &str = "ImageSet";
+/// The conversion summary.
+pub const SUMMARY_FILE: &str = "convert_summary.json";
+
+/// A `convert` output folder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OutputDir {
+    /// The folder.
+    pub root: PathBuf,
+}
+
+impl OutputDir {
+    /// The output folder at `root`.
+    pub fn new(root: impl Into<PathBuf>) -> OutputDir {
+        OutputDir { root: root.into() }
+    }
+
+    /// `OUT/lidar_2d`.
+    pub fn lidar_dir(&self) -> PathBuf {
+        self.root.join(LIDAR_2D)
+    }
+
+    /// `OUT/labels/<drive>` of a frame's drive.
+    pub fn label_dir(&self, id: &FrameId) -> PathBuf {
+        self.root.join(LABELS).join(id.drive_name())
+    }
+
+    /// `OUT/lidar_2d/<frame id>.npy`.
+    pub fn npy_path(&self, id: &FrameId) -> PathBuf {
+        npy_path_in(&self.lidar_dir(), id)
+    }
+
+    /// `OUT/labels/<date>_drive_<NNNN>_sync/<frame10>.label`.
+    pub fn label_path(&self, id: &FrameId) -> PathBuf {
+        self.label_dir(id).join(format!("{:010}.label", id.frame))
+    }
+
+    /// `OUT/shards`.
+    pub fn shards_dir(&self) -> PathBuf {
+        self.root.join(SHARDS)
+    }
+
+    /// `OUT/shards/<split>-<NNNNN>.mcap`.
+    pub fn shard_path(&self, split: &str, index: usize) -> PathBuf {
+        self.shards_dir().join(shard_name(split, index))
+    }
+
+    /// `OUT/convert_summary.json`.
+    pub fn summary_path(&self) -> PathBuf {
+        self.root.join(SUMMARY_FILE)
+    }
+
+    /// `OUT/ImageSet`.
+    pub fn imageset_dir(&self) -> PathBuf {
+        self.root.join(IMAGESET)
+    }
+
+    /// Whether the folder holds `.npy` maps.
+    pub fn has_maps(&self) -> bool {
+        self.lidar_dir().is_dir()
+    }
+
+    /// The converted frames (`lidar_2d/*.npy` named by a frame id), sorted.
+    pub fn converted_frames(&self) -> Result<Vec<FrameId>> {
+        Ok(list_npy_frames(&self.lidar_dir())?
+            .into_iter()
+            .map(|(id, _)| id)
+            .collect())
+    }
+
+    /// The shards under `OUT/shards` (or `OUT` itself when it holds `.mcap` files), sorted.
+    pub fn shards(&self) -> Result<Vec<PathBuf>> {
+        for dir in [self.shards_dir(), self.root.clone()] {
+            if dir.is_dir() {
+                let v = list_shards(&dir)?;
+                if !v.is_empty() {
+                    return Ok(v);
+                }
+            }
+        }
+        Ok(Vec::new())
+    }
+}
+
+/// `<dir>/<frame id>.npy`.
+pub fn npy_path_in(dir: &Path, id: &FrameId) -> PathBuf {
+    dir.join(format!("{id}.npy"))
+}
+
+/// The name of shard `index` of a split: `<split>-<NNNNN>.mcap`.
+pub fn shard_name(split: &str, index: usize) -> String {
+    format!("{split}-{index:05}.mcap")
+}
+
+fn read_dir_sorted(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        out.push(e.map_err(|e| Error::io(dir, e))?.path());
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// The `.mcap` files of a folder, sorted.
+pub fn list_shards(dir: &Path) -> Result<Vec<PathBuf>> {
+    Ok(read_dir_sorted(dir)?
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "mcap") && p.is_file())
+        .collect())
+}
+
+/// The `<frame id>.npy` files of a folder (other files are ignored), sorted by frame id; an
+/// error when there is none.
+pub fn list_npy_frames(dir: &Path) -> Result<Vec<(FrameId, PathBuf)>> {
+    let mut ids: Vec<(FrameId, PathBuf)> = read_dir_sorted(dir)?
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|x| x == "npy"))
+        .filter_map(|p| {
+            let id = p.file_stem()?.to_str()?.parse::<FrameId>().ok()?;
+            Some((id, p))
+        })
+        .collect();
+    if ids.is_empty() {
+        return Err(Error::Input {
+            path: dir.into(),
+            message: "no converted frame (<date>_<drive4>_<frame10>.npy) here".into(),
+        });
+    }
+    ids.sort();
+    Ok(ids)
+}

@@ -1,0 +1,70 @@
+//! The `kitti2pgm` metadata record of a shard: version, typed conversion parameters, drives,
+//! the frames planned, the frames that failed, the split.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::params::ConvertParams;
+
+/// What the metadata record of a shard says.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct ShardMetadata {
+    /// Tool version.
+    pub version: String,
+    /// The conversion parameters (stored as JSON under `params`).
+    pub params: ConvertParams,
+    /// Input drives, as `<date>_drive_<NNNN>_sync`.
+    pub drives: Vec<String>,
+    /// Frame ids planned for the shard, in order.
+    pub frames: Vec<String>,
+    /// Frames of the plan that failed and are not in the shard.
+    pub failed: Vec<String>,
+    /// Split name.
+    pub split: String,
+}
+
+impl ShardMetadata {
+    /// The record's string map.
+    pub fn to_map(&self) -> BTreeMap<String, String> {
+        BTreeMap::from([
+            ("version".into(), self.version.clone()),
+            (
+                "params".into(),
+                serde_json::to_string(&self.params).expect("parameters serialise"),
+            ),
+            ("drives".into(), self.drives.join("\n")),
+            ("frames".into(), self.frames.join("\n")),
+            ("failed".into(), self.failed.join("\n")),
+            ("split".into(), self.split.clone()),
+        ])
+    }
+
+    /// Reads the record's string map; `path` names the shard in errors (a missing key, or
+    /// parameters that are not this version's).
+    pub fn from_map(m: &BTreeMap<String, String>, path: &Path) -> Result<ShardMetadata> {
+        let get = |k: &str| {
+            m.get(k)
+                .ok_or_else(|| Error::format(path, format!("metadata record has no `{k}` entry")))
+        };
+        let list =
+            |k: &str| -> Result<Vec<String>> { Ok(get(k)?.lines().map(String::from).collect()) };
+        let version = get("version")?.clone();
+        let params = serde_json::from_str(get("params")?).map_err(|e| {
+            Error::format(
+                path,
+                format!("metadata `params` are not kitti2pgm {}'s conversion parameters (shard written by kitti2pgm {version}?): {e}", env!("CARGO_PKG_VERSION")),
+            )
+        })?;
+        Ok(ShardMetadata {
+            version,
+            params,
+            drives: list("drives")?,
+            frames: list("frames")?,
+            failed: list("failed")?,
+            split: get("split")?.clone(),
+        })
+    }
+}

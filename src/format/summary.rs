@@ -1,0 +1,85 @@
+//! WRITE and read back `convert_summary.json`: what a conversion made, and how.
+//!
+//! The summary carries the typed [`ConvertParams`] under `params` (map, class map, colour,
+//! selection, outputs, shards), so that the reports read the map back exactly; the totals are
+//! keyed by class name. Keys are documented in `docs/conventions.md`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::params::ConvertParams;
+use crate::plan::FrameFailure;
+use crate::project::ProjectionStats;
+
+/// Totals of a conversion.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ConvertSummary {
+    /// kitti2pgm version that wrote the files.
+    pub version: String,
+    /// What was asked for.
+    pub params: ConvertParams,
+    /// Drives found.
+    pub drives: u64,
+    /// Frames converted and written.
+    pub frames_converted: u64,
+    /// Frames that failed (a failed drive counts all its scans).
+    pub frames_failed: u64,
+    /// Frames left out by the selection, by reason.
+    pub frames_skipped: BTreeMap<String, u64>,
+    /// Each failure, sorted by frame id.
+    pub failures: Vec<FrameFailure>,
+    /// Finite points read.
+    pub points: u64,
+    /// Non-finite points dropped.
+    pub dropped_nonfinite: u64,
+    /// Points per class, by class name.
+    pub labelled_points: BTreeMap<String, u64>,
+    /// Valid cells per class, by class name.
+    pub labelled_cells: BTreeMap<String, u64>,
+    /// Projection counts (points in the field of view, filled and total cells, collisions,
+    /// frames binned by elevation).
+    #[serde(flatten)]
+    pub projection: ProjectionStats,
+    /// Ids of the frames binned by elevation (sorted).
+    pub fallback_frames: Vec<String>,
+    /// Cells with a colour.
+    pub rgb_cells: u64,
+    /// Shards written.
+    pub shards_written: u64,
+    /// Shards left as they were (complete, intact, same frames and parameters).
+    pub shards_skipped: u64,
+}
+
+impl ConvertSummary {
+    /// Filled cells over all cells.
+    pub fn fill_ratio(&self) -> f64 {
+        self.projection.fill_ratio()
+    }
+}
+
+/// Writes the summary to `path`, atomically.
+pub fn write(path: &Path, summary: &ConvertSummary, sync: bool) -> Result<()> {
+    let json = serde_json::to_vec_pretty(summary).expect("the summary serialises");
+    super::atomic_write(path, &json, sync)
+}
+
+/// Reads the summary at `path`; `Ok(None)` when there is no such file.
+pub fn read(path: &Path) -> Result<Option<ConvertSummary>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(Error::io(path, e)),
+    };
+    serde_json::from_str(&text).map(Some).map_err(|e| {
+        Error::format(
+            path,
+            format!(
+                "not a kitti2pgm {} conversion summary: {e}",
+                env!("CARGO_PKG_VERSION")
+            ),
+        )
+    })
+}

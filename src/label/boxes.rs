@@ -1,0 +1,265 @@
+//! LABEL: which box each velodyne point falls in.
+//!
+//! [`LabelBox`] turns a tracklet pose into a parry [`Cuboid`] (half extents) with a centred pose;
+//! [`Labeller`] answers "which box holds this point" for a whole scan with parry's containment
+//! test, after a cheap prefilter (a 2D bucket grid over the boxes' bounding boxes), so that the
+//! cost is about one grid lookup per point plus the boxes of that cell, not points x boxes.
+//!
+//! Rule for a point in several boxes: the box of the smallest volume wins (the more specific
+//! claim: a cyclist box overlapping a car's keeps its points), ties go to the lower tracklet
+//! index. Only boxes of a labelled class (car, pedestrian, cyclist) take part: a point in a Tram
+//! or Misc box stays background with instance 0. Which object type is which class is the class
+//! map's business ([`ClassMap::class_of_object`](super::ClassMap::class_of_object)).
+
+use super::classes::ClassId;
+use crate::geom::{na, Iso3, Point3, Real, Vector3};
+use crate::kitti::tracklets::{Pose, Tracklet};
+use parry3d::query::PointQuery;
+use parry3d::shape::Cuboid;
+
+/// A tracklet box at one frame, ready for containment tests.
+#[derive(Debug, Clone)]
+pub struct LabelBox {
+    /// Class of the object.
+    pub class: ClassId,
+    /// Instance id: tracklet index + 1.
+    pub instance: u16,
+    /// The box in its own frame (half extents l/2, w/2, h/2).
+    pub cuboid: Cuboid,
+    /// Box frame to velodyne frame; the origin is the box centre.
+    pub pose: Iso3,
+}
+
+impl LabelBox {
+    /// The box of tracklet number `index` at `pose`, of class `class`. The tracklet gives the
+    /// bottom-face centre; the cuboid is centred, so the pose is lifted by h/2 along the box's
+    /// own z.
+    pub fn new(index: usize, tracklet: &Tracklet, pose: &Pose, class: ClassId) -> LabelBox {
+        let half = Vector3::new(
+            tracklet.l as Real / 2.0,
+            tracklet.w as Real / 2.0,
+            tracklet.h as Real / 2.0,
+        );
+        let rot = na::UnitQuaternion::from_euler_angles(
+            pose.r[0] as Real,
+            pose.r[1] as Real,
+            pose.r[2] as Real,
+        );
+        let bottom = na::Translation3::new(pose.t[0] as Real, pose.t[1] as Real, pose.t[2] as Real);
+        let pose = Iso3::from_parts(bottom, rot) * na::Translation3::new(0.0, 0.0, half.z);
+        LabelBox {
+            class,
+            instance: u16::try_from(index + 1).unwrap_or(u16::MAX),
+            cuboid: Cuboid::new(half),
+            pose,
+        }
+    }
+
+    /// Volume, cubic metres.
+    pub fn volume(&self) -> Real {
+        8.0 * self.cuboid.half_extents.product()
+    }
+
+    /// Whether `p` (velodyne frame) is inside the box, boundaries included.
+    pub fn contains(&self, p: &Point3) -> bool {
+        self.cuboid.contains_point(&self.pose, p)
+    }
+}
+
+/// Per-point labels of a scan, in the scan's point order.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PointLabels {
+    /// Class of each point.
+    pub class: Vec<ClassId>,
+    /// Instance id of each point (0 = none).
+    pub instance: Vec<u16>,
+}
+
+impl PointLabels {
+    /// Points per class among `n` classes.
+    pub fn class_counts(&self, n: usize) -> super::ClassCounts {
+        super::ClassCounts::count(n, self.class.iter().copied())
+    }
+}
+
+/// Labels scans against a set of boxes (one frame's boxes).
+#[derive(Debug, Clone)]
+pub struct Labeller {
+    background: ClassId,
+    boxes: Vec<Prepared>,
+    grid: Grid,
+}
+
+#[derive(Debug, Clone)]
+struct Prepared {
+    class: ClassId,
+    instance: u16,
+    cuboid: Cuboid,
+    /// Velodyne frame to box frame, with the rotation as a matrix (cheaper per point than the
+    /// quaternion of the box pose).
+    velo_to_box: na::IsometryMatrix3<Real>,
+    /// Axis-aligned bounds in the velodyne frame: a cheap reject before parry's test.
+    mins: Point3,
+    maxs: Point3,
+}
+
+/// A uniform XY bucket grid over the union of the boxes' bounding boxes, stored CSR-style.
+#[derive(Debug, Clone, Default)]
+struct Grid {
+    min: [Real; 2],
+    inv_cell: Real,
+    dims: [usize; 2],
+    starts: Vec<u32>,
+    items: Vec<u16>,
+}
+
+impl Labeller {
+    /// Prepares the boxes among `boxes` whose class is not `background` (the class of every
+    /// point outside them).
+    pub fn new(boxes: &[LabelBox], background: ClassId) -> Labeller {
+        let mut kept: Vec<&LabelBox> = boxes.iter().filter(|b| b.class != background).collect();
+        // Smallest volume first, then lowest tracklet index: the first hit wins.
+        kept.sort_by(|a, b| {
+            a.volume()
+                .total_cmp(&b.volume())
+                .then(a.instance.cmp(&b.instance))
+        });
+        let mut aabbs = Vec::with_capacity(kept.len());
+        let boxes: Vec<Prepared> = kept
+            .iter()
+            .map(|b| {
+                let aabb = b.cuboid.aabb(&b.pose);
+                aabbs.push(aabb);
+                Prepared {
+                    class: b.class,
+                    instance: b.instance,
+                    cuboid: b.cuboid,
+                    velo_to_box: {
+                        let inv = b.pose.inverse();
+                        na::IsometryMatrix3::from_parts(
+                            inv.translation,
+                            inv.rotation.to_rotation_matrix(),
+                        )
+                    },
+                    mins: aabb.mins,
+                    maxs: aabb.maxs,
+                }
+            })
+            .collect();
+        let grid = Grid::build(&aabbs);
+        Labeller {
+            background,
+            boxes,
+            grid,
+        }
+    }
+
+    /// Number of boxes that take part.
+    pub fn len(&self) -> usize {
+        self.boxes.len()
+    }
+
+    /// True when no box takes part (every point is background).
+    pub fn is_empty(&self) -> bool {
+        self.boxes.is_empty()
+    }
+
+    /// The winning box of one point: (class, instance), or `None`.
+    #[inline]
+    pub fn label_point(&self, p: &Point3) -> Option<(ClassId, u16)> {
+        for &i in self.grid.candidates(p.x, p.y) {
+            let b = &self.boxes[i as usize];
+            let outside = (p.x < b.mins.x) | (p.x > b.maxs.x) | (p.y < b.mins.y) | (p.y > b.maxs.y);
+            if outside | (p.z < b.mins.z) | (p.z > b.maxs.z) {
+                continue;
+            }
+            if b.cuboid
+                .contains_local_point(&b.velo_to_box.transform_point(p))
+            {
+                return Some((b.class, b.instance));
+            }
+        }
+        None
+    }
+
+    /// Labels every point of a scan.
+    pub fn label(&self, points: &[Point3]) -> PointLabels {
+        let mut class = vec![self.background; points.len()];
+        let mut instance = vec![0u16; points.len()];
+        if !self.is_empty() {
+            for (i, p) in points.iter().enumerate() {
+                if let Some((c, id)) = self.label_point(p) {
+                    class[i] = c;
+                    instance[i] = id;
+                }
+            }
+        }
+        PointLabels { class, instance }
+    }
+}
+
+impl Grid {
+    /// Cell edge in metres; about a car's width, so a cell rarely holds more than a few boxes.
+    const CELL: Real = 2.0;
+    /// Upper bound on cells per axis (the cell grows instead).
+    const MAX_DIM: usize = 256;
+
+    fn build(aabbs: &[parry3d::bounding_volume::Aabb]) -> Grid {
+        if aabbs.is_empty() {
+            return Grid::default();
+        }
+        let mut min = [Real::INFINITY; 2];
+        let mut max = [Real::NEG_INFINITY; 2];
+        for a in aabbs {
+            for k in 0..2 {
+                min[k] = min[k].min(a.mins[k]);
+                max[k] = max[k].max(a.maxs[k]);
+            }
+        }
+        let extent = (max[0] - min[0]).max(max[1] - min[1]);
+        let cell = Self::CELL.max(extent / Self::MAX_DIM as Real);
+        let inv_cell = 1.0 / cell;
+        let dims = [0, 1]
+            .map(|k| (((max[k] - min[k]) * inv_cell).floor() as usize + 1).min(Self::MAX_DIM + 1));
+        let cell_of = |v: Real, k: usize| {
+            (((v - min[k]) * inv_cell).floor().max(0.0) as usize).min(dims[k] - 1)
+        };
+        let mut lists: Vec<Vec<u16>> = vec![Vec::new(); dims[0] * dims[1]];
+        for (i, a) in aabbs.iter().enumerate() {
+            for cx in cell_of(a.mins.x, 0)..=cell_of(a.maxs.x, 0) {
+                for cy in cell_of(a.mins.y, 1)..=cell_of(a.maxs.y, 1) {
+                    lists[cx * dims[1] + cy].push(i as u16);
+                }
+            }
+        }
+        let mut starts = Vec::with_capacity(lists.len() + 1);
+        let mut items = Vec::new();
+        starts.push(0);
+        for l in lists {
+            items.extend(l);
+            starts.push(items.len() as u32);
+        }
+        Grid {
+            min,
+            inv_cell,
+            dims,
+            starts,
+            items,
+        }
+    }
+
+    #[inline]
+    fn candidates(&self, x: Real, y: Real) -> &[u16] {
+        if self.items.is_empty() {
+            return &[];
+        }
+        let fx = (x - self.min[0]) * self.inv_cell;
+        let fy = (y - self.min[1]) * self.inv_cell;
+        // Negative or NaN fails the comparison; the cell index is then in range.
+        if !(fx >= 0.0 && fy >= 0.0 && fx < self.dims[0] as Real && fy < self.dims[1] as Real) {
+            return &[];
+        }
+        let c = fx as usize * self.dims[1] + fy as usize;
+        &self.items[self.starts[c] as usize..self.starts[c + 1] as usize]
+    }
+}

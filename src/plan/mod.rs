@@ -1,0 +1,199 @@
+//! PLAN: what a conversion will do, before any point is read.
+//!
+//! [`Plan::build`] finds the drives, reads each day's calibration and each drive's tracklets
+//! once, and lists the frames that the [`selection`] rule picks; [`split`] assigns drives to
+//! train and val. Both rules live here, on the input side, so that `convert`, `split` and the
+//! shards share them. A drive whose calibration or tracklets are broken is listed as failed with
+//! its frames, and the rest of the plan goes on.
+
+pub mod selection;
+pub mod split;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::kitti::calib::Calibration;
+use crate::kitti::timestamps::{self, Timestamp};
+use crate::kitti::tracklets::Tracklets;
+use crate::kitti::{discover, Drive, FrameId};
+use crate::label::{tracklet_boxes, ClassMap, LabelBox};
+pub use selection::FrameSelection;
+
+/// One drive, read and ready.
+#[derive(Debug, Clone)]
+pub struct DrivePlan {
+    /// The drive.
+    pub drive: Drive,
+    /// Its day's calibration.
+    pub calib: Arc<Calibration>,
+    /// Its tracklets (empty without a `tracklet_labels.xml`).
+    pub tracklets: Arc<Tracklets>,
+    /// Velodyne timestamps, when the file exists.
+    pub timestamps: Option<Arc<Vec<Option<Timestamp>>>>,
+}
+
+impl DrivePlan {
+    /// Reads a drive's tracklets and timestamps; `calib` is its day's calibration.
+    pub fn load(drive: Drive, calib: Arc<Calibration>) -> Result<DrivePlan> {
+        let tpath = drive.tracklets_path();
+        let tracklets = if tpath.exists() {
+            Tracklets::read(&tpath)?
+        } else {
+            Tracklets::default()
+        };
+        let ts_path = drive.scan_timestamps_path();
+        let timestamps = if ts_path.exists() {
+            Some(Arc::new(timestamps::read(&ts_path)?))
+        } else {
+            None
+        };
+        if let Some(ts) = &timestamps {
+            let len = ts.len() as u32;
+            if let Some((i, t)) = tracklets
+                .tracklets
+                .iter()
+                .enumerate()
+                .find(|(_, t)| t.end_frame() > len)
+            {
+                return Err(Error::format(
+                    &tpath,
+                    format!(
+                        "tracklet {i} ({}) has poses up to frame {}, past the drive's last frame {} ({} has {len} lines)",
+                        t.object_type.as_str(),
+                        t.end_frame() - 1,
+                        len.saturating_sub(1),
+                        ts_path.display()
+                    ),
+                ));
+            }
+        }
+        Ok(DrivePlan {
+            drive,
+            calib,
+            tracklets: Arc::new(tracklets),
+            timestamps,
+        })
+    }
+
+    /// The velodyne timestamp of a frame, when known.
+    pub fn timestamp(&self, frame: u32) -> Option<Timestamp> {
+        self.timestamps
+            .as_ref()
+            .and_then(|t| t.get(frame as usize).copied().flatten())
+    }
+
+    /// The boxes present at a frame, classed by `map`.
+    pub fn boxes(&self, frame: u32, map: &ClassMap) -> Vec<LabelBox> {
+        tracklet_boxes(&self.tracklets, frame, map)
+    }
+}
+
+/// A frame that could not be converted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameFailure {
+    /// The frame id, or the drive name when the whole drive failed.
+    pub what: String,
+    /// Frames lost.
+    pub frames: u64,
+    /// The error, naming the file.
+    pub error: String,
+}
+
+/// The work: drives and frames.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// Drives that could be read.
+    pub drives: Vec<DrivePlan>,
+    /// (index into `drives`, frame) to convert, in frame-id order.
+    pub jobs: Vec<(usize, u32)>,
+    /// Frames not converted by the selection, by reason.
+    pub skipped: BTreeMap<String, u64>,
+    /// Drives that could not be read, with their frames.
+    pub failed: Vec<FrameFailure>,
+}
+
+impl Plan {
+    /// Finds the drives under `root` and lists the frames `selection` picks.
+    pub fn build(root: &Path, selection: FrameSelection) -> Result<Plan> {
+        let mut plan = Plan {
+            drives: Vec::new(),
+            jobs: Vec::new(),
+            skipped: BTreeMap::new(),
+            failed: Vec::new(),
+        };
+        let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> =
+            BTreeMap::new();
+        for drive in discover(root)? {
+            let frames = match drive.scan_frames() {
+                Ok(f) => f,
+                Err(e) => {
+                    plan.failed.push(FrameFailure {
+                        what: drive.name(),
+                        frames: 0,
+                        error: e.to_string(),
+                    });
+                    continue;
+                }
+            };
+            let date_dir = drive.date_dir();
+            let calib = calibs
+                .entry(date_dir.clone())
+                .or_insert_with(|| {
+                    Calibration::read_dir(&date_dir)
+                        .map(Arc::new)
+                        .map_err(|e| e.to_string())
+                })
+                .clone();
+            let loaded =
+                calib.and_then(|c| DrivePlan::load(drive.clone(), c).map_err(|e| e.to_string()));
+            let dp = match loaded {
+                Ok(dp) => dp,
+                Err(error) => {
+                    plan.failed.push(FrameFailure {
+                        what: drive.name(),
+                        frames: frames.len() as u64,
+                        error,
+                    });
+                    continue;
+                }
+            };
+            let index = plan.drives.len();
+            let has_file = dp.drive.tracklets_path().exists();
+            for &f in &frames {
+                if selection.keeps(&dp.tracklets, f) {
+                    plan.jobs.push((index, f));
+                } else {
+                    let why = if has_file {
+                        "no tracklet pose at the frame"
+                    } else {
+                        "drive has no tracklet_labels.xml"
+                    };
+                    *plan.skipped.entry(why.into()).or_default() += 1;
+                }
+            }
+            let with_scan: std::collections::BTreeSet<u32> = frames.iter().copied().collect();
+            let missing = (0..dp.tracklets.end_frame())
+                .filter(|f| dp.tracklets.count_at(*f) > 0 && !with_scan.contains(f))
+                .count() as u64;
+            if missing > 0 {
+                *plan
+                    .skipped
+                    .entry("annotated frame without a velodyne scan".into())
+                    .or_default() += missing;
+            }
+            plan.drives.push(dp);
+        }
+        Ok(plan)
+    }
+
+    /// The frame ids the plan converts, in order.
+    pub fn frame_ids(&self) -> impl Iterator<Item = FrameId> + '_ {
+        self.jobs
+            .iter()
+            .map(|&(d, f)| self.drives[d].drive.frame_id(f))
+    }
+}

@@ -1,0 +1,295 @@
+//! SCORE: predictions, found and read.
+//!
+//! Predictions are matched to ground-truth frames by frame id (the file stem; for `.label` files
+//! the drive folder and the frame number). Formats, detected per file: H x W label maps (`.npy`,
+//! integer or integral float), H x W x K class scores (`.npy`, argmax), SqueezeSeg-layout
+//! H x W x 6 or 9 `.npy` (its label channel), per-point `.label` files (low 16 bits), and
+//! prediction shards. Every label read is checked to be a class of the ground truth's map.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::format::npy::{read_any, NpyArray};
+use crate::format::shard::Shard;
+use crate::kitti::{parse_drive_name, FrameId};
+use crate::label::ClassMap;
+use crate::project::{Channel, Channels};
+
+/// The kind of a prediction file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum PredFormat {
+    /// H x W class ids (`.npy`).
+    LabelMap,
+    /// H x W x K class scores (`.npy`, argmax; K = classes of the map).
+    ScoreMap,
+    /// SqueezeSeg layout H x W x 6 or 9 (`.npy`, channel 5).
+    SqueezeSeg,
+    /// One u32 per point of the scan (`.label`, low 16 bits).
+    PointLabels,
+}
+
+/// Predictions by frame id, all of one format family: `.npy` maps, `.label` files, or shards.
+pub struct Predictions {
+    /// The folder or file given.
+    pub root: PathBuf,
+    /// Files by frame (`.npy` or `.label`).
+    pub files: BTreeMap<FrameId, PathBuf>,
+    /// Whether they are per-point `.label` files (else `.npy` maps or shards).
+    pub points: bool,
+    /// Prediction shards, and where each frame's message is: (shard, chunk).
+    shards: Vec<(Shard, mcap::read::Summary)>,
+    /// Where each frame of prediction shards is: (shard, chunk).
+    pub(super) in_shard: BTreeMap<FrameId, (usize, usize)>,
+}
+
+fn frame_id_of(path: &Path) -> Option<FrameId> {
+    let stem = path.file_stem()?.to_str()?;
+    match path.extension()?.to_str()? {
+        "npy" => stem.parse().ok(),
+        "label" => {
+            let drive = path.parent()?.file_name()?.to_str()?;
+            let (date, number) = parse_drive_name(drive)?;
+            (stem.len() == 10).then_some(())?;
+            Some(FrameId {
+                date,
+                drive: number,
+                frame: stem.parse().ok()?,
+            })
+        }
+        _ => None,
+    }
+}
+
+fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
+    for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        let p = e.map_err(|e| Error::io(dir, e))?.path();
+        if p.is_dir() {
+            walk(&p, out)?;
+        } else {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+impl Predictions {
+    /// Indexes the prediction files under `root` (a folder searched recursively, or one file).
+    pub fn index(root: &Path) -> Result<Predictions> {
+        let mut paths = Vec::new();
+        if root.is_dir() {
+            walk(root, &mut paths)?;
+        } else if root.is_file() {
+            paths.push(root.to_path_buf());
+        } else {
+            return Err(Error::Input {
+                path: root.into(),
+                message: "no such file or folder".into(),
+            });
+        }
+        paths.sort();
+        let mut files = BTreeMap::new();
+        let (mut npy, mut label) = (None::<PathBuf>, None::<PathBuf>);
+        let mcaps: Vec<PathBuf> = paths
+            .iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+            .cloned()
+            .collect();
+        for p in paths {
+            let Some(id) = frame_id_of(&p) else { continue };
+            if p.extension().is_some_and(|e| e == "npy") {
+                npy.get_or_insert(p.clone());
+            } else {
+                label.get_or_insert(p.clone());
+            }
+            if let Some(prev) = files.insert(id.clone(), p.clone()) {
+                return Err(Error::Input {
+                    path: p,
+                    message: format!("second prediction for {id} (first: {})", prev.display()),
+                });
+            }
+        }
+        if let (Some(a), Some(b)) = (&npy, &label) {
+            return Err(Error::Input {
+                path: root.into(),
+                message: format!(
+                    "mixed formats: .npy maps ({}) and .label files ({})",
+                    a.display(),
+                    b.display()
+                ),
+            });
+        }
+        if let (Some(a), Some(b)) = (npy.as_ref().or(label.as_ref()), mcaps.first()) {
+            return Err(Error::Input {
+                path: root.into(),
+                message: format!(
+                    "mixed formats: prediction files ({}) and shards ({})",
+                    a.display(),
+                    b.display()
+                ),
+            });
+        }
+        let mut shards = Vec::new();
+        let mut in_shard = BTreeMap::new();
+        for p in &mcaps {
+            let shard = Shard::open(p)?;
+            let summary = shard.summary()?;
+            for chunk in 0..summary.chunk_indexes.len() {
+                for f in shard.chunk_frames(&summary, chunk)? {
+                    let f = f?;
+                    let id: FrameId = f.id.parse().map_err(|e: String| Error::format(p, e))?;
+                    if in_shard.insert(id.clone(), (shards.len(), chunk)).is_some() {
+                        return Err(Error::Input {
+                            path: p.clone(),
+                            message: format!("second prediction for {id}"),
+                        });
+                    }
+                }
+            }
+            shards.push((shard, summary));
+        }
+        if files.is_empty() && in_shard.is_empty() {
+            return Err(Error::Input {
+                path: root.into(),
+                message:
+                    "no prediction (<frame id>.npy, <drive>/<frame>.label or prediction shards)"
+                        .into(),
+            });
+        }
+        Ok(Predictions {
+            root: root.into(),
+            files,
+            points: label.is_some(),
+            shards,
+            in_shard,
+        })
+    }
+}
+
+impl Predictions {
+    /// The label map of frame `id` from prediction shard `k`, chunk `chunk`, checked.
+    pub(super) fn shard_prediction(
+        &self,
+        k: usize,
+        chunk: usize,
+        id: &FrameId,
+        (rows, cols): (usize, usize),
+        map: &ClassMap,
+    ) -> Result<Vec<u8>> {
+        let (shard, summary) = &self.shards[k];
+        let want = id.to_string();
+        for f in shard.chunk_frames(summary, chunk)? {
+            let f = f?;
+            if f.id != want {
+                continue;
+            }
+            if (f.height as usize, f.width as usize) != (rows, cols) || f.label.len() != rows * cols
+            {
+                return Err(Error::format(
+                    &shard.path,
+                    format!(
+                        "prediction for {id} is {}x{} ({} labels), the ground truth {rows}x{cols}",
+                        f.height,
+                        f.width,
+                        f.label.len()
+                    ),
+                ));
+            }
+            for (i, v) in f.label.iter().enumerate() {
+                map.check(*v as u64, &shard.path, || {
+                    format!("prediction for {id}: cell ({}, {})", i / cols, i % cols)
+                })?;
+            }
+            return Ok(f.label);
+        }
+        Err(Error::format(
+            &shard.path,
+            format!("prediction for {id} vanished from its chunk"),
+        ))
+    }
+}
+
+/// A cell prediction map read from a `.npy`, as class ids.
+#[derive(Debug, Clone)]
+pub struct CellPrediction {
+    /// Detected format.
+    pub format: PredFormat,
+    /// Class id per cell, row-major.
+    pub labels: Vec<u8>,
+}
+
+/// The class id `v` stands for; `what` names the cell in the error (built only on failure).
+#[inline]
+fn class_of(v: f64, k: usize, path: &Path, what: impl Fn() -> String) -> Result<u8> {
+    if v.is_nan() {
+        return Err(Error::format(path, format!("{} is NaN", what())));
+    }
+    // Range first, then integrality by a round trip (`fract` is a libm call).
+    if !(0.0..k as f64).contains(&v) || (v as u8) as f64 != v {
+        return Err(Error::format(
+            path,
+            format!("{} is {v}, not a class id 0-{}", what(), k - 1),
+        ));
+    }
+    Ok(v as u8)
+}
+
+/// Reads a `.npy` prediction for an `rows x cols` map of the classes of `map`.
+pub fn read_cell_prediction(
+    path: &Path,
+    (rows, cols): (usize, usize),
+    map: &ClassMap,
+) -> Result<CellPrediction> {
+    const K_NPY: [usize; 2] = [6, 9];
+    let k = map.len();
+    let NpyArray { shape, data, dtype } = read_any(path)?;
+    let cells = rows * cols;
+    let dims: Vec<usize> = shape.iter().map(|&d| d as usize).collect();
+    let (format, depth) = match dims.as_slice() {
+        [h, w] if *h == rows && *w == cols => (PredFormat::LabelMap, 1),
+        [h, w, 1] if *h == rows && *w == cols => (PredFormat::LabelMap, 1),
+        [h, w, c] if *h == rows && *w == cols && *c == k => (PredFormat::ScoreMap, k),
+        [h, w, c] if *h == rows && *w == cols && K_NPY.contains(c) => (PredFormat::SqueezeSeg, *c),
+        other => {
+            return Err(Error::format(
+                path,
+                format!("shape {other:?} ({dtype}) does not fit the {rows}x{cols} ground truth: expected {rows}x{cols} labels, {rows}x{cols}x{k} scores or {rows}x{cols}x6/9 SqueezeSeg maps"),
+            ))
+        }
+    };
+    let mut labels = Vec::with_capacity(cells);
+    for i in 0..cells {
+        let cell = &data[i * depth..(i + 1) * depth];
+        let what = || format!("cell ({}, {})", i / cols, i % cols);
+        let l = match format {
+            PredFormat::LabelMap => class_of(cell[0], k, path, what)?,
+            PredFormat::SqueezeSeg => {
+                let label = Channels::npy_of_depth(depth)
+                    .and_then(|c| c.index(Channel::Label))
+                    .expect("an .npy layout");
+                class_of(cell[label], k, path, what)?
+            }
+            PredFormat::ScoreMap => {
+                if let Some(k) = cell.iter().position(|v| v.is_nan()) {
+                    return Err(Error::format(
+                        path,
+                        format!("{} score of class {k} is NaN", what()),
+                    ));
+                }
+                // First maximum: ties go to the lower class id.
+                let mut best = 0;
+                for c in 1..k {
+                    if cell[c] > cell[best] {
+                        best = c;
+                    }
+                }
+                best as u8
+            }
+            PredFormat::PointLabels => unreachable!("not a map"),
+        };
+        labels.push(l);
+    }
+    Ok(CellPrediction { format, labels })
+}
