@@ -1,5 +1,5 @@
 //! The `kitti2pgm` metadata record of a shard: version, typed conversion parameters, drives,
-//! the frames planned, the frames that failed, the split.
+//! the frames planned, the frames that failed, the split, and the topic names.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -39,6 +39,9 @@ impl ShardMetadata {
             ("frames".into(), self.frames.join("\n")),
             ("failed".into(), self.failed.join("\n")),
             ("split".into(), self.split.clone()),
+            // The topics, so that readers (the Python package) need no copy of them.
+            ("frame_topic".into(), super::FRAME_TOPIC.into()),
+            ("prediction_topic".into(), super::PREDICTION_TOPIC.into()),
         ])
     }
 

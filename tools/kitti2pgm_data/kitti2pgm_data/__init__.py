@@ -3,27 +3,31 @@
 ``iter_frames(paths)`` streams frames in order; ``ShardReader`` gives random access to one shard
 through its chunk indexes (every frame is its own chunk); ``ShardDataset`` indexes several shards
 as one PyTorch-style dataset (``__len__`` / ``__getitem__``, usable with a DataLoader).
+``read_metadata`` and ``class_map`` give a shard's conversion parameters and classes;
+``write_predictions`` writes a prediction shard that ``kitti2pgm score`` reads.
 """
 
 from .reader import (
-    FRAME_TOPIC,
     ShardError,
     ShardReader,
+    class_map,
     decode_frame,
     iter_frames,
     read_metadata,
 )
 from .dataset import ShardDataset
-from .writer import PREDICTION_TOPIC, encode_prediction, write_predictions
+from .schema import FRAME_SCHEMA, FrameSchema
+from .writer import encode_prediction, write_predictions
 
 __all__ = [
-    "FRAME_TOPIC",
-    "PREDICTION_TOPIC",
+    "FRAME_SCHEMA",
+    "FrameSchema",
     "encode_prediction",
     "write_predictions",
     "ShardDataset",
     "ShardError",
     "ShardReader",
+    "class_map",
     "decode_frame",
     "iter_frames",
     "read_metadata",

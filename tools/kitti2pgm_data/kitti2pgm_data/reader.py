@@ -2,12 +2,15 @@
 
 The frame message is protobuf (its FileDescriptorSet is the channel's schema, so generic tools
 decode it too). Its fields are a handful of scalars, strings and byte arrays, so it is parsed
-here from the protobuf wire format directly, which keeps the package free of a protobuf
-dependency and lets the arrays be zero-copy views of the decompressed chunk.
+here from the protobuf wire format directly, with the field numbers read from the shard's own
+schema (``schema.FrameSchema``); this keeps the package free of a protobuf dependency and lets
+the arrays be zero-copy views of the decompressed chunk. Frames are found by their schema name,
+``kitti2pgm.Frame``, on whatever topic they are.
 """
 
 from __future__ import annotations
 
+import json
 import mmap
 import os
 import struct
@@ -17,7 +20,8 @@ from typing import Dict, Iterable, Iterator, List, Optional, Union
 import numpy as np
 from mcap.reader import NonSeekingReader, make_reader
 
-FRAME_TOPIC = "/kitti2pgm/frame"
+from .schema import FRAME_SCHEMA, FrameSchema, fields
+
 _OP_CHUNK = 0x06
 _OP_MESSAGE = 0x05
 METADATA_NAME = "kitti2pgm"
@@ -29,77 +33,52 @@ class ShardError(Exception):
     """A shard that cannot be read; the message names the shard and the frame."""
 
 
-# Field numbers of kitti2pgm.Frame (docs/shard-format.md).
-_SCALARS = {3: "frame_index", 4: "timestamp_ns", 5: "height", 6: "width"}
-_STRINGS = {1: "id", 2: "drive", 13: "split"}
-_BYTES = {8: "tensor", 9: "label", 10: "instance", 11: "mask", 12: "rgb_valid"}
+# The arrays of a frame: dtype and whether the array has a third, channel axis.
+_ARRAYS = {"tensor": ("<f4", True), "label": ("u1", False), "instance": ("<u2", False),
+           "mask": ("u1", False), "rgb_valid": ("u1", False)}
 
 
-def _varint(buf: memoryview, pos: int):
-    result = shift = 0
-    while True:
-        b = buf[pos]
-        pos += 1
-        result |= (b & 0x7F) << shift
-        if b < 0x80:
-            return result, pos
-        shift += 7
-
-
-def decode_frame(data: Union[bytes, memoryview]) -> Dict[str, object]:
-    """Decodes one ``kitti2pgm.Frame`` message into a dict of numpy arrays and scalars."""
-    buf = memoryview(data)
-    fields: Dict[str, object] = {"frame_index": 0, "timestamp_ns": 0, "height": 0, "width": 0,
-                                 "id": "", "drive": "", "split": ""}
+def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, object]:
+    """Decodes one ``kitti2pgm.Frame`` message, field numbers taken from ``schema`` (the shard's
+    own), into a dict of scalars, strings and numpy arrays (views of ``data``, no copy)."""
+    out: Dict[str, object] = {}
     raw: Dict[str, memoryview] = {}
-    channels: List[str] = []
-    pos, end = 0, len(buf)
-    while pos < end:
-        key, pos = _varint(buf, pos)
-        number, wire = key >> 3, key & 7
-        if wire == 0:
-            value, pos = _varint(buf, pos)
-            if number in _SCALARS:
-                fields[_SCALARS[number]] = value
-        elif wire == 2:
-            n, pos = _varint(buf, pos)
-            chunk = buf[pos:pos + n]
-            if len(chunk) != n:
-                raise ValueError("truncated frame message")
-            pos += n
-            if number in _STRINGS:
-                fields[_STRINGS[number]] = bytes(chunk).decode()
-            elif number == 7:
-                channels.append(bytes(chunk).decode())
-            elif number in _BYTES:
-                raw[_BYTES[number]] = chunk
-        elif wire == 1:
-            pos += 8
-        elif wire == 5:
-            pos += 4
+    lists: Dict[str, List[str]] = {}
+    for number, _wire, value in fields(data):
+        if number not in schema.by_number:
+            continue  # a field this version does not know
+        name, kind, repeated = schema.by_number[number]
+        if kind == "string":
+            text = bytes(value).decode()
+            if repeated:
+                lists.setdefault(name, []).append(text)
+            else:
+                out[name] = text
+        elif kind == "bytes":
+            raw[name] = value
         else:
-            raise ValueError(f"unsupported protobuf wire type {wire}")
-    h, w = int(fields["height"]), int(fields["width"])
-    c = len(channels)
-
-    def arr(name: str, dtype: str, shape) -> np.ndarray:
+            out[name] = value
+    for name, (_num, kind, repeated) in schema.by_name.items():
+        if repeated:
+            out.setdefault(name, lists.get(name, []))
+        elif kind == "string":
+            out.setdefault(name, "")
+        elif kind != "bytes":
+            out.setdefault(name, 0)
+    h, w = int(out["height"]), int(out["width"])
+    c = len(out["channels"])
+    for name, (dtype, has_channels) in _ARRAYS.items():
         b = raw.get(name, memoryview(b""))
+        shape = (h, w, c) if has_channels else (h, w)
         need = int(np.prod(shape)) * np.dtype(dtype).itemsize
+        # Absent arrays (prediction messages carry the label map only; rgb_valid without colour).
+        if len(b) == 0 and (name not in ("label", "tensor") or need == 0):
+            out[name] = None
+            continue
         if len(b) != need:
             raise ValueError(f"{name} has {len(b)} bytes, expected {need}")
-        return np.frombuffer(b, dtype=dtype).reshape(shape)
-
-    def optional(name: str, dtype: str, shape):
-        # Absent in prediction messages, which carry the label map only.
-        return arr(name, dtype, shape) if len(raw.get(name, b"")) else None
-
-    fields["channels"] = channels
-    fields["tensor"] = arr("tensor", "<f4", (h, w, c)) if c else optional("tensor", "<f4", (h, w, c))
-    fields["label"] = arr("label", "u1", (h, w))
-    fields["instance"] = optional("instance", "<u2", (h, w))
-    fields["mask"] = optional("mask", "u1", (h, w))
-    fields["rgb_valid"] = optional("rgb_valid", "u1", (h, w))
-    return fields
+        out[name] = np.frombuffer(b, dtype=dtype).reshape(shape)
+    return out
 
 
 class ShardReader:
@@ -125,9 +104,14 @@ class ShardReader:
             raise ShardError(f"{self.path}: unreadable summary (truncated or unfinished shard?): {e}") from e
         if summary is None:
             raise ShardError(f"{self.path}: no summary section: the shard was not finished")
-        frame_channels = {cid for cid, ch in summary.channels.items() if ch.topic == FRAME_TOPIC}
+        frame_schemas = {sid: s for sid, s in summary.schemas.items() if s.name == FRAME_SCHEMA}
+        frame_channels = {cid for cid, ch in summary.channels.items() if ch.schema_id in frame_schemas}
         if not frame_channels:
-            raise ShardError(f"{self.path}: no {FRAME_TOPIC} channel")
+            raise ShardError(f"{self.path}: no channel of schema {FRAME_SCHEMA}")
+        try:
+            self.schema = FrameSchema(next(iter(frame_schemas.values())).data)
+        except Exception as e:
+            raise ShardError(f"{self.path}: unreadable {FRAME_SCHEMA} schema: {e}") from e
         self._frame_channels = frame_channels
         chunks = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
         # Every frame message is alone in its chunk (the writer's chunk size is below one frame).
@@ -203,7 +187,7 @@ class ShardReader:
         if not 0 <= i < len(self):
             raise IndexError(f"{self.path}: frame {i} of {len(self)}")
         try:
-            return decode_frame(self._frame_data(self._chunks[i]))
+            return decode_frame(self._frame_data(self._chunks[i]), self.schema)
         except Exception as e:
             raise ShardError(f"{self.path}: frame #{i}: {e}") from e
 
@@ -211,17 +195,40 @@ class ShardReader:
         for i in range(len(self)):
             yield self[i]
 
-    def metadata(self) -> Dict[str, str]:
+    def metadata(self) -> Dict[str, object]:
         return read_metadata(self.path)
 
 
-def read_metadata(path: PathLike) -> Dict[str, str]:
-    """The shard's ``kitti2pgm`` metadata record (version, params, drives, frames, failed, split)."""
-    with open(path, "rb") as f:
-        for m in make_reader(f).iter_metadata():
-            if m.name == METADATA_NAME:
-                return dict(m.metadata)
-    raise ShardError(f"{os.fspath(path)}: no {METADATA_NAME} metadata record")
+def read_metadata(path: PathLike) -> Dict[str, object]:
+    """The shard's ``kitti2pgm`` metadata record: ``version``, ``params`` (the conversion
+    parameters, parsed from JSON: ``params["map"]["class_map"]`` is the class map), ``drives``,
+    ``frames``, ``failed`` (lists), ``split``, ``frame_topic``, ``prediction_topic``. Raises
+    ``ShardError`` naming the shard when the record is missing or malformed."""
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as f:
+            records = [m for m in make_reader(f).iter_metadata() if m.name == METADATA_NAME]
+    except Exception as e:
+        raise ShardError(f"{path}: unreadable metadata (truncated or unfinished shard?): {e}") from e
+    if not records:
+        raise ShardError(f"{path}: no {METADATA_NAME} metadata record")
+    md: Dict[str, object] = dict(records[0].metadata)
+    try:
+        md["params"] = json.loads(md["params"])
+        for key in ("drives", "frames", "failed"):
+            md[key] = [x for x in md[key].split("\n") if x]
+    except (KeyError, ValueError) as e:
+        raise ShardError(f"{path}: malformed {METADATA_NAME} metadata record: {e!r}") from e
+    return md
+
+
+def class_map(path: PathLike) -> Dict[str, object]:
+    """The class map a shard was made with (names, colours, ignored ids, mIoU ids, reference
+    weights), from its metadata."""
+    try:
+        return read_metadata(path)["params"]["map"]["class_map"]
+    except (KeyError, TypeError) as e:
+        raise ShardError(f"{os.fspath(path)}: no class map in the metadata: {e!r}") from e
 
 
 def iter_frames(paths: Union[PathLike, Iterable[PathLike]]) -> Iterator[Dict[str, object]]:
@@ -242,8 +249,13 @@ def iter_frames(paths: Union[PathLike, Iterable[PathLike]]) -> Iterator[Dict[str
                 # Stream from the start (never from the summary), so that a shard whose end is
                 # lost still gives its first frames.
                 reader = NonSeekingReader(f)
-                for _schema, channel, message in reader.iter_messages(topics=[FRAME_TOPIC], log_time_order=False):
-                    frame = decode_frame(message.data)
+                schemas: Dict[int, FrameSchema] = {}
+                for schema, _channel, message in reader.iter_messages(log_time_order=False):
+                    if schema is None or schema.name != FRAME_SCHEMA:
+                        continue
+                    if schema.id not in schemas:
+                        schemas[schema.id] = FrameSchema(schema.data)
+                    frame = decode_frame(message.data, schemas[schema.id])
                     yield frame
                     n += 1
                     last = str(frame["id"])

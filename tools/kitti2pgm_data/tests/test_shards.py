@@ -6,7 +6,7 @@ import os
 import numpy as np
 import pytest
 
-from kitti2pgm_data import ShardDataset, ShardError, ShardReader, iter_frames, read_metadata
+from kitti2pgm_data import ShardDataset, ShardError, ShardReader, class_map, iter_frames, read_metadata
 
 import shutil
 
@@ -79,9 +79,12 @@ def test_uncompressed_frames_are_zero_copy_views(lidar_none):
 def test_metadata(rgb_lz4):
     md = read_metadata(shards(rgb_lz4)[0])
     assert md["split"] == "train"
-    assert md["frames"].splitlines() == IDS[:2]
-    assert "2011_09_26_drive_0052_sync" in md["drives"].splitlines()
-    assert '"rows":64' in md["params"]
+    assert md["frames"] == IDS[:2]
+    assert "2011_09_26_drive_0052_sync" in md["drives"]
+    assert md["params"]["map"]["spec"]["rows"] == 64
+    assert md["frame_topic"] == "/kitti2pgm/frame"
+    cm = class_map(shards(rgb_lz4)[0])
+    assert [c["name"] for c in cm["classes"]] == ["background", "car", "pedestrian", "cyclist"]
     with ShardReader(shards(rgb_lz4)[0]) as r:
         assert r.metadata()["version"] == md["version"]
 
@@ -124,7 +127,8 @@ def test_prediction_shards_decode_and_score(rgb_lz4, scratch, kitti2pgm_path):
     import subprocess
 
     from kitti2pgm_data import write_predictions
-    from kitti2pgm_data.reader import decode_frame
+    from kitti2pgm_data import FrameSchema, decode_frame
+    from kitti2pgm_data.writer import frame_schema
 
     frames = list(iter_frames(shards(rgb_lz4)))
     preds = [{"id": f["id"], "label": f["label"], "drive": f["drive"], "frame_index": f["frame_index"]} for f in frames]
@@ -133,8 +137,36 @@ def test_prediction_shards_decode_and_score(rgb_lz4, scratch, kitti2pgm_path):
     from mcap.reader import make_reader
     with open(out, "rb") as f:
         msgs = [m for _, _, m in make_reader(f).iter_messages(topics=["/kitti2pgm/prediction"])]
-    d = decode_frame(msgs[0].data)
+    d = decode_frame(msgs[0].data, FrameSchema(frame_schema(out)))
     assert d["id"] == IDS[0] and np.array_equal(d["label"], frames[0]["label"])
     r = subprocess.run([kitti2pgm_path, "score", "--gt", str(rgb_lz4), "--pred", str(out), "--json"],
                        capture_output=True, text=True, check=True)
     assert json.loads(r.stdout)["classes"]["car"]["iou"] == 1.0
+
+
+def test_schema_comes_from_the_shard(rgb_lz4):
+    """The field table is the shard's stored schema: every field of the message, with its type."""
+    from kitti2pgm_data import FrameSchema
+    from kitti2pgm_data.writer import frame_schema
+
+    schema = FrameSchema(frame_schema(shards(rgb_lz4)[0]))
+    assert schema.by_name["tensor"] == (8, "bytes", False)
+    assert schema.by_name["channels"] == (7, "string", True)
+    assert schema.by_name["timestamp_ns"] == (4, "uint64", False)
+    assert len(schema.by_name) == 13
+    with pytest.raises(ValueError, match="does not define"):
+        FrameSchema(frame_schema(shards(rgb_lz4)[0]), message="kitti2pgm.Other")
+
+
+def test_bad_metadata_is_named(rgb_lz4, scratch):
+    """A shard whose metadata record is malformed is refused, naming the shard."""
+    from mcap.writer import Writer
+
+    path = scratch / "bad.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start(profile="kitti2pgm", library="test")
+        w.add_metadata("kitti2pgm", {"version": "0", "params": "{not json"})
+        w.finish()
+    with pytest.raises(ShardError, match="bad.mcap: malformed"):
+        read_metadata(path)

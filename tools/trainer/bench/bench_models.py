@@ -12,7 +12,7 @@ import time
 import torch
 
 from kitti2pgm_train.models import INPUTS, MODELS, SegNet
-from kitti2pgm_train.task import masked_loss
+from kitti2pgm_train.common import masked_loss
 
 
 def sync(d):
@@ -21,7 +21,7 @@ def sync(d):
 
 
 def bench(model, inputs, device, batch, steps):
-    net = SegNet(model, inputs).to(device)
+    net = SegNet(model, inputs, 4).to(device)  # the paper's 4 classes
     xs = [torch.randn(batch, len(g), 64, 512, device=device) for g in INPUTS[inputs]]
     label = torch.randint(0, 4, (batch, 64, 512), device=device)
     mask = torch.ones(batch, 64, 512, dtype=torch.bool, device=device)

@@ -29,8 +29,10 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="run directory (never overwritten; see --resume)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--stats", help="kitti2pgm stats --json output: normalisation and class weights")
-    t.add_argument("--class-weights", choices=["sqrt", "inverse", "squeezeseg", "uniform"], default="sqrt",
-                   help="with --stats: sqrt or plain inverse frequency; squeezeseg = [1/15, 1, 10, 10] (used without --stats); uniform = no weighting")
+    t.add_argument("--class-weights", choices=["sqrt", "inverse", "reference", "squeezeseg", "uniform"], default="sqrt",
+                   help="with --stats: sqrt or plain inverse frequency; reference = the class map's own weights "
+                        "(SqueezeSeg's [1/15, 1, 10, 10] for the paper's map; used without --stats; squeezeseg is "
+                        "an alias); uniform = no weighting")
     t.add_argument("--steps", type=int, default=50_000)
     t.add_argument("--batch", type=int, default=32)
     t.add_argument("--lr", type=float, default=0.01)
@@ -67,24 +69,28 @@ def main(argv=None) -> int:
     if argv and argv[0].startswith("--") and argv[0] not in ("--help", "-h"):
         argv = ["train"] + argv
     args = parser().parse_args(argv)
-    from . import task
+    if getattr(args, "class_weights", None) == "squeezeseg":
+        args.class_weights = "reference"
+    from kitti2pgm_data import ShardError
     try:
         if args.command == "train":
-            r = task.train(args)
+            from .train import train
+            r = train(args)
             print(f"trained to step {r['step']}, last loss {r['loss']:.4f}; run in {args.out}")
         else:
-            r = task.evaluate(args)
+            from .evaluate import evaluate
+            r = evaluate(args)
             if args.json:
                 print(json.dumps(r, indent=2))
             else:
                 from .metrics import Confusion
                 import torch
-                c = Confusion()
+                c = Confusion(r["class_map"])
                 c.m = torch.tensor(r["confusion"])
                 print(f"{r['frames']} frames; predictions in {r['predictions'] or r['prediction_shard']}")
                 print(c.table())
                 print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in r["inference_ms_per_frame"].items() if v))
-    except (FileExistsError, FileNotFoundError, ValueError) as e:
+    except (FileExistsError, FileNotFoundError, ValueError, ShardError) as e:
         print(f"kitti2pgm_train: error: {e}", file=sys.stderr)
         return 1
     return 0

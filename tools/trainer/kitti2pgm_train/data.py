@@ -25,7 +25,7 @@ from .models import INPUTS
 # 0.5 / 0.25 puts [0, 1] values around zero. Used when no stats file is given.
 DEFAULT_MEAN = {"x": 10.88, "y": 0.23, "z": -1.04, "intensity": 0.21, "range": 12.12, "r": 0.5, "g": 0.5, "b": 0.5}
 DEFAULT_STD = {"x": 11.47, "y": 6.91, "z": 0.86, "intensity": 0.16, "range": 12.32, "r": 0.25, "g": 0.25, "b": 0.25}
-SQUEEZESEG_WEIGHTS = [1.0 / 15.0, 1.0, 10.0, 10.0]
+STATS_VERSION = 2
 
 
 def find_shards(spec: str, split: Optional[str] = None) -> List[str]:
@@ -59,17 +59,26 @@ class Normaliser:
         return cls(mean, std, f"kitti2pgm stats ({n['from_split']})")
 
 
-def class_weights(stats: Optional[dict], mode: str) -> List[float]:
-    """Loss weights: ``squeezeseg`` ([1/15, 1, 10, 10]), ``uniform`` (all 1), or from the stats
-    file: ``sqrt`` (square root of inverse frequency) or ``inverse``; a class absent from the stats
-    keeps SqueezeSeg's weight."""
+def class_weights(stats: Optional[dict], mode: str, class_map: dict) -> List[float]:
+    """Loss weights for the classes of ``class_map`` (the shards'): ``reference`` (the map's own,
+    SqueezeSeg's [1/15, 1, 10, 10] for the paper's map), ``uniform`` (all 1; 0 for ignored
+    classes), or from the stats file: ``sqrt`` (square root of inverse frequency) or ``inverse``.
+    Without a stats file, ``reference`` (or ``uniform`` for a map without reference weights). A
+    class absent from the stats keeps its reference weight (1 without one); ignored classes
+    weigh 0."""
+    n = len(class_map["classes"])
+    ignore = set(class_map.get("ignore", []))
+    uniform = [0.0 if k in ignore else 1.0 for k in range(n)]
+    reference = class_map.get("reference_weights") or uniform
     if mode == "uniform":
-        return [1.0, 1.0, 1.0, 1.0]
-    if mode == "squeezeseg" or not stats:
-        return list(SQUEEZESEG_WEIGHTS)
+        return uniform
+    if mode == "reference" or not stats:
+        return [float(v) for v in reference]
+    if [c["name"] for c in stats["class_map"]["classes"]] != [c["name"] for c in class_map["classes"]]:
+        raise ValueError("the stats file was made for other classes than the shards'")
     key = {"sqrt": "sqrt_inverse_frequency", "inverse": "inverse_frequency"}[mode]
     w = stats["class_weights"][key]
-    return [float(v) if v > 0 else SQUEEZESEG_WEIGHTS[k] for k, v in enumerate(w)]
+    return [0.0 if k in ignore else float(v) if v > 0 else float(reference[k]) for k, v in enumerate(w)]
 
 
 def load_stats(path: Optional[str]) -> Optional[dict]:
@@ -77,8 +86,8 @@ def load_stats(path: Optional[str]) -> Optional[dict]:
         return None
     with open(path) as f:
         stats = json.load(f)
-    if stats.get("version") != 1 or "normalisation" not in stats:
-        raise ValueError(f"{path}: not a kitti2pgm stats --json report (version 1)")
+    if stats.get("version") != STATS_VERSION or "normalisation" not in stats:
+        raise ValueError(f"{path}: not a kitti2pgm stats --json report (version {STATS_VERSION})")
     return stats
 
 

@@ -22,8 +22,6 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-NUM_CLASSES = 4
-
 # Channel names of each input, in the order the tensor is built.
 INPUTS: Dict[str, Tuple[Tuple[str, ...], ...]] = {
     "xyzdi": (("x", "y", "z", "intensity", "range"),),
@@ -140,14 +138,14 @@ class Encoder(nn.Module):
 class Decoder(nn.Module):
     """fire10 .. fire13 with skip additions, dropout, the 3x3 classifier."""
 
-    def __init__(self, cin: int, c, dropout: float):
+    def __init__(self, cin: int, c, dropout: float, num_classes: int):
         super().__init__()
         self.fire10 = FireDeconv(cin, c(64), c(128), c(128))
         self.fire11 = FireDeconv(c(256), c(32), c(64), c(64))
         self.fire12 = FireDeconv(c(128), c(16), c(32), c(32))
         self.fire13 = FireDeconv(c(64), c(16), c(32), c(32))
         self.drop = nn.Dropout2d(dropout)
-        self.conv14 = nn.Conv2d(c(64), NUM_CLASSES, 3, padding=1)
+        self.conv14 = nn.Conv2d(c(64), num_classes, 3, padding=1)
 
     @staticmethod
     def _fit(x, like):
@@ -168,7 +166,9 @@ class Decoder(nn.Module):
 class SegNet(nn.Module):
     """A SqueezeSeg-family network over one input (early fusion) or two (mid fusion)."""
 
-    def __init__(self, model: str, inputs: str, width_mult: float = 1.0, dropout: float = 0.5, crf: bool = False):
+    def __init__(self, model: str, inputs: str, num_classes: int, width_mult: float = 1.0, dropout: float = 0.5,
+                 crf: bool = False):
+        """``num_classes``: the width of the output, the number of classes of the shards' class map."""
         super().__init__()
         if model not in MODELS:
             raise ValueError(f"unknown model {model!r}; choose from {sorted(MODELS)}")
@@ -183,14 +183,14 @@ class SegNet(nn.Module):
         self.fuse = None
         if len(groups) == 2:
             self.fuse = conv(2 * cin, cin, 1)
-        self.decoder = Decoder(cin, enc.c, dropout)
+        self.decoder = Decoder(cin, enc.c, dropout, num_classes)
         self.crf = None
         if crf:
             from .crf import RecurrentCRF
-            self.crf = RecurrentCRF(NUM_CLASSES)
+            self.crf = RecurrentCRF(num_classes)
 
     def forward(self, xs: Sequence[torch.Tensor], mask: torch.Tensor = None, xyz: torch.Tensor = None):
-        """``xs``: one input tensor per encoder (N x C x H x W). Returns class logits N x 4 x H x W."""
+        """``xs``: one input tensor per encoder (N x C x H x W). Returns class logits N x K x H x W."""
         outs = [e(x) for e, x in zip(self.encoders, xs)]
         if self.fuse is None:
             f9, skips = outs[0]

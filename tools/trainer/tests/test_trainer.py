@@ -17,7 +17,7 @@ torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
 @pytest.mark.parametrize("model", sorted(MODELS))
 @pytest.mark.parametrize("inputs", sorted(INPUTS))
 def test_output_shapes(model, inputs):
-    net = SegNet(model, inputs, width_mult=0.25).eval()
+    net = SegNet(model, inputs, 4, width_mult=0.25).eval()
     xs = [torch.randn(2, len(g), 64, 64) for g in INPUTS[inputs]]
     with torch.no_grad():
         y = net(xs)
@@ -26,7 +26,7 @@ def test_output_shapes(model, inputs):
 
 
 def test_crf_keeps_shapes_and_changes_logits():
-    net = SegNet("squeezeseg", "xyzdi", width_mult=0.25, crf=True).eval()
+    net = SegNet("squeezeseg", "xyzdi", 4, width_mult=0.25, crf=True).eval()
     x = torch.randn(1, 5, 64, 64)
     mask = torch.ones(1, 64, 64, dtype=torch.bool)
     xyz = torch.randn(1, 3, 64, 64)
@@ -37,7 +37,7 @@ def test_crf_keeps_shapes_and_changes_logits():
 
 
 def test_paper_sized_squeezeseg():
-    n = sum(p.numel() for p in SegNet("squeezeseg", "xyzdi").parameters())
+    n = sum(p.numel() for p in SegNet("squeezeseg", "xyzdi", 4).parameters())
     assert 0.8e6 < n < 1.1e6, n  # SqueezeSeg has about 0.9-1 million parameters
 
 
@@ -117,8 +117,8 @@ def test_resume_gives_the_uninterrupted_result(converted, tmp_path):
     assert ck["step"] == 3 or ck["step"] == 2  # stopped mid-run
     with pytest.raises(FileExistsError):
         from kitti2pgm_train.cli import parser
-        from kitti2pgm_train import task
-        task.train(parser().parse_args(["train", "--shards", str(shards), "--out", str(resumed)]))
+        from kitti2pgm_train.train import train
+        train(parser().parse_args(["train", "--shards", str(shards), "--out", str(resumed)]))
     _train(resumed, shards, 6, extra + ["--resume"])
     a = torch.load(straight / "checkpoint.pt", weights_only=False)["model"]
     b = torch.load(resumed / "checkpoint.pt", weights_only=False)["model"]

@@ -1,0 +1,106 @@
+"""Evaluation: predictions for the val shards (``predictions/<id>.npy`` H x W uint8 label maps
+and/or a prediction shard, both read by ``kitti2pgm score``), the IoU table in ``eval.json`` and
+the inference time per frame."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+
+import numpy as np
+import torch
+
+from kitti2pgm_data import class_map
+
+from .common import Progress, pick_device
+from .data import FrameSet, Normaliser, collate, find_shards
+from .metrics import Confusion
+from .models import SegNet
+
+
+def load_run(run: str, device: torch.device):
+    with open(os.path.join(run, "config.json")) as f:
+        config = json.load(f)
+    a = config["args"]
+    model = SegNet(a["model"], a["input"], len(config["class_map"]["classes"]), width_mult=a["width_mult"],
+                   dropout=a["dropout"], crf=a["crf"])
+    ck = torch.load(os.path.join(run, "checkpoint.pt"), map_location=device, weights_only=False)
+    model.load_state_dict(ck["model"])
+    norm = Normaliser(config["normalisation"]["mean"], config["normalisation"]["std"], config["normalisation"]["source"])
+    return model.to(device).eval(), config, norm
+
+
+@torch.no_grad()
+def evaluate(args) -> dict:
+    """Predicts every frame of the val shards, writes ``predictions/<id>.npy`` and the IoU table."""
+    device = pick_device(args.device, 0)
+    model, config, norm = load_run(args.run, device)
+    paths = find_shards(args.shards, "val") if not args.val_shards else find_shards(args.val_shards)
+    data = FrameSet(paths, config["args"]["input"], norm)
+    out = args.predictions or os.path.join(args.run, "predictions")
+    write_npy = args.format in ("npy", "both")
+    if write_npy:
+        os.makedirs(out, exist_ok=True)
+    if class_map(paths[0])["classes"] != config["class_map"]["classes"]:
+        raise ValueError(f"{paths[0]}: the shards' classes differ from those the run was trained on")
+    conf = Confusion(config["class_map"])
+    progress = Progress(len(data), "evaluating")
+
+    def predictions():
+        for start in range(0, len(data), args.batch):
+            batch = collate([data.item(i) for i in range(start, min(start + args.batch, len(data)))])
+            mask = batch["mask"].to(device)
+            logits = model([x.to(device) for x in batch["inputs"]], mask=mask, xyz=batch["xyz"].to(device))
+            pred = logits.argmax(1)
+            conf.add(pred, batch["label"].to(device), mask)
+            for fid, p in zip(batch["id"], pred.to(torch.uint8).cpu().numpy()):
+                if write_npy:
+                    tmp = os.path.join(out, f".{fid}.tmp.npy")
+                    np.save(tmp, p)
+                    os.replace(tmp, os.path.join(out, f"{fid}.npy"))
+                yield {"id": fid, "label": p}
+            progress.update(min(start + args.batch, len(data)))
+
+    shard_out = None
+    if args.format in ("mcap", "both"):
+        from kitti2pgm_data import write_predictions
+        shard_out = os.path.join(args.run, "predictions.mcap")
+        write_predictions(shard_out, predictions(), schema_from=paths[0],
+                          metadata={"run": os.path.abspath(args.run), "model": config["args"]["model"],
+                                    "input": config["args"]["input"]})
+    else:
+        for _ in predictions():
+            pass
+    progress.close()
+    timing = inference_time(model, data, device, args.timing_frames)
+    result = {"frames": len(data), "class_map": config["class_map"], "predictions": out if write_npy else None, "prediction_shard": shard_out,
+              **conf.as_dict(), "inference_ms_per_frame": timing}
+    with open(os.path.join(args.run, "eval.json"), "w") as f:
+        json.dump(result, f, indent=2)
+    return result
+
+
+@torch.no_grad()
+def inference_time(model, data: FrameSet, device: torch.device, frames: int) -> dict:
+    """Median forward time of one frame (batch 1) on the CPU and, when present, the GPU."""
+    out = {}
+    item = collate([data.item(0)])
+    devices = [torch.device("cpu")] + ([torch.device("cuda")] if torch.cuda.is_available() else [])
+    for d in devices:
+        m = model.to(d)
+        xs = [x.to(d) for x in item["inputs"]]
+        mask, xyz = item["mask"].to(d), item["xyz"].to(d)
+        times = []
+        for k in range(frames + 2):
+            if d.type == "cuda":
+                torch.cuda.synchronize()
+            t = time.perf_counter()
+            m(xs, mask=mask, xyz=xyz)
+            if d.type == "cuda":
+                torch.cuda.synchronize()
+            if k >= 2:  # two warm-up passes
+                times.append((time.perf_counter() - t) * 1e3)
+        out[d.type] = float(np.median(times)) if times else None
+    model.to(device)
+    return out

@@ -1,0 +1,139 @@
+"""The training loop.
+
+A run directory holds ``config.json`` (every argument, the git commit, the kitti2pgm version, the
+conversion parameters and class map read from the shards, the normalisation and the class weights
+actually used), ``log.csv`` (step, loss, learning rate, frames/s) and ``checkpoint.pt`` (written
+atomically every ``--checkpoint-every`` steps and at the end). A run directory is never
+overwritten: ``--resume`` continues the run found there, and ends with the same weights as an
+uninterrupted run (same seed, same batches, deterministic kernels on CPU).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import time
+
+import torch
+
+from kitti2pgm_data import class_map, read_metadata
+
+from . import __version__
+from .common import Progress, atomic_save, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
+from .data import FrameSet, Normaliser, StepBatches, TorchFrames, class_weights, collate, find_shards, load_stats
+from .models import SegNet
+
+
+def train(args) -> dict:
+    rank, world, local_rank = dist_info()
+    if world > 1:
+        torch.distributed.init_process_group("nccl" if torch.cuda.is_available() and args.device != "cpu" else "gloo")
+    device = pick_device(args.device, local_rank)
+    run = args.out
+    ckpt_path = os.path.join(run, "checkpoint.pt")
+    if os.path.exists(os.path.join(run, "config.json")) and not args.resume:
+        raise FileExistsError(f"{run} already holds a run: pass --resume to continue it, or choose another --out")
+    if args.resume and not os.path.exists(ckpt_path):
+        raise FileNotFoundError(f"{ckpt_path}: no checkpoint to resume")
+    if world > 1:
+        torch.distributed.barrier()  # every rank has checked the run directory before rank 0 writes it
+    os.makedirs(run, exist_ok=True)
+    if device.type == "cpu":
+        torch.use_deterministic_algorithms(True)
+    seed_everything(args.seed + rank)
+    stats = load_stats(args.stats)
+    norm = Normaliser.from_stats(stats)
+    train_paths = find_shards(args.shards, "train") if not args.train_shards else find_shards(args.train_shards)
+    meta = read_metadata(train_paths[0])
+    classes = class_map(train_paths[0])
+    weights = class_weights(stats, args.class_weights, classes)
+    data = FrameSet(train_paths, args.input, norm)
+    model = SegNet(args.model, args.input, len(classes["classes"]), width_mult=args.width_mult,
+                   dropout=args.dropout, crf=args.crf).to(device)
+    if world > 1:
+        model = torch.nn.parallel.DistributedDataParallel(model, device_ids=[local_rank] if device.type == "cuda" else None)
+    opt = torch.optim.SGD(model.parameters(), lr=args.lr, momentum=args.momentum, weight_decay=args.weight_decay)
+    start = 0
+    if args.resume:
+        ck = torch.load(ckpt_path, map_location=device, weights_only=False)
+        (model.module if world > 1 else model).load_state_dict(ck["model"])
+        opt.load_state_dict(ck["optimizer"])
+        start = ck["step"]
+        torch.set_rng_state(ck["torch_rng"])
+    if rank == 0 and not args.resume:
+        config = {
+            "args": vars(args), "git_commit": git_commit(), "trainer_version": __version__,
+            "kitti2pgm_version": meta["version"], "shard_params": meta["params"], "class_map": classes,
+            "train_shards": train_paths, "frames": len(data), "channels": data.channels,
+            "normalisation": {"source": norm.source, "mean": norm.mean, "std": norm.std},
+            "class_weights": weights, "world_size": world,
+        }
+        with open(os.path.join(run, "config.json"), "w") as f:
+            json.dump(config, f, indent=2)
+    weight = torch.tensor(weights, dtype=torch.float32, device=device)
+    log_path = os.path.join(run, "log.csv")
+    new_log = not os.path.exists(log_path)
+    log = open(log_path, "a", newline="") if rank == 0 else None
+    writer = csv.writer(log) if log else None
+    if writer and new_log:
+        writer.writerow(["step", "loss", "lr", "frames_per_s"])
+    tb = None
+    if rank == 0 and args.tensorboard:
+        from torch.utils.tensorboard import SummaryWriter
+        tb = SummaryWriter(os.path.join(run, "tensorboard"))
+    model.train()
+    progress = Progress(args.steps, "training") if rank == 0 else None
+    t_last, frames_since = time.perf_counter(), 0
+    loss_value = float("nan")
+    loader = torch.utils.data.DataLoader(
+        TorchFrames(data),
+        batch_sampler=StepBatches(len(data), args.batch, start, args.steps, args.seed, args.flip, rank, world),
+        collate_fn=collate,
+        num_workers=args.workers,
+        pin_memory=device.type == "cuda",
+        # Its own generator: the loader's worker seed must not consume the global RNG that
+        # dropout draws from, or a resumed run would diverge.
+        generator=torch.Generator().manual_seed(args.seed),
+    )
+    done = start
+    for step, batch in zip(range(start, args.steps), loader):
+        lr = lr_at(step, args.lr, args.lr_halve_every)
+        for g in opt.param_groups:
+            g["lr"] = lr
+        idx = batch["id"]
+        inputs = [x.to(device, non_blocking=True) for x in batch["inputs"]]
+        mask, label = batch["mask"].to(device, non_blocking=True), batch["label"].to(device, non_blocking=True)
+        logits = model(inputs, mask=mask, xyz=batch["xyz"].to(device))
+        loss = masked_loss(logits, label, mask, weight)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        loss_value = loss.detach().item()
+        frames_since += len(idx) * world
+        done = step + 1
+        if rank == 0 and (done % args.log_every == 0 or done == args.steps):
+            now = time.perf_counter()
+            fps = frames_since / max(now - t_last, 1e-9)
+            writer.writerow([done, f"{loss_value:.6f}", f"{lr:.6g}", f"{fps:.2f}"])
+            log.flush()
+            if tb:
+                tb.add_scalar("loss", loss_value, done)
+                tb.add_scalar("lr", lr, done)
+            t_last, frames_since = now, 0
+        if progress:
+            progress.update(done, f"loss {loss_value:.4f}")
+        if rank == 0 and (done % args.checkpoint_every == 0 or done == args.steps):
+            atomic_save({"model": (model.module if world > 1 else model).state_dict(), "optimizer": opt.state_dict(),
+                         "step": done, "torch_rng": torch.get_rng_state(), "args": vars(args)}, ckpt_path)
+        if args.stop_after and done - start >= args.stop_after:
+            break  # a deliberate interruption (tests of --resume)
+    if progress:
+        progress.close()
+    if log:
+        log.close()
+    if world > 1:
+        torch.distributed.destroy_process_group()
+    return {"step": done, "loss": loss_value}
+
+
