@@ -290,10 +290,11 @@ impl SplitRuleArgs {
 /// `kitti2pgm preview`.
 #[derive(Debug, ClapArgs)]
 pub struct PreviewArgs {
-    /// Converted frames (.npy, 64x512x6 or x9).
-    #[arg(required = true, value_name = "NPY")]
+    /// Converted frames: .npy files (H x W x 6 or 9), or every frame of a convert output
+    /// folder, a lidar_2d folder (SqueezeSeg's too) or shards.
+    #[arg(required = true, value_name = "NPY|DIR|SHARD")]
     pub inputs: Vec<PathBuf>,
-    /// Output: a .png file for one input, else a folder (one <stem>.png per input).
+    /// Output: a .png file for one .npy input, else a folder (one <frame>.png per frame).
     #[arg(long, short, value_name = "PATH")]
     pub out: PathBuf,
 }

@@ -1,42 +1,70 @@
-//! `kitti2pgm preview`: converted frames to PNG.
+//! `kitti2pgm preview`: converted frames to PNG, from `.npy` files or any ground-truth folder.
 
 use anyhow::{bail, Context};
+use kitti2pgm::draw::preview::render;
 use kitti2pgm::format::layout::OutputDir;
 use kitti2pgm::format::{pgm, png, summary};
 use kitti2pgm::label::ClassMap;
+use kitti2pgm::report::truth::{GroundTruth, MapFrame};
 
 use crate::cli::PreviewArgs;
 use crate::Outcome;
 
 pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
+    let is_npy = |p: &std::path::Path| p.is_file() && p.extension().is_some_and(|e| e == "npy");
     let single_file = a.inputs.len() == 1
+        && is_npy(&a.inputs[0])
         && a.out
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("png"));
     if !single_file {
         std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     }
-    let mut failed = 0;
-    for input in &a.inputs {
-        let result = (|| -> anyhow::Result<()> {
-            let map = pgm::read(input)?;
-            let img = kitti2pgm::draw::preview::render(&map, &class_map(input)?)
-                .with_context(|| input.display().to_string())?;
-            let out = if single_file {
-                a.out.clone()
-            } else {
-                let stem = input.file_stem().context("input has no file name")?;
-                a.out.join(stem).with_extension("png")
-            };
-            png::write(&out, &img)?;
-            Ok(())
-        })();
-        if let Err(e) = result {
+    let (mut written, mut failed) = (0, 0);
+    let mut report = |r: anyhow::Result<()>| match r {
+        Ok(()) => written += 1,
+        Err(e) => {
             eprintln!("kitti2pgm: {e:#}");
             failed += 1;
         }
+    };
+    for input in &a.inputs {
+        if is_npy(input) {
+            report((|| {
+                let map = class_map(input)?;
+                let f = pgm::read(input)?;
+                let stem = input.file_stem().context("input has no file name")?;
+                let id = stem.to_string_lossy().parse().unwrap_or_default();
+                let frame = MapFrame::from_pgm(id, f, &map, input)?;
+                let out = if single_file {
+                    a.out.clone()
+                } else {
+                    a.out.join(stem).with_extension("png")
+                };
+                png::write(&out, &render(&frame, &map)?)?;
+                Ok(())
+            })());
+            continue;
+        }
+        let gt = match GroundTruth::open(input) {
+            Ok(gt) => gt,
+            Err(e) => {
+                report(Err(e.into()));
+                continue;
+            }
+        };
+        let map = &gt.params.class_map;
+        let results = gt.map_frames(
+            None,
+            &|f| {
+                let img = render(&f, map)?;
+                png::write(&a.out.join(format!("{}.png", f.id)), &img)
+            },
+            &|_| {},
+        );
+        report(results.map(|_| ()).map_err(Into::into));
     }
-    if failed == a.inputs.len() {
+    if written == 0 {
         bail!("no preview written");
     }
     Ok(if failed > 0 {

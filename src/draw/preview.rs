@@ -8,23 +8,24 @@
 use image::{Rgb, RgbImage};
 
 use super::{colormap, ROW_SCALE};
-use crate::error::Result;
-use crate::format::pgm::PgmFile;
+use crate::error::{Error, Result};
 use crate::label::ClassMap;
 use crate::project::Channel;
+use crate::report::truth::MapFrame;
 
 const GAP: u32 = 4;
 
-/// Renders a map to a stacked preview picture, labels in the colours of `classes`.
-pub fn render(map: &PgmFile, classes: &ClassMap) -> Result<RgbImage> {
+/// Renders a frame to a stacked preview picture (range, intensity, colour when present,
+/// labels), labels in the colours of `classes`.
+pub fn render(map: &MapFrame, classes: &ClassMap) -> Result<RgbImage> {
     let (h, w, c) = (map.rows, map.cols, map.channels.len());
-    let data = &map.data;
-    let ch = |name| map.channels.index(name).expect("an .npy layout");
-    let (range, intensity, label) = (
-        ch(Channel::Range),
-        ch(Channel::Intensity),
-        ch(Channel::Label),
-    );
+    let data = &map.tensor;
+    let ch = |name: Channel| {
+        map.channels
+            .index(name)
+            .ok_or_else(|| Error::Config(format!("frame {} has no {name} channel to draw", map.id)))
+    };
+    let (range, intensity) = (ch(Channel::Range)?, ch(Channel::Intensity)?);
     let rgb_at = map.channels.index(Channel::R);
     let at = |r: usize, col: usize, ch: usize| data[(r * w + col) * c + ch];
     let max_range = (0..h * w)
@@ -48,7 +49,7 @@ pub fn render(map: &PgmFile, classes: &ClassMap) -> Result<RgbImage> {
             }
         }
     };
-    let valid = |r: usize, col: usize| at(r, col, range) > 0.0;
+    let valid = |r: usize, col: usize| map.mask[r * w + col] != 0;
     // Range: near is bright; square root spreads the near field where most points are.
     draw(0, &|r, col| {
         valid(r, col).then(|| colormap(1.0 - (at(r, col, range) / max_range).sqrt()))
@@ -66,7 +67,7 @@ pub fn render(map: &PgmFile, classes: &ClassMap) -> Result<RgbImage> {
         next = 3;
     }
     draw(next, &|r, col| {
-        valid(r, col).then(|| classes.colour(at(r, col, label) as u8))
+        valid(r, col).then(|| classes.colour(map.label[r * w + col]))
     });
     Ok(img)
 }

@@ -85,6 +85,11 @@ impl OutputDir {
         self.lidar_dir().is_dir()
     }
 
+    /// Whether the folder holds `.label` files.
+    pub fn has_labels(&self) -> bool {
+        self.root.join(LABELS).is_dir()
+    }
+
     /// The converted frames (`lidar_2d/*.npy` named by a frame id), sorted.
     pub fn converted_frames(&self) -> Result<Vec<FrameId>> {
         Ok(list_npy_frames(&self.lidar_dir())?

@@ -31,7 +31,7 @@ pub struct Drive {
 }
 
 /// A frame's identity: SqueezeSeg's `<date>_<drive4>_<frame10>`, e.g. `2011_09_26_0001_0000000010`.
-#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 pub struct FrameId {
     /// Recording day, `YYYY_MM_DD`.
     pub date: String,

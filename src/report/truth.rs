@@ -14,10 +14,11 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::format::layout::{self, OutputDir};
+use crate::format::pgm::{self, PgmFile};
 use crate::format::shard::Shard;
-use crate::format::{pgm, summary};
+use crate::format::summary;
 use crate::kitti::FrameId;
-use crate::label::ClassId;
+use crate::label::{ClassId, ClassMap};
 use crate::params::MapParams;
 use crate::project::camera::{RgbOptions, Sampling};
 use crate::project::{Channel, Channels};
@@ -91,6 +92,29 @@ impl MapFrame {
             .zip(&self.mask)
             .map(|(l, m)| if *m != 0 { *l } else { u8::MAX })
             .collect()
+    }
+}
+
+impl MapFrame {
+    /// The frame of a map read from `path`: labels checked against `map`, the mask where
+    /// range > 0, colour valid where any of r, g, b is above 0.
+    pub fn from_pgm(id: FrameId, f: PgmFile, map: &ClassMap, path: &Path) -> Result<MapFrame> {
+        let (label, mask) = f.labels_and_mask(map, path)?;
+        let rgb_valid = f.channels.index(Channel::R).map(|r| {
+            (0..f.cells())
+                .map(|i| f.cell(i)[r..r + 3].iter().any(|v| *v > 0.0) as u8)
+                .collect()
+        });
+        Ok(MapFrame {
+            id,
+            rows: f.rows,
+            cols: f.cols,
+            channels: f.channels,
+            tensor: f.data,
+            label,
+            mask,
+            rgb_valid,
+        })
     }
 }
 
@@ -201,7 +225,7 @@ impl GroundTruth {
         Ok(GroundTruth {
             path: path.into(),
             source: Source::Shards(shards.clone()),
-            dir: dir.filter(|d| d.has_maps()),
+            dir: dir.filter(|d| d.has_maps() || d.has_labels()),
             params: params.expect("at least one shard"),
             provenance: Provenance::Recorded(shards[0].clone()),
             frames,
@@ -249,22 +273,7 @@ impl GroundTruth {
                 ),
             ));
         }
-        let (label, mask) = f.labels_and_mask(map, &path)?;
-        let rgb_valid = f.channels.index(Channel::R).map(|r| {
-            (0..f.cells())
-                .map(|i| f.cell(i)[r..r + 3].iter().any(|v| *v > 0.0) as u8)
-                .collect()
-        });
-        Ok(MapFrame {
-            id: id.clone(),
-            rows: f.rows,
-            cols: f.cols,
-            channels: f.channels,
-            tensor: f.data,
-            label,
-            mask,
-            rgb_valid,
-        })
+        MapFrame::from_pgm(id.clone(), f, map, &path)
     }
 
     /// Applies `f` to every frame of the ground truth (or those in `only`, which must all be

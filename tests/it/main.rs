@@ -10,4 +10,5 @@ mod readers;
 mod reports;
 mod score;
 mod shards;
+mod truth;
 mod util;
