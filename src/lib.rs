@@ -26,6 +26,7 @@ pub mod convert;
 pub mod draw;
 pub mod error;
 pub mod format;
+pub mod fs;
 pub mod geom;
 pub mod kitti;
 pub mod label;

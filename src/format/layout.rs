@@ -122,18 +122,9 @@ pub fn shard_name(split: &str, index: usize) -> String {
     format!("{split}-{index:05}.mcap")
 }
 
-fn read_dir_sorted(dir: &Path) -> Result<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
-        out.push(e.map_err(|e| Error::io(dir, e))?.path());
-    }
-    out.sort();
-    Ok(out)
-}
-
 /// The `.mcap` files of a folder, sorted.
 pub fn list_shards(dir: &Path) -> Result<Vec<PathBuf>> {
-    Ok(read_dir_sorted(dir)?
+    Ok(crate::fs::sorted_dir(dir)?
         .into_iter()
         .filter(|p| p.extension().is_some_and(|e| e == "mcap") && p.is_file())
         .collect())
@@ -142,7 +133,7 @@ pub fn list_shards(dir: &Path) -> Result<Vec<PathBuf>> {
 /// The `<frame id>.npy` files of a folder (other files are ignored), sorted by frame id; an
 /// error when there is none.
 pub fn list_npy_frames(dir: &Path) -> Result<Vec<(FrameId, PathBuf)>> {
-    let mut ids: Vec<(FrameId, PathBuf)> = read_dir_sorted(dir)?
+    let mut ids: Vec<(FrameId, PathBuf)> = crate::fs::sorted_dir(dir)?
         .into_iter()
         .filter(|p| p.extension().is_some_and(|x| x == "npy"))
         .filter_map(|p| {

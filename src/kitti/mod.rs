@@ -99,15 +99,6 @@ pub fn parse_drive_name(name: &str) -> Option<(String, u32)> {
     Some((date.to_string(), num.parse().ok()?))
 }
 
-fn list_dir(dir: &Path) -> Result<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
-        out.push(entry.map_err(|e| Error::io(dir, e))?.path());
-    }
-    out.sort();
-    Ok(out)
-}
-
 fn file_name(p: &Path) -> &str {
     p.file_name().and_then(|s| s.to_str()).unwrap_or("")
 }
@@ -171,7 +162,7 @@ impl Drive {
             return Ok(Vec::new());
         }
         let mut frames = Vec::new();
-        for p in list_dir(&dir)? {
+        for p in crate::fs::sorted_dir(&dir)? {
             let name = file_name(&p);
             let Some(stem) = name.strip_suffix(".bin") else {
                 continue;
@@ -206,7 +197,7 @@ pub fn discover(root: &Path) -> Result<Vec<Drive>> {
     if is_date(file_name(&canonical)) {
         date_dirs.push(canonical.clone());
     } else {
-        for p in list_dir(&canonical)? {
+        for p in crate::fs::sorted_dir(&canonical)? {
             if p.is_dir() && is_date(file_name(&p)) {
                 date_dirs.push(p);
             }
@@ -214,7 +205,7 @@ pub fn discover(root: &Path) -> Result<Vec<Drive>> {
     }
     let mut drives = Vec::new();
     for d in date_dirs {
-        for p in list_dir(&d)? {
+        for p in crate::fs::sorted_dir(&d)? {
             if p.is_dir() {
                 if let Some(drive) = Drive::from_dir(&p) {
                     drives.push(drive);

@@ -1,30 +1,8 @@
 //! The binary end to end on the fixtures: outputs, summary, determinism, preview.
 
-use std::path::Path;
-
 use kitti2pgm::format::npy::read_f32;
 
 use crate::util::*;
-
-fn tree_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push((
-                    p.strip_prefix(dir).unwrap().display().to_string(),
-                    std::fs::read(&p).unwrap(),
-                ));
-            }
-        }
-    }
-    out.sort();
-    out
-}
 
 #[test]
 fn converts_the_fixtures() {

@@ -17,21 +17,11 @@ fn hex(bytes: &[u8]) -> String {
 
 /// (relative path, SHA-256) of every file under `lidar_2d/` and `labels/`, sorted.
 fn hashes(out: &Path) -> Vec<(String, String)> {
-    let mut v = Vec::new();
-    let mut stack = vec![out.join("lidar_2d"), out.join("labels")];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(out).unwrap().display().to_string();
-                v.push((rel, hex(&std::fs::read(&p).unwrap())));
-            }
-        }
-    }
-    v.sort();
-    v
+    tree_bytes(out)
+        .into_iter()
+        .filter(|(p, _)| p.starts_with("lidar_2d") || p.starts_with("labels"))
+        .map(|(p, bytes)| (p, hex(&bytes)))
+        .collect()
 }
 
 /// One digest of a whole output tree: SHA-256 over `path hash` lines.

@@ -80,17 +80,7 @@ fn provenance_is_read_back_typed() {
     let t = tmp();
     let raw = fixtures();
     let out = t.path().join("out");
-    let args = [
-        "convert",
-        s(&raw),
-        "--out",
-        s(&out),
-        "--fov-deg",
-        "360",
-        "--cols",
-        "1024",
-    ];
-    assert_eq!(run_text(&args).0, 0);
+    convert_fixtures(&out, &["--fov-deg", "360", "--cols", "1024"]);
     for path in [out.clone(), out.join("lidar_2d")] {
         let gt = GroundTruth::open(&path).unwrap();
         assert_eq!(
@@ -180,18 +170,8 @@ fn stats_reads_shards_only_and_bare_folders() {
 #[test]
 fn preview_draws_folders_and_shards() {
     let t = tmp();
-    let raw = fixtures();
     let out = t.path().join("out");
-    let args = [
-        "convert",
-        s(&raw),
-        "--out",
-        s(&out),
-        "--format",
-        "npy,mcap",
-        "--rgb",
-    ];
-    assert_eq!(run_text(&args).0, 0);
+    convert_fixtures(&out, &["--format", "npy,mcap", "--rgb"]);
     for (input, dir) in [
         (out.join("shards"), "from_shards"),
         (out.join("lidar_2d"), "from_npy"),

@@ -72,3 +72,33 @@ pub fn run_text(args: &[&str]) -> (i32, String, String) {
 pub fn s(path: &Path) -> &str {
     path.to_str().unwrap()
 }
+
+/// Every file under `dir` as (path relative to `dir`, bytes), sorted by path.
+pub fn tree_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((
+                    p.strip_prefix(dir).unwrap().display().to_string(),
+                    std::fs::read(&p).unwrap(),
+                ));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Converts the fixtures into `out` with `extra` options; panics with stderr on failure.
+pub fn convert_fixtures(out: &Path, extra: &[&str]) {
+    let raw = fixtures();
+    let mut args = vec!["convert", s(&raw), "--out", s(out), "--no-progress"];
+    args.extend_from_slice(extra);
+    let (code, _, stderr) = run_text(&args);
+    assert_eq!(code, 0, "{args:?}: {stderr}");
+}

@@ -64,8 +64,7 @@ fn frame_id_of(path: &Path) -> Option<FrameId> {
 }
 
 fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
-    for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
-        let p = e.map_err(|e| Error::io(dir, e))?.path();
+    for p in crate::fs::sorted_dir(dir)? {
         if p.is_dir() {
             walk(&p, out)?;
         } else {
