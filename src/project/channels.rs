@@ -3,8 +3,8 @@
 //! A map's tensor is H x W x C float32; which quantity each of the C planes holds is a list of
 //! [`Channel`]s that travels with every frame (in memory, in shard messages and metadata). Code
 //! asks for a channel by name ([`Channels::index`]), never by position. The `.npy` layout is
-//! SqueezeSeg's: [`Channels::LIDAR`] (6) or [`Channels::LIDAR_RGB`] (9); shards store the inputs
-//! only (the label travels as its own array).
+//! SqueezeSeg's ([`Channels::npy`]: 6 channels, or 9 with colour); shards store the inputs only
+//! (the label travels as its own array).
 
 use serde::{Deserialize, Serialize};
 
@@ -33,7 +33,7 @@ pub enum Channel {
 }
 
 impl Channel {
-    /// Every channel, in SqueezeSeg's order.
+    /// Every channel, in SqueezeSeg's `.npy` order (the first six without colour).
     pub const ALL: [Channel; 9] = [
         Channel::X,
         Channel::Y,
@@ -79,25 +79,10 @@ impl std::fmt::Display for Channel {
 pub struct Channels(pub Vec<Channel>);
 
 impl Channels {
-    /// SqueezeSeg's LiDAR-only `.npy` layout.
-    pub const LIDAR: [Channel; 6] = [
-        Channel::X,
-        Channel::Y,
-        Channel::Z,
-        Channel::Intensity,
-        Channel::Range,
-        Channel::Label,
-    ];
-    /// The `.npy` layout with colour.
-    pub const LIDAR_RGB: [Channel; 9] = Channel::ALL;
-
-    /// The `.npy` layout, with or without colour.
+    /// The `.npy` layout: SqueezeSeg's six (x, y, z, intensity, range, label), then r, g, b
+    /// with colour.
     pub fn npy(rgb: bool) -> Channels {
-        Channels(if rgb {
-            Self::LIDAR_RGB.to_vec()
-        } else {
-            Self::LIDAR.to_vec()
-        })
+        Channels(Channel::ALL[..if rgb { 9 } else { 6 }].to_vec())
     }
 
     /// The `.npy` layout of a tensor `depth` planes deep (6 or 9), if it is one.
