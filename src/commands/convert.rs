@@ -115,6 +115,14 @@ fn table(s: &ConvertSummary) -> String {
     }
     let _ = writeln!(t, "points              {:>12}", s.points);
     let _ = writeln!(t, "non-finite dropped  {:>12}", s.dropped_nonfinite);
+    if s.dropped_out_of_range > 0 {
+        let _ = writeln!(
+            t,
+            "beyond {} m dropped {:>12}",
+            kitti2pgm::kitti::velodyne::MAX_RANGE_M,
+            s.dropped_out_of_range
+        );
+    }
     let _ = writeln!(t, "points in FOV       {:>12}", s.projection.in_fov);
     let p = &s.projection;
     let _ = writeln!(t, "fill ratio          {:>12.4}", s.fill_ratio());

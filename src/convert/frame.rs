@@ -24,6 +24,8 @@ pub struct FrameReport {
     pub points: u64,
     /// Non-finite points dropped.
     pub dropped_nonfinite: u64,
+    /// Points beyond the range limit dropped.
+    pub dropped_out_of_range: u64,
     /// Boxes of a labelled class at the frame.
     pub boxes: u64,
     /// Points per class.
@@ -82,7 +84,8 @@ pub fn process(
     let report = FrameReport {
         id: id.to_string(),
         points: scan.len() as u64,
-        dropped_nonfinite: scan.dropped.len() as u64,
+        dropped_nonfinite: (scan.dropped.len() - scan.dropped_out_of_range) as u64,
+        dropped_out_of_range: scan.dropped_out_of_range as u64,
         boxes: labeller.len() as u64,
         labelled_points: labels.class_counts(classes.len()),
         labelled_cells: pgm.class_cells(classes.len()),

@@ -75,6 +75,7 @@ impl Totals {
         s.frames_converted += 1;
         s.points += r.points;
         s.dropped_nonfinite += r.dropped_nonfinite;
+        s.dropped_out_of_range += r.dropped_out_of_range;
         s.projection += &r.projection;
         if r.fallback() {
             s.fallback_frames.push(r.id.clone());

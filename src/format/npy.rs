@@ -57,7 +57,8 @@ impl NpyArray {
     }
 }
 
-/// Reads a float32 `.npy` file (the converter's output) without conversion.
+/// Reads a float32 `.npy` file (the converter's output) without conversion; a Fortran-ordered
+/// file is transposed to C order.
 ///
 /// npyz parses and checks the header; the data, little-endian `<f4` in C order, is then copied
 /// straight from the file's tail, which is several times faster than decoding it value by value.
@@ -73,12 +74,7 @@ pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
             format!("dtype {dtype}, expected float32 ('<f4')"),
         ));
     }
-    if npy.order() != npyz::Order::C {
-        return Err(Error::format(
-            path,
-            "Fortran-ordered array, expected C order",
-        ));
-    }
+    let fortran = npy.order() == npyz::Order::Fortran;
     let n = npy.len() as usize;
     let need = n * 4;
     if bytes.len() < need + 10 {
@@ -107,19 +103,49 @@ pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
             ),
         ));
     }
-    let data = bytes[data_start..]
+    let data: Vec<f32> = bytes[data_start..]
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    Ok((shape, data))
+    Ok((shape.clone(), c_order(&shape, data, fortran)))
 }
 
-/// Reads a numeric `.npy` file of any common dtype, converting values to f64.
+/// `data` in C (row-major) order: unchanged when it already is, else transposed from Fortran
+/// (column-major) order, as `np.asfortranarray` writes it.
+fn c_order<T: Copy>(shape: &[u64], data: Vec<T>, fortran: bool) -> Vec<T> {
+    if !fortran || shape.len() < 2 {
+        return data;
+    }
+    let dims: Vec<usize> = shape.iter().map(|&d| d as usize).collect();
+    // Fortran strides: the first axis varies fastest.
+    let mut strides = vec![1usize; dims.len()];
+    for k in 1..dims.len() {
+        strides[k] = strides[k - 1] * dims[k - 1];
+    }
+    let mut out = Vec::with_capacity(data.len());
+    let mut index = vec![0usize; dims.len()];
+    for _ in 0..data.len() {
+        out.push(data[index.iter().zip(&strides).map(|(i, s)| i * s).sum::<usize>()]);
+        // Next C-order index: the last axis varies fastest.
+        for k in (0..dims.len()).rev() {
+            index[k] += 1;
+            if index[k] < dims[k] {
+                break;
+            }
+            index[k] = 0;
+        }
+    }
+    out
+}
+
+/// Reads a numeric `.npy` file of any common dtype, converting values to f64 and Fortran order
+/// to C order.
 pub fn read_any(path: &Path) -> Result<NpyArray> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let npy = npyz::NpyFile::new(&bytes[..])
         .map_err(|e| Error::format(path, format!("not a .npy file: {e}")))?;
     let shape = npy.shape().to_vec();
+    let fortran = npy.order() == npyz::Order::Fortran;
     let descr = npy.dtype().descr();
     let dtype = descr.trim_matches('\'').to_string();
     let trunc = |e: std::io::Error| Error::format(path, format!("truncated .npy data: {e}"));
@@ -187,6 +213,7 @@ pub fn read_any(path: &Path) -> Result<NpyArray> {
             .collect(),
         other => return Err(Error::format(path, format!("unsupported dtype {other}"))),
     };
+    let data = c_order(&shape, data, fortran);
     Ok(NpyArray { shape, data, dtype })
 }
 
@@ -219,5 +246,22 @@ mod tests {
         let any = read_any(&p).unwrap();
         assert_eq!(any.dtype, "<f4");
         assert_eq!(any.data[3], 1.5);
+    }
+
+    #[test]
+    fn fortran_order_is_transposed() {
+        // np.asfortranarray(np.arange(6).reshape(2, 3)) stores 0 3 1 4 2 5.
+        let f = vec![0, 3, 1, 4, 2, 5];
+        assert_eq!(c_order(&[2, 3], f, true), [0, 1, 2, 3, 4, 5]);
+        // 2 x 3 x 2: element (i, j, k) = 6i + 2j + k, stored with i fastest.
+        let mut f = Vec::new();
+        for k in 0..2 {
+            for j in 0..3 {
+                for i in 0..2 {
+                    f.push(6 * i + 2 * j + k);
+                }
+            }
+        }
+        assert_eq!(c_order(&[2, 3, 2], f, true), (0..12).collect::<Vec<_>>());
     }
 }

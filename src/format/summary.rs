@@ -35,6 +35,8 @@ pub struct ConvertSummary {
     pub points: u64,
     /// Non-finite points dropped.
     pub dropped_nonfinite: u64,
+    /// Points beyond `kitti::velodyne::MAX_RANGE_M` dropped.
+    pub dropped_out_of_range: u64,
     /// Points per class, by class name.
     pub labelled_points: BTreeMap<String, u64>,
     /// Valid cells per class, by class name.

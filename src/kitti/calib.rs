@@ -35,6 +35,7 @@ impl CalibFile {
     pub fn parse(text: &str, path: &Path) -> Result<CalibFile> {
         let mut numeric = BTreeMap::new();
         let mut texts = BTreeMap::new();
+        let mut lines: BTreeMap<String, usize> = BTreeMap::new();
         for (i, line) in text.lines().enumerate() {
             let line = line.trim();
             if line.is_empty() {
@@ -48,6 +49,13 @@ impl CalibFile {
                 });
             };
             let key = key.trim().to_string();
+            if let Some(first) = lines.insert(key.clone(), i + 1) {
+                return Err(Error::Format {
+                    path: path.into(),
+                    line: Some(i + 1),
+                    message: format!("key `{key}` appears twice (first on line {first})"),
+                });
+            }
             let parsed: std::result::Result<Vec<f64>, _> =
                 value.split_whitespace().map(str::parse::<f64>).collect();
             match parsed {

@@ -3,8 +3,10 @@
 //! A scan is a flat array of little-endian float32 quadruples x, y, z, reflectance in the
 //! velodyne frame (x forward, y left, z up, metres; reflectance in [0, 1]). The order of the
 //! points matters: they are stored laser by laser, which is how [`crate::project`] recovers the
-//! rows. Non-finite points are dropped here and counted; their original indices are kept so that
-//! per-point outputs (`.label` files) still line up with the `.bin`.
+//! rows. Points that cannot be real returns are dropped here and counted: a non-finite
+//! coordinate or reflectance, or a range beyond [`MAX_RANGE_M`] (the HDL-64E reaches 120 m; a
+//! point at 1e30 m would make an infinite range and poison every statistic). Their original
+//! indices are kept so that per-point outputs (`.label` files) still line up with the `.bin`.
 
 use std::path::Path;
 
@@ -13,6 +15,10 @@ use crate::geom::Point3;
 
 /// Bytes of one point in a `.bin`.
 pub const POINT_BYTES: usize = 16;
+
+/// Points farther than this from the sensor are dropped, metres (four times the HDL-64E's
+/// 120 m reach).
+pub const MAX_RANGE_M: f32 = 500.0;
 
 /// One velodyne scan with its non-finite points removed.
 #[derive(Debug, Clone, Default)]
@@ -23,8 +29,10 @@ pub struct Scan {
     pub reflectance: Vec<f32>,
     /// Number of points in the file, finite or not.
     pub file_len: usize,
-    /// File indices of the dropped (non-finite) points, ascending.
+    /// File indices of the dropped points (non-finite, or beyond [`MAX_RANGE_M`]), ascending.
     pub dropped: Vec<u32>,
+    /// How many of `dropped` were finite but beyond [`MAX_RANGE_M`].
+    pub dropped_out_of_range: usize,
 }
 
 impl Scan {
@@ -48,14 +56,21 @@ impl Scan {
         let mut points = Vec::with_capacity(n);
         let mut reflectance = Vec::with_capacity(n);
         let mut dropped = Vec::new();
+        let mut out_of_range = 0;
         for (i, chunk) in bytes.chunks_exact(POINT_BYTES).enumerate() {
             let f =
                 |k: usize| f32::from_le_bytes([chunk[k], chunk[k + 1], chunk[k + 2], chunk[k + 3]]);
             let (x, y, z, r) = (f(0), f(4), f(8), f(12));
-            if x.is_finite() && y.is_finite() && z.is_finite() && r.is_finite() {
+            let finite = x.is_finite() && y.is_finite() && z.is_finite() && r.is_finite();
+            // In f64, so that a huge coordinate cannot overflow the test itself.
+            let far = finite
+                && (x as f64).powi(2) + (y as f64).powi(2) + (z as f64).powi(2)
+                    > (MAX_RANGE_M as f64).powi(2);
+            if finite && !far {
                 points.push(Point3::new(x, y, z));
                 reflectance.push(r);
             } else {
+                out_of_range += far as usize;
                 dropped.push(i as u32);
             }
         }
@@ -64,6 +79,7 @@ impl Scan {
             reflectance,
             file_len: n,
             dropped,
+            dropped_out_of_range: out_of_range,
         })
     }
 

@@ -63,6 +63,8 @@ pub struct GroundTruth {
 pub struct MapFrame {
     /// The frame.
     pub id: FrameId,
+    /// The file it was read from (its `.npy` or its shard).
+    pub source: PathBuf,
     /// Rows.
     pub rows: usize,
     /// Columns.
@@ -107,6 +109,7 @@ impl MapFrame {
         });
         Ok(MapFrame {
             id,
+            source: path.to_path_buf(),
             rows: f.rows,
             cols: f.cols,
             channels: f.channels,
@@ -370,6 +373,7 @@ impl GroundTruth {
                 label: msg.label,
                 mask: msg.mask,
                 id: id.clone(),
+                source: path.to_path_buf(),
             };
             out.push((id, f(frame)?));
             progress(1);

@@ -1,6 +1,6 @@
 //! STATS: the sums of one frame, added up in frame order.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::format::label_file;
 use crate::format::layout::OutputDir;
 use crate::label::{ClassCounts, ClassMap};
@@ -72,6 +72,18 @@ impl Acc {
             let cell = &f.tensor[i * depth..(i + 1) * depth];
             for (j, &c) in inputs.iter().enumerate() {
                 let v = cell[c] as f64;
+                if !v.is_finite() {
+                    return Err(Error::format(
+                        &f.source,
+                        format!(
+                            "frame {}: channel {} is {v} at cell ({}, {}); statistics need finite inputs",
+                            f.id,
+                            f.channels.0[c],
+                            i / f.cols,
+                            i % f.cols
+                        ),
+                    ));
+                }
                 acc.sum[j] += v;
                 acc.sum_sq[j] += v * v;
             }
