@@ -125,7 +125,13 @@ fn c_order<T: Copy>(shape: &[u64], data: Vec<T>, fortran: bool) -> Vec<T> {
     let mut out = Vec::with_capacity(data.len());
     let mut index = vec![0usize; dims.len()];
     for _ in 0..data.len() {
-        out.push(data[index.iter().zip(&strides).map(|(i, s)| i * s).sum::<usize>()]);
+        out.push(
+            data[index
+                .iter()
+                .zip(&strides)
+                .map(|(i, s)| i * s)
+                .sum::<usize>()],
+        );
         // Next C-order index: the last axis varies fastest.
         for k in (0..dims.len()).rev() {
             index[k] += 1;

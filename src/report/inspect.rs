@@ -43,7 +43,7 @@ pub struct ShardInfo {
 /// Inspects a shard, decoding every frame (streamed). Fails, naming the shard and the frame, on
 /// a truncated or corrupted shard, or a label that is not a class of its map.
 pub fn inspect(path: &Path) -> Result<ShardInfo> {
-    let shard = Shard::open(path)?;
+    let shard = Shard::open_verified(path)?;
     let summary = shard.summary()?;
     let metadata = shard.metadata()?;
     let map = &metadata.params.map.class_map;

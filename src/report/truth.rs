@@ -206,7 +206,7 @@ impl GroundTruth {
         let mut params: Option<MapParams> = None;
         let mut frames = Vec::new();
         for s in &shards {
-            let md = Shard::open(s)?.metadata()?;
+            let md = Shard::open_verified(s)?.metadata()?;
             match &params {
                 None => params = Some(md.params.map.clone()),
                 Some(p) if *p != md.params.map => {

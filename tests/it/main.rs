@@ -2,6 +2,7 @@
 //! `fixtures/raw` (and `../shared/kitti` where present).
 
 mod architecture;
+mod audit;
 mod bad_input;
 mod cli;
 mod label;

@@ -35,8 +35,14 @@ pub struct Shard {
 }
 
 impl Shard {
-    /// Opens a shard.
+    /// Opens a shard (no check of its contents: see [`Shard::open_verified`]).
     pub fn open(path: &Path) -> Result<Shard> {
+        if path.is_dir() {
+            return Err(Error::Input {
+                path: path.into(),
+                message: "a folder, not a shard (.mcap file)".into(),
+            });
+        }
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         // SAFETY: the file is opened read-only and only read; a shard is never modified in
         // place (it is written under a temporary name and renamed), so the mapping is stable.
@@ -47,9 +53,86 @@ impl Shard {
         })
     }
 
+    /// Opens a shard and checks every byte of it ([`Shard::verify`]).
+    pub fn open_verified(path: &Path) -> Result<Shard> {
+        let shard = Shard::open(path)?;
+        shard.verify()?;
+        Ok(shard)
+    }
+
     /// The raw bytes.
     pub fn bytes(&self) -> &[u8] {
         &self.map
+    }
+
+    /// Checks the whole file against the CRCs the writer stored: the data section's (every
+    /// record from the start to the data end record: chunks, message indexes, metadata) and
+    /// the summary section's (indexes, statistics, up to the footer), plus the magic at both
+    /// ends. Any flipped bit fails; the error names the shard and, when a frame's chunk is the
+    /// damaged part, the frame. A CRC stored as 0 (a writer that computed none) is not checked.
+    pub fn verify(&self) -> Result<()> {
+        const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+        let b = self.bytes();
+        let bad = |what: String| {
+            Err(Error::format(
+                &self.path,
+                format!("corrupted shard: {what}"),
+            ))
+        };
+        // magic, footer record (opcode, length, 8 + 8 + 4 bytes), magic.
+        let footer_len = 1 + 8 + 20;
+        if b.len() < 2 * MAGIC.len() + footer_len + 13
+            || !b.starts_with(MAGIC)
+            || !b.ends_with(MAGIC)
+        {
+            return bad(format!(
+                "{} bytes without MCAP magic at both ends (truncated or not finished?)",
+                b.len()
+            ));
+        }
+        let u64_at = |p: usize| u64::from_le_bytes(b[p..p + 8].try_into().expect("8 bytes"));
+        let u32_at = |p: usize| u32::from_le_bytes(b[p..p + 4].try_into().expect("4 bytes"));
+        let footer = b.len() - MAGIC.len() - footer_len;
+        if b[footer] != 0x02 || u64_at(footer + 1) != 20 {
+            return bad(format!("no footer record at byte {footer}"));
+        }
+        let summary_start = u64_at(footer + 9) as usize;
+        let summary_crc = u32_at(footer + 25);
+        let summary_from = if summary_start == 0 {
+            footer
+        } else {
+            summary_start
+        };
+        if summary_from > footer || summary_from < MAGIC.len() + 13 {
+            return bad(format!("summary start {summary_start} out of the file"));
+        }
+        if summary_crc != 0 {
+            let got = crc32fast::hash(&b[summary_from..footer + 25]);
+            if got != summary_crc {
+                return bad(format!(
+                    "summary section CRC {got:#010x}, stored {summary_crc:#010x}"
+                ));
+            }
+        }
+        let data_end = summary_from - 13;
+        if b[data_end] != 0x0F || u64_at(data_end + 1) != 4 {
+            return bad(format!("no data end record at byte {data_end}"));
+        }
+        let data_crc = u32_at(data_end + 9);
+        if data_crc != 0 {
+            let got = crc32fast::hash(&b[..data_end]);
+            if got != data_crc {
+                // Name the frame when a chunk is the damaged part.
+                let at = self.frame_iter().find_map(|f| f.err());
+                return Err(at.unwrap_or_else(|| {
+                    Error::format(
+                        &self.path,
+                        format!("corrupted shard: data section CRC {got:#010x}, stored {data_crc:#010x} (a record outside the frames' chunks is damaged)"),
+                    )
+                }));
+            }
+        }
+        Ok(())
     }
 
     /// The summary section; an error when the shard was not finished (truncated, interrupted).
@@ -95,8 +178,9 @@ impl Shard {
         (out, None)
     }
 
-    /// The frame messages one at a time, in file order (constant memory). After an error
-    /// (naming the shard and the frame after the last good one) the iterator ends.
+    /// The frame messages one at a time, in file order (constant memory), each chunk checked
+    /// against its CRC. After an error (naming the shard and the frame after the last good one)
+    /// the iterator ends. A shard whose end is lost still gives its first frames.
     pub fn frame_iter(&self) -> impl Iterator<Item = Result<FrameMsg>> + '_ {
         let mut state = FrameIter {
             stream: None,
@@ -105,7 +189,8 @@ impl Shard {
             done: false,
             first_error: None,
         };
-        match mcap::MessageStream::new(&self.map) {
+        let options = mcap::read::Options::ValidateChunkCrcs.into();
+        match mcap::MessageStream::new_with_options(&self.map, options) {
             Ok(s) => state.stream = Some(s),
             Err(e) => {
                 state.first_error =
@@ -193,7 +278,7 @@ pub fn shard_is_intact(
     frames: &[String],
     params: &crate::params::ConvertParams,
 ) -> bool {
-    let Ok(shard) = Shard::open(path) else {
+    let Ok(shard) = Shard::open_verified(path) else {
         return false;
     };
     let Ok(summary) = shard.summary() else {

@@ -133,7 +133,7 @@ impl Predictions {
         let mut shards = Vec::new();
         let mut in_shard = BTreeMap::new();
         for p in &mcaps {
-            let shard = Shard::open(p)?;
+            let shard = Shard::open_verified(p)?;
             let summary = shard.summary()?;
             for chunk in 0..summary.chunk_indexes.len() {
                 for f in shard.chunk_frames(&summary, chunk)? {
