@@ -216,6 +216,10 @@ pub struct ConvertArgs {
     /// written atomically (never half-written); this also makes them survive a power cut.
     #[arg(long)]
     pub sync: bool,
+    /// Convert every frame again. Without it, a re-run into the same folder with the same
+    /// parameters keeps the frames (and shards) an earlier run finished and converts the rest.
+    #[arg(long)]
+    pub overwrite: bool,
     /// Outputs: npy (lidar_2d/*.npy and labels/), mcap (shards/<split>-<NNNNN>.mcap), or both
     /// (`--format npy,mcap`).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "npy")]

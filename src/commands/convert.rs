@@ -70,6 +70,7 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         params: a.params()?,
         threads: g.threads,
         sync: a.sync,
+        overwrite: a.overwrite,
     };
     opts.params.validate()?;
     let plan = Plan::build(&a.raw_root, opts.params.map.selection)
@@ -90,7 +91,21 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
     } else {
         print!("{}", table(&summary));
     }
-    Ok(if summary.frames_failed > 0 {
+    for p in &summary.not_frames {
+        eprintln!("kitti2pgm: {p}: not a <frame10>.bin scan, skipped");
+    }
+    for (t, n) in &summary.unknown_object_types {
+        let map = &summary.params.map.class_map;
+        let class = map.name(map.class_of_object(t));
+        eprintln!("kitti2pgm: {n} tracklet(s) of unknown object type {t:?}, labelled {class}");
+    }
+    if summary.has_failures() && summary.frames_converted == 0 && summary.shards_skipped == 0 {
+        anyhow::bail!(
+            "nothing converted: every frame failed ({} failure(s) above)",
+            summary.failures.len()
+        );
+    }
+    Ok(if summary.has_failures() {
         Outcome::Partial
     } else {
         Outcome::Ok
@@ -165,6 +180,12 @@ fn table(s: &ConvertSummary) -> String {
             nc,
             pct(nc, tc)
         );
+    }
+    if !s.not_frames.is_empty() {
+        let _ = writeln!(t, "not scans, skipped  {:>12}", s.not_frames.len());
+    }
+    for (ty, n) in &s.unknown_object_types {
+        let _ = writeln!(t, "unknown object type {n:>12}  ({ty:?} tracklets)");
     }
     for f in &s.failures {
         let _ = writeln!(t, "failed: {} ({} frames): {}", f.what, f.frames, f.error);

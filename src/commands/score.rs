@@ -9,7 +9,8 @@ use kitti2pgm::format::{imageset, png};
 use kitti2pgm::kitti::FrameId;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::report::score::{
-    report, score, worst, Predictions, Protocol, ScoreOptions, ScoreReport,
+    predictions_without_truth, report, score, worst, Predictions, Protocol, ScoreOptions,
+    ScoreReport,
 };
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
@@ -50,7 +51,14 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         .install(|| score(&gt, only.as_ref(), &preds, &opts, &none, &|n| pb.inc(n)))
         .with_context(context)?;
     pb.finish_and_clear();
-    let rep = report(opts.protocol, &scores, map, a.per_frame);
+    let mut rep = report(opts.protocol, &scores, map, a.per_frame);
+    rep.predictions_without_truth = predictions_without_truth(&gt, &preds);
+    if let Some(first) = rep.predictions_without_truth.first() {
+        eprintln!(
+            "kitti2pgm: {} prediction(s) for frames not in the ground truth, not scored (first: {first})",
+            rep.predictions_without_truth.len()
+        );
+    }
     if let Some(p) = &a.confusion {
         png::write(p, &confusion_chart(&rep.confusion, map))?;
     }

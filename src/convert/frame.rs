@@ -126,22 +126,41 @@ pub fn produce(
     let scan = Scan::read(&dp.drive.scan_path(frame))?;
     let boxes = dp.boxes(frame, &map.class_map);
     let mut png_bytes = None;
-    let camera = match &map.rgb {
-        Some(rgb) => {
-            let path = dp.drive.image_path(rgb.camera, frame);
-            let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-            let img = decode_image(&bytes, &path)?;
-            if want_viz {
-                png_bytes = Some(bytes);
+    let camera =
+        match &map.rgb {
+            Some(rgb) => {
+                let path = dp.drive.image_path(rgb.camera, frame);
+                let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+                let img = decode_image(&bytes, &path)?;
+                // The projection matrix maps into an image of the rectified size: a picture of
+                // another size would be sampled at the wrong pixels.
+                let size = dp.calib.cam_to_cam.cameras[rgb.camera as usize].size_rect;
+                if (img.width() as f64, img.height() as f64) != (size.x, size.y) {
+                    return Err(Error::format(
+                        &path,
+                        format!(
+                        "image is {}x{}, camera {} is calibrated for {}x{} (S_rect_{:02} of {})",
+                        img.width(),
+                        img.height(),
+                        rgb.camera,
+                        size.x,
+                        size.y,
+                        rgb.camera,
+                        dp.drive.date_dir().join(crate::kitti::calib::CAM_TO_CAM).display()
+                    ),
+                    ));
+                }
+                if want_viz {
+                    png_bytes = Some(bytes);
+                }
+                let proj = CameraProjector {
+                    velo_to_image: dp.calib.velo_to_image(rgb.camera as usize),
+                    sampling: rgb.sampling,
+                };
+                Some((proj, img))
             }
-            let proj = CameraProjector {
-                velo_to_image: dp.calib.velo_to_image(rgb.camera as usize),
-                sampling: rgb.sampling,
-            };
-            Some((proj, img))
-        }
-        None => None,
-    };
+            None => None,
+        };
     let out = process(
         &id,
         &scan,

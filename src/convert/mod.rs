@@ -11,6 +11,7 @@
 //! - [`shards`]: the shard output (frames in order, written while the next batch converts).
 
 pub mod frame;
+pub mod resume;
 pub mod shards;
 
 use std::sync::Mutex;
@@ -37,6 +38,8 @@ pub struct ConvertOptions {
     pub threads: usize,
     /// Flush every file to the device before it is renamed into place (survives power cuts).
     pub sync: bool,
+    /// Convert every frame again, even those an earlier run with the same parameters finished.
+    pub overwrite: bool,
 }
 
 impl ConvertOptions {
@@ -47,6 +50,7 @@ impl ConvertOptions {
             params: ConvertParams::squeezeseg(),
             threads: 0,
             sync: false,
+            overwrite: false,
         }
     }
 }
@@ -112,6 +116,14 @@ impl Run<'_> {
         self.totals.lock().expect("no panic while holding the lock")
     }
 
+    /// Frames left as an earlier run wrote them.
+    pub(crate) fn kept(&self, n: u64, why: &str) {
+        (self.progress)(FrameOutcome::Skipped(n));
+        let mut t = self.totals();
+        t.summary.resumed_frames += n;
+        *t.summary.frames_skipped.entry(why.into()).or_default() += n;
+    }
+
     /// A frame converted and written.
     pub(crate) fn done(&self, r: &FrameReport) {
         (self.progress)(FrameOutcome::Done(r));
@@ -140,6 +152,9 @@ pub fn convert(
     let params = &opts.params;
     params.validate()?;
     create_dir(&opts.out.root)?;
+    let _lock = resume::lock(&opts.out)?;
+    let leftovers_removed = resume::remove_leftovers(&opts.out)?;
+    let resuming = !opts.overwrite && resume::same_parameters(opts);
     if params.npy {
         create_dir(&opts.out.lidar_dir())?;
     }
@@ -156,6 +171,13 @@ pub fn convert(
                 params: params.clone(),
                 drives: (plan.drives.len() + plan.failed.len()) as u64,
                 frames_skipped: plan.skipped.clone(),
+                not_frames: plan
+                    .not_frames
+                    .iter()
+                    .map(|p| p.to_string_lossy().into_owned())
+                    .collect(),
+                unknown_object_types: plan.unknown_object_types.clone(),
+                leftovers_removed,
                 ..Default::default()
             },
             points: ClassCounts::zeros(n),
@@ -167,6 +189,9 @@ pub fn convert(
         progress(FrameOutcome::Failed(f));
         run.totals().fail(f.clone());
     }
+    // Recorded before any frame is written, so that an interrupted run can be resumed.
+    let started = run.totals().summary.clone();
+    summary::write(&opts.out.summary_path(), &started, opts.sync)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
@@ -176,6 +201,9 @@ pub fn convert(
     } else {
         let one = |&(d, frame): &(usize, u32)| {
             let dp = &plan.drives[d];
+            if resuming && resume::frame_is_complete(dp, frame, opts) {
+                return run.kept(1, resume::KEPT);
+            }
             match convert_frame(dp, frame, opts) {
                 Ok(r) => run.done(&r),
                 Err(e) => run.failed(dp.drive.frame_id(frame).to_string(), 1, e),
@@ -192,6 +220,10 @@ pub fn convert(
         .into_inner()
         .expect("no panic while holding the lock")
         .finish();
+    let s = ConvertSummary {
+        complete: true,
+        ..s
+    };
     summary::write(&opts.out.summary_path(), &s, opts.sync)?;
     Ok(s)
 }

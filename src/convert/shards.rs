@@ -46,14 +46,9 @@ pub(crate) fn convert_to_shards(
             (!opts.params.npy || opts.out.npy_path(&id).is_file())
                 && (!opts.params.labels || opts.out.label_path(&id).is_file())
         });
-        if others_present && shard_is_intact(&path, &ids, &opts.params) {
-            (run.progress)(FrameOutcome::Skipped(ids.len() as u64));
-            let mut t = run.totals();
-            t.summary.shards_skipped += 1;
-            *t.summary
-                .frames_skipped
-                .entry("already in a complete, intact shard".into())
-                .or_default() += ids.len() as u64;
+        if !opts.overwrite && others_present && shard_is_intact(&path, &ids, &opts.params) {
+            run.kept(ids.len() as u64, "already in a complete, intact shard");
+            run.totals().summary.shards_skipped += 1;
             return;
         }
         let meta = ShardMetadata {
@@ -66,6 +61,8 @@ pub(crate) fn convert_to_shards(
         };
         let frames = sp.jobs.len() as u64;
         match write_shard(plan, opts, sh, sp, &path, meta, run) {
+            // Every frame failed (each reported): no empty shard is left behind.
+            Ok(reports) if reports.is_empty() => {}
             Ok(reports) => {
                 let mut t = run.totals();
                 reports.iter().for_each(|r| t.add(r));
@@ -115,7 +112,8 @@ fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardParams) -> Result<V
 
 /// Converts a shard's frames (in parallel batches) and writes them in order; failed frames are
 /// reported, left out and listed in the shard's metadata. The frames' reports are returned, to
-/// be counted once the shard is in place.
+/// be counted once the shard is in place; a shard none of whose frames converted is not
+/// written.
 fn write_shard(
     plan: &Plan,
     opts: &ConvertOptions,
@@ -184,6 +182,10 @@ fn write_shard(
     }
     if let Some((d, j)) = pending.take() {
         write_batch(d, j, &mut meta)?;
+    }
+    if reports.is_empty() {
+        // Dropping the writer removes its temporary file.
+        return Ok(reports);
     }
     writer.finish(&meta)?;
     Ok(reports)

@@ -15,6 +15,21 @@ use crate::error::{Error, Result};
 /// of a 9-channel frame (see docs/performance.md).
 pub fn encode_f32(shape: &[u64], data: &[f32]) -> Vec<u8> {
     debug_assert_eq!(shape.iter().product::<u64>() as usize, data.len());
+    let mut out = header_f32(shape);
+    out.reserve(data.len() * 4);
+    for v in data {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// The bytes of a float32 `.npy` file of `shape`: its header plus 4 bytes a value.
+pub fn file_len_f32(shape: &[u64]) -> u64 {
+    header_f32(shape).len() as u64 + 4 * shape.iter().product::<u64>()
+}
+
+/// NumPy's header for a C-order float32 array of `shape`, magic and length included.
+fn header_f32(shape: &[u64]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(u64::to_string).collect();
     let shape_txt = if dims.len() == 1 {
         format!("({},)", dims[0])
@@ -29,13 +44,10 @@ pub fn encode_f32(shape: &[u64], data: &[f32]) -> Vec<u8> {
         unpadded.next_multiple_of(64) - unpadded,
     ));
     header.push('\n');
-    let mut out = Vec::with_capacity(10 + header.len() + data.len() * 4);
+    let mut out = Vec::with_capacity(10 + header.len());
     out.extend_from_slice(b"\x93NUMPY\x01\x00");
     out.extend_from_slice(&(header.len() as u16).to_le_bytes());
     out.extend_from_slice(header.as_bytes());
-    for v in data {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
     out
 }
 

@@ -21,6 +21,14 @@ pub struct ConvertSummary {
     pub version: String,
     /// What was asked for.
     pub params: ConvertParams,
+    /// Whether the run finished: a summary with `false` was written when a run started and
+    /// the run did not end (it was interrupted); the next run resumes it.
+    pub complete: bool,
+    /// Frames left as an earlier run with the same parameters wrote them (resumed run). The
+    /// totals below (points, cells, collisions...) cover the frames converted by this run only.
+    pub resumed_frames: u64,
+    /// Temporary files of an interrupted run removed before converting.
+    pub leftovers_removed: u64,
     /// Drives found.
     pub drives: u64,
     /// Frames converted and written.
@@ -31,6 +39,11 @@ pub struct ConvertSummary {
     pub frames_skipped: BTreeMap<String, u64>,
     /// Each failure, sorted by frame id.
     pub failures: Vec<FrameFailure>,
+    /// Files in velodyne folders that are not scans (skipped).
+    pub not_frames: Vec<String>,
+    /// Tracklets of an object type KITTI does not define, by type (labelled as the class map
+    /// says: background unless it lists the type).
+    pub unknown_object_types: BTreeMap<String, u64>,
     /// Finite points read.
     pub points: u64,
     /// Non-finite points dropped.
@@ -56,6 +69,12 @@ pub struct ConvertSummary {
 }
 
 impl ConvertSummary {
+    /// Whether something was lost: a failed frame, drive or folder. The CLI then exits with 3,
+    /// or 1 when nothing at all was converted.
+    pub fn has_failures(&self) -> bool {
+        self.frames_failed > 0 || !self.failures.is_empty()
+    }
+
     /// Filled cells over all cells.
     pub fn fill_ratio(&self) -> f64 {
         self.projection.fill_ratio()

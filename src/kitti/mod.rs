@@ -157,32 +157,65 @@ impl Drive {
 
     /// Frame indices that have a velodyne scan, ascending.
     pub fn scan_frames(&self) -> Result<Vec<u32>> {
+        Ok(self.scan_listing()?.frames)
+    }
+
+    /// The velodyne folder's listing: the frames (`<frame10>.bin`), and the files that are not
+    /// frames, named so that they are reported instead of silently dropped. No folder: no frame.
+    /// A folder that cannot be listed is an error.
+    pub fn scan_listing(&self) -> Result<ScanListing> {
         let dir = self.dir.join("velodyne_points/data");
-        if !dir.is_dir() {
-            return Ok(Vec::new());
+        let mut out = ScanListing::default();
+        if !dir.exists() {
+            return Ok(out);
         }
-        let mut frames = Vec::new();
         for p in crate::fs::sorted_dir(&dir)? {
-            let name = file_name(&p);
-            let Some(stem) = name.strip_suffix(".bin") else {
-                continue;
-            };
-            if stem.len() != 10 || !stem.bytes().all(|c| c.is_ascii_digit()) {
-                return Err(Error::Input {
-                    path: p.clone(),
-                    message: "velodyne scan name is not a 10-digit frame index".into(),
-                });
+            let frame = p
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_suffix(".bin"))
+                .filter(|stem| stem.len() == 10 && stem.bytes().all(|c| c.is_ascii_digit()))
+                .map(|stem| stem.parse().expect("10 digits fit u32"));
+            match frame {
+                Some(f) => out.frames.push(f),
+                None => out.not_frames.push(p),
             }
-            frames.push(stem.parse().expect("10 digits fit u32"));
         }
-        frames.sort_unstable();
-        Ok(frames)
+        out.frames.sort_unstable();
+        Ok(out)
     }
 }
 
+/// The files of a drive's velodyne folder.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ScanListing {
+    /// Frame indices with a scan, ascending.
+    pub frames: Vec<u32>,
+    /// Entries that are not `<frame10>.bin` scans (a stray file, a 26-digit name, a folder).
+    pub not_frames: Vec<PathBuf>,
+}
+
+/// What [`discover_all`] found under a root.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Discovery {
+    /// The drives, sorted by date and number.
+    pub drives: Vec<Drive>,
+    /// Folders that look like drives or dates but cannot be read as one, with the reason
+    /// (a name that is not valid UTF-8, a date folder that cannot be listed).
+    pub problems: Vec<(PathBuf, String)>,
+}
+
 /// Finds the drives under `root`: a KITTI raw root (date folders), a date folder or one drive
-/// folder. Drives come sorted by date and number.
+/// folder. Drives come sorted by date and number. Problems with single folders are left out
+/// (see [`discover_all`], which names them).
 pub fn discover(root: &Path) -> Result<Vec<Drive>> {
+    Ok(discover_all(root)?.drives)
+}
+
+/// Like [`discover`], and names the folders it could not read as drives: a folder name that is
+/// not valid UTF-8, a date folder that cannot be listed. An error when `root` is not a folder
+/// or holds no drive at all.
+pub fn discover_all(root: &Path) -> Result<Discovery> {
     if !root.is_dir() {
         return Err(Error::Input {
             path: root.into(),
@@ -190,9 +223,12 @@ pub fn discover(root: &Path) -> Result<Vec<Drive>> {
         });
     }
     let canonical = root.canonicalize().map_err(|e| Error::io(root, e))?;
+    let mut found = Discovery::default();
     if let Some(d) = Drive::from_dir(&canonical) {
-        return Ok(vec![d]);
+        found.drives.push(d);
+        return Ok(found);
     }
+    let not_utf8 = |p: &Path| p.file_name().is_some_and(|n| n.to_str().is_none());
     let mut date_dirs = Vec::new();
     if is_date(file_name(&canonical)) {
         date_dirs.push(canonical.clone());
@@ -200,28 +236,45 @@ pub fn discover(root: &Path) -> Result<Vec<Drive>> {
         for p in crate::fs::sorted_dir(&canonical)? {
             if p.is_dir() && is_date(file_name(&p)) {
                 date_dirs.push(p);
+            } else if p.is_dir() && not_utf8(&p) {
+                found
+                    .problems
+                    .push((p, "folder name is not valid UTF-8".into()));
             }
         }
     }
-    let mut drives = Vec::new();
     for d in date_dirs {
-        for p in crate::fs::sorted_dir(&d)? {
-            if p.is_dir() {
-                if let Some(drive) = Drive::from_dir(&p) {
-                    drives.push(drive);
-                }
+        let entries = match crate::fs::sorted_dir(&d) {
+            Ok(e) => e,
+            Err(e) => {
+                found.problems.push((d, e.to_string()));
+                continue;
+            }
+        };
+        for p in entries {
+            if !p.is_dir() {
+                continue;
+            }
+            if let Some(drive) = Drive::from_dir(&p) {
+                found.drives.push(drive);
+            } else if not_utf8(&p) {
+                found.problems.push((
+                    p,
+                    "folder name is not valid UTF-8 (a drive folder is <date>_drive_<NNNN>_sync)"
+                        .into(),
+                ));
             }
         }
     }
-    if drives.is_empty() {
+    if found.drives.is_empty() && found.problems.is_empty() {
         return Err(Error::Input {
             path: root.into(),
             message: "no KITTI drive found (expected <date>/<date>_drive_<NNNN>_sync/ folders)"
                 .into(),
         });
     }
-    drives.sort();
-    Ok(drives)
+    found.drives.sort();
+    Ok(found)
 }
 
 #[cfg(test)]

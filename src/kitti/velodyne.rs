@@ -41,7 +41,7 @@ impl Scan {
         if bytes.is_empty() {
             return Err(Error::format(path, "empty velodyne scan (0 bytes)"));
         }
-        if bytes.len() % POINT_BYTES != 0 {
+        if !bytes.len().is_multiple_of(POINT_BYTES) {
             return Err(Error::format(
                 path,
                 format!(

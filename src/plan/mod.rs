@@ -18,8 +18,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::kitti::calib::Calibration;
 use crate::kitti::timestamps::{self, Timestamp};
-use crate::kitti::tracklets::Tracklets;
-use crate::kitti::{discover, Drive, FrameId};
+use crate::kitti::tracklets::{ObjectType, Tracklets};
+use crate::kitti::{discover_all, Drive, FrameId};
 use crate::label::{tracklet_boxes, ClassMap, LabelBox};
 pub use selection::FrameSelection;
 
@@ -114,6 +114,11 @@ pub struct Plan {
     pub skipped: BTreeMap<String, u64>,
     /// Drives that could not be read, with their frames.
     pub failed: Vec<FrameFailure>,
+    /// Files in velodyne folders that are not `<frame10>.bin` scans: skipped, and named.
+    pub not_frames: Vec<PathBuf>,
+    /// Tracklets whose object type KITTI does not define, by type: the class map decides what
+    /// they become (background, unless it lists the type), and the summary names them.
+    pub unknown_object_types: BTreeMap<String, u64>,
 }
 
 impl Plan {
@@ -124,12 +129,26 @@ impl Plan {
             jobs: Vec::new(),
             skipped: BTreeMap::new(),
             failed: Vec::new(),
+            not_frames: Vec::new(),
+            unknown_object_types: BTreeMap::new(),
         };
         let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> =
             BTreeMap::new();
-        for drive in discover(root)? {
-            let frames = match drive.scan_frames() {
-                Ok(f) => f,
+        let found = discover_all(root)?;
+        for (path, why) in found.problems {
+            plan.failed.push(FrameFailure {
+                what: path.to_string_lossy().into_owned(),
+                frames: 0,
+                error: format!("{}: {why}", path.to_string_lossy()),
+            });
+        }
+        for drive in found.drives {
+            let frames = match drive.scan_listing() {
+                Ok(listing) => {
+                    plan.not_frames.extend(listing.not_frames);
+                    listing.frames
+                }
+                // The drive cannot be listed: a failure (its frames are unknown, counted as 0).
                 Err(e) => {
                     plan.failed.push(FrameFailure {
                         what: drive.name(),
@@ -161,6 +180,11 @@ impl Plan {
                     continue;
                 }
             };
+            for t in &dp.tracklets.tracklets {
+                if let ObjectType::Other(name) = &t.object_type {
+                    *plan.unknown_object_types.entry(name.clone()).or_default() += 1;
+                }
+            }
             let index = plan.drives.len();
             let has_file = dp.drive.tracklets_path().exists();
             for &f in &frames {

@@ -298,6 +298,7 @@ fn json_schema_is_stable() {
             "miou_classes",
             "missing_frames",
             "per_frame",
+            "predictions_without_truth",
             "protocol",
             "version"
         ]

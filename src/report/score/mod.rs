@@ -106,6 +106,9 @@ pub struct ScoreReport {
     pub miou: f64,
     /// Confusion matrix, rows = truth, columns = prediction, class id order.
     pub confusion: Confusion,
+    /// Predictions whose frame is not in the ground truth at all (not scored: named, so that a
+    /// misnamed file is not lost silently).
+    pub predictions_without_truth: Vec<String>,
     /// Per frame, when asked for.
     pub per_frame: Option<Vec<FramePerf>>,
 }
@@ -170,6 +173,7 @@ pub fn report(
         classes: map.keyed(&scores),
         miou: total.miou(&map.miou),
         confusion: total,
+        predictions_without_truth: Vec::new(),
         per_frame: per_frame.then(|| frames.iter().map(|f| FramePerf::new(f, map)).collect()),
     }
 }
@@ -201,6 +205,17 @@ pub fn score(
         scores.push(s);
     }
     Ok((scores, maps))
+}
+
+/// The predictions whose frame is not among the ground truth's frames.
+pub fn predictions_without_truth(gt: &GroundTruth, preds: &Predictions) -> Vec<String> {
+    let truth: BTreeSet<&FrameId> = gt.frames.iter().collect();
+    preds
+        .frame_ids()
+        .into_iter()
+        .filter(|id| !truth.contains(id))
+        .map(|id| id.to_string())
+        .collect()
 }
 
 /// The indices of the `n` frames of lowest mIoU (over the mIoU classes present), worst first;

@@ -75,6 +75,13 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
 }
 
 impl Predictions {
+    /// The frames that have a prediction, sorted.
+    pub fn frame_ids(&self) -> Vec<&FrameId> {
+        let mut v: Vec<&FrameId> = self.files.keys().chain(self.in_shard.keys()).collect();
+        v.sort();
+        v
+    }
+
     /// Indexes the prediction files under `root` (a folder searched recursively, or one file).
     pub fn index(root: &Path) -> Result<Predictions> {
         let mut paths = Vec::new();
