@@ -108,7 +108,7 @@ pub fn drive_frames(drive: &Drive, selection: FrameSelection) -> Result<Vec<u32>
 
 /// splitmix64: a tiny, fully specified generator, so that a seed gives the same split with every
 /// version of this tool (a library generator may change its stream between releases).
-fn splitmix64(state: &mut u64) -> u64 {
+pub fn splitmix64(state: &mut u64) -> u64 {
     *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
     let mut z = *state;
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

@@ -1,0 +1,144 @@
+//! Mutation fuzzing of the whole tool on real inputs, bounded for CI (seconds): each input kind
+//! (calibration text, tracklet XML, velodyne scan, camera PNG, shard) is mutated with a seeded
+//! generator (bit flips, truncation, insertion, line deletion) and the binary run on it. No run
+//! may panic or hang, and a run that exits 0 must have written outputs that are right for the
+//! input it was given. `cargo run --release --example fuzz_parsers -- SECONDS` runs the parsers
+//! in process for longer.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+#[path = "../../examples/fuzz_parsers/mutate.rs"]
+mod mutate;
+
+use kitti2pgm::format::npy::read_f32;
+use mutate::{mutate, Rng};
+
+use crate::util::*;
+
+/// Runs the binary with a deadline; returns (exit code, stderr). Panics on a hang or a panic.
+fn run_bounded(args: &[&str]) -> (i32, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_kitti2pgm"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+            assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+            return (status.code().unwrap_or(-1), err);
+        }
+        if Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("{args:?} hung");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Checks that a conversion that exited 0 wrote outputs consistent with its input: one map and
+/// one `.label` per scan, ranges the norms of the points, finite values, class ids, empty cells
+/// zero, colours in [0, 1], one label per point of the `.bin`.
+fn outputs_are_right(raw_drive: &Path, out: &Path) {
+    let data = raw_drive.join("velodyne_points/data");
+    for e in std::fs::read_dir(&data).unwrap() {
+        let bin = e.unwrap().path();
+        let stem = bin.file_stem().unwrap().to_str().unwrap().to_string();
+        let id = format!("2011_09_26_0052_{stem}");
+        let (shape, m) = read_f32(&out.join(format!("lidar_2d/{id}.npy"))).unwrap();
+        assert_eq!(&shape[..2], &[64, 512]);
+        let c = shape[2] as usize;
+        for cell in m.chunks_exact(c) {
+            assert!(cell.iter().all(|v| v.is_finite()), "{id}: {cell:?}");
+            let r = (cell[0] * cell[0] + cell[1] * cell[1] + cell[2] * cell[2]).sqrt();
+            assert!(
+                (cell[4] - r).abs() <= 1e-3 * r.max(1.0),
+                "{id}: range {cell:?}"
+            );
+            assert!([0.0, 1.0, 2.0, 3.0].contains(&cell[5]));
+            if cell[4] == 0.0 {
+                assert!(cell.iter().all(|v| *v == 0.0));
+            }
+            if c == 9 {
+                assert!(cell[6..].iter().all(|v| (0.0..=1.0).contains(v)));
+            }
+        }
+        let points = std::fs::metadata(&bin).unwrap().len() / 16;
+        let labels =
+            std::fs::read(out.join(format!("labels/2011_09_26_drive_0052_sync/{stem}.label")))
+                .unwrap();
+        assert_eq!(labels.len() as u64, points * 4, "{id}: one label per point");
+        assert!(labels.chunks_exact(4).all(|w| w[0] <= 3 && w[1] == 0));
+    }
+}
+
+#[test]
+fn mutated_inputs_never_panic_hang_or_pass_wrong() {
+    let t = tmp();
+    let mut rng = Rng(2026);
+    let kinds = [
+        ("2011_09_26/calib_cam_to_cam.txt", "--rgb"),
+        ("2011_09_26/calib_velo_to_cam.txt", "--rgb"),
+        (
+            "2011_09_26/2011_09_26_drive_0052_sync/tracklet_labels.xml",
+            "--all-frames",
+        ),
+        (
+            "2011_09_26/2011_09_26_drive_0052_sync/velodyne_points/data/0000000000.bin",
+            "--all-frames",
+        ),
+        (
+            "2011_09_26/2011_09_26_drive_0052_sync/image_02/data/0000000000.png",
+            "--rgb",
+        ),
+    ];
+    let mut run = 0;
+    for (file, option) in kinds {
+        let original = std::fs::read(fixtures().join(file)).unwrap();
+        for _ in 0..12 {
+            run += 1;
+            let dir = t.path().join(format!("run{run}"));
+            let root = fixture_copy(&dir);
+            std::fs::write(root.join(file), mutate(&original, &mut rng)).unwrap();
+            let drive = root.join("2011_09_26/2011_09_26_drive_0052_sync");
+            let out = dir.join("out");
+            let (code, err) = run_bounded(&[
+                "--no-progress",
+                "convert",
+                s(&drive),
+                "--out",
+                s(&out),
+                option,
+            ]);
+            assert!([0, 1, 3].contains(&code), "{file}: exit {code}: {err}");
+            if code == 0 {
+                outputs_are_right(&drive, &out);
+            }
+        }
+    }
+}
+
+#[test]
+fn mutated_shards_are_refused() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--format", "mcap"]);
+    let shard = out.join("shards/train-00000.mcap");
+    let original = std::fs::read(&shard).unwrap();
+    let mut rng = Rng(11);
+    for k in 0..12 {
+        let bad = mutate(&original, &mut rng);
+        let path = t.path().join(format!("m{k}.mcap"));
+        std::fs::write(&path, &bad).unwrap();
+        let (code, err) = run_bounded(&["inspect", s(&path)]);
+        assert_ne!(code, 0, "a mutated shard passed inspect");
+        assert!(err.contains(&format!("m{k}.mcap")), "{err}");
+        let (code, _) = run_bounded(&["score", "--gt", s(&path), "--pred", s(&shard)]);
+        assert_ne!(code, 0, "a mutated shard was scored");
+    }
+}
