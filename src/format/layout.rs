@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! OUT/lidar_2d/<date>_<drive4>_<frame10>.npy          one map per frame (format::pgm)
-//! OUT/labels/<date>_drive_<NNNN>_sync/<frame10>.label  per-point labels (format::label_file)
+//! OUT/labels/<drive>/<frame>.label                   per-point labels (format::label_file);
+//!     <drive> = <date>_drive_<NNNN>_sync (raw), <NN> (sequences) or object
 //! OUT/shards/<split>-<NNNNN>.mcap                     training shards (format::shard)
 //! OUT/convert_summary.json                            what was converted, how (format::summary)
 //! OUT/ImageSet/{all,train,val}.txt                    split lists (format::imageset)
@@ -57,7 +58,7 @@ impl OutputDir {
 
     /// `OUT/labels/<date>_drive_<NNNN>_sync/<frame10>.label`.
     pub fn label_path(&self, id: &FrameId) -> PathBuf {
-        self.label_dir(id).join(format!("{:010}.label", id.frame))
+        self.label_dir(id).join(format!("{}.label", id.frame_name()))
     }
 
     /// `OUT/shards`.

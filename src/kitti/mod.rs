@@ -1,9 +1,19 @@
-//! READ: the KITTI raw layout and its files.
+//! READ: the layouts of the KITTI family and their files.
 //!
-//! `RAW_ROOT/<date>/calib_*.txt` and `RAW_ROOT/<date>/<date>_drive_<NNNN>_sync/` with
-//! `velodyne_points/data/<frame10>.bin`, `image_0{0..3}/data/<frame10>.png`, `oxts/data/*.txt`,
-//! `*/timestamps.txt` and `tracklet_labels.xml`. [`discover`] accepts the root, one date folder
-//! or one drive folder. A frame is named by [`FrameId`], SqueezeSeg's `<date>_<drive4>_<frame10>`.
+//! Three layouts ([`Layout`]), each a set of "drives" (folders of frames that share a
+//! calibration and an annotation):
+//!
+//! - **KITTI raw**: `RAW_ROOT/<date>/calib_*.txt` and `RAW_ROOT/<date>/<date>_drive_<NNNN>_sync/`
+//!   with `velodyne_points/data/<frame10>.bin`, `image_0{0..3}/data/<frame10>.png`,
+//!   `oxts/data/*.txt`, `*/timestamps.txt` and `tracklet_labels.xml`. Frame id
+//!   `<date>_<drive4>_<frame10>` (SqueezeSeg's).
+//! - **SemanticKITTI / KITTI odometry**: `ROOT/sequences/<NN>/` with `velodyne/<frame6>.bin`,
+//!   `labels/<frame6>.label`, `calib.txt`, `image_2/<frame6>.png`. Frame id `<seq2>_<frame6>`.
+//! - **KITTI 3D object**: `ROOT/training/` (or `testing/`) with `velodyne/<frame6>.bin`,
+//!   `image_2/<frame6>.png`, `calib/<frame6>.txt`, `label_2/<frame6>.txt`. Frame id `<frame6>`.
+//!
+//! [`discover_all`] accepts a root or one drive, sequence or split folder of any of them, and
+//! finds the layout (or takes the one forced).
 
 pub mod calib;
 pub mod camera;
@@ -15,36 +25,80 @@ pub mod velodyne;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
-/// One drive folder (`<date>_drive_<NNNN>_sync`).
+/// Which dataset layout a drive, and its frames, come from.
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize,
+)]
+pub enum Layout {
+    /// KITTI raw (tracklet boxes).
+    #[default]
+    Raw,
+    /// SemanticKITTI / KITTI odometry sequences (per-point labels).
+    Sequence,
+    /// The KITTI 3D object set (`label_2` boxes).
+    Object,
+}
+
+/// A folder of frames: a raw drive (`<date>_drive_<NNNN>_sync`), an odometry sequence
+/// (`sequences/<NN>`) or an object split (`training/`, `testing/`).
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 pub struct Drive {
-    /// Recording day, `YYYY_MM_DD`.
+    /// The layout.
+    pub layout: Layout,
+    /// Recording day, `YYYY_MM_DD` (raw); empty otherwise.
     pub date: String,
-    /// Drive number (the `NNNN`).
+    /// Drive number (raw `NNNN`), sequence number; 0 for an object split.
     pub number: u32,
-    /// The drive folder.
+    /// The folder.
     pub dir: PathBuf,
 }
 
-/// A frame's identity: SqueezeSeg's `<date>_<drive4>_<frame10>`, e.g. `2011_09_26_0001_0000000010`.
+/// A frame's identity: `<date>_<drive4>_<frame10>` (raw, SqueezeSeg's, e.g.
+/// `2011_09_26_0001_0000000010`), `<seq2>_<frame6>` (sequences, `00_000000`) or `<frame6>`
+/// (object set).
 #[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 pub struct FrameId {
-    /// Recording day, `YYYY_MM_DD`.
+    /// The layout.
+    pub layout: Layout,
+    /// Recording day, `YYYY_MM_DD` (raw); empty otherwise.
     pub date: String,
-    /// Drive number.
+    /// Drive or sequence number (0 for the object set).
     pub drive: u32,
     /// Frame index within the drive.
     pub frame: u32,
 }
 
 impl FrameId {
-    /// The drive folder of the frame, `<date>_drive_<NNNN>_sync`.
+    /// A raw frame's id.
+    pub fn raw(date: &str, drive: u32, frame: u32) -> FrameId {
+        FrameId {
+            layout: Layout::Raw,
+            date: date.into(),
+            drive,
+            frame,
+        }
+    }
+
+    /// The folder that groups the frame's per-point outputs: the raw drive folder
+    /// `<date>_drive_<NNNN>_sync`, the sequence `<NN>`, or `object`.
     pub fn drive_name(&self) -> String {
-        drive_name(&self.date, self.drive)
+        match self.layout {
+            Layout::Raw => drive_name(&self.date, self.drive),
+            Layout::Sequence => format!("{:02}", self.drive),
+            Layout::Object => "object".into(),
+        }
+    }
+
+    /// The frame number as its files spell it: 10 digits (raw) or 6.
+    pub fn frame_name(&self) -> String {
+        match self.layout {
+            Layout::Raw => format!("{:010}", self.frame),
+            _ => format!("{:06}", self.frame),
+        }
     }
 }
 
@@ -55,25 +109,44 @@ pub fn drive_name(date: &str, number: u32) -> String {
 
 impl fmt::Display for FrameId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}_{:04}_{:010}", self.date, self.drive, self.frame)
+        match self.layout {
+            Layout::Raw => write!(f, "{}_{:04}_{:010}", self.date, self.drive, self.frame),
+            Layout::Sequence => write!(f, "{:02}_{:06}", self.drive, self.frame),
+            Layout::Object => write!(f, "{:06}", self.frame),
+        }
     }
 }
 
 impl std::str::FromStr for FrameId {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let bad = || format!("{s:?} is not a frame id like 2011_09_26_0001_0000000010");
+        let bad = || {
+            format!("{s:?} is not a frame id like 2011_09_26_0001_0000000010, 00_000000 or 000000")
+        };
+        let digits = |t: &str, n: usize| t.len() == n && t.bytes().all(|c| c.is_ascii_digit());
+        let number = |t: &str| t.parse::<u32>().map_err(|_| bad());
+        if digits(s, 6) {
+            return Ok(FrameId {
+                layout: Layout::Object,
+                frame: number(s)?,
+                ..Default::default()
+            });
+        }
+        if s.len() == 9 && digits(&s[..2], 2) && &s[2..3] == "_" && digits(&s[3..], 6) {
+            return Ok(FrameId {
+                layout: Layout::Sequence,
+                date: String::new(),
+                drive: number(&s[..2])?,
+                frame: number(&s[3..])?,
+            });
+        }
         let (date, rest) = s.split_at_checked(10).ok_or_else(bad)?;
         let rest = rest.strip_prefix('_').ok_or_else(bad)?;
         let (drive, frame) = rest.split_once('_').ok_or_else(bad)?;
-        if !is_date(date) || drive.len() != 4 || frame.len() != 10 {
+        if !is_date(date) || !digits(drive, 4) || !digits(frame, 10) {
             return Err(bad());
         }
-        Ok(FrameId {
-            date: date.into(),
-            drive: drive.parse().map_err(|_| bad())?,
-            frame: frame.parse().map_err(|_| bad())?,
-        })
+        Ok(FrameId::raw(date, number(drive)?, number(frame)?))
     }
 }
 
@@ -104,22 +177,45 @@ fn file_name(p: &Path) -> &str {
 }
 
 impl Drive {
-    /// The drive in folder `dir`, if its name is a drive name.
+    /// The raw drive in folder `dir`, if its name is a drive name.
     pub fn from_dir(dir: &Path) -> Option<Drive> {
         let (date, number) = parse_drive_name(file_name(dir))?;
         Some(Drive {
+            layout: Layout::Raw,
             date,
             number,
             dir: dir.to_path_buf(),
         })
     }
 
-    /// `<date>_drive_<NNNN>_sync`.
-    pub fn name(&self) -> String {
-        drive_name(&self.date, self.number)
+    /// The odometry sequence in folder `dir` (named by its two-digit number).
+    pub fn sequence(dir: &Path) -> Option<Drive> {
+        let name = file_name(dir);
+        let ok = name.len() == 2 && name.bytes().all(|c| c.is_ascii_digit());
+        ok.then(|| Drive {
+            layout: Layout::Sequence,
+            date: String::new(),
+            number: name.parse().expect("two digits"),
+            dir: dir.to_path_buf(),
+        })
     }
 
-    /// The date folder holding the calibration files.
+    /// The object-set split in folder `dir` (`training/`, `testing/`).
+    pub fn object_split(dir: &Path) -> Drive {
+        Drive {
+            layout: Layout::Object,
+            date: String::new(),
+            number: 0,
+            dir: dir.to_path_buf(),
+        }
+    }
+
+    /// The drive's name: `<date>_drive_<NNNN>_sync`, the sequence `<NN>`, or `object`.
+    pub fn name(&self) -> String {
+        self.frame_id(0).drive_name()
+    }
+
+    /// The date folder holding the calibration files (raw).
     pub fn date_dir(&self) -> PathBuf {
         self.dir.parent().map(Path::to_path_buf).unwrap_or_default()
     }
@@ -127,30 +223,66 @@ impl Drive {
     /// The id of frame `frame` of this drive.
     pub fn frame_id(&self, frame: u32) -> FrameId {
         FrameId {
+            layout: self.layout,
             date: self.date.clone(),
             drive: self.number,
             frame,
         }
     }
 
+    /// The folder of the velodyne scans.
+    fn scan_dir(&self) -> PathBuf {
+        match self.layout {
+            Layout::Raw => self.dir.join("velodyne_points/data"),
+            _ => self.dir.join("velodyne"),
+        }
+    }
+
     /// Path of a velodyne scan.
     pub fn scan_path(&self, frame: u32) -> PathBuf {
-        self.dir
-            .join(format!("velodyne_points/data/{frame:010}.bin"))
+        let name = self.frame_id(frame).frame_name();
+        self.scan_dir().join(format!("{name}.bin"))
     }
 
     /// Path of a camera image (camera 0-3).
     pub fn image_path(&self, camera: u8, frame: u32) -> PathBuf {
-        self.dir
-            .join(format!("image_{camera:02}/data/{frame:010}.png"))
+        let name = self.frame_id(frame).frame_name();
+        match self.layout {
+            Layout::Raw => self.dir.join(format!("image_{camera:02}/data/{name}.png")),
+            _ => self.dir.join(format!("image_{camera}/{name}.png")),
+        }
     }
 
-    /// Path of the drive's tracklets.
+    /// Path of a sequence frame's per-point labels (`labels/<frame6>.label`).
+    pub fn point_labels_path(&self, frame: u32) -> PathBuf {
+        let name = self.frame_id(frame).frame_name();
+        self.dir.join(format!("labels/{name}.label"))
+    }
+
+    /// Path of an object frame's boxes (`label_2/<frame6>.txt`).
+    pub fn object_labels_path(&self, frame: u32) -> PathBuf {
+        let name = self.frame_id(frame).frame_name();
+        self.dir.join(format!("label_2/{name}.txt"))
+    }
+
+    /// Path of the calibration: a sequence's `calib.txt`, an object frame's `calib/<frame6>.txt`
+    /// (raw calibration is per day: [`Drive::date_dir`]).
+    pub fn calib_path(&self, frame: u32) -> PathBuf {
+        match self.layout {
+            Layout::Object => {
+                let name = self.frame_id(frame).frame_name();
+                self.dir.join(format!("calib/{name}.txt"))
+            }
+            _ => self.dir.join("calib.txt"),
+        }
+    }
+
+    /// Path of the drive's tracklets (raw).
     pub fn tracklets_path(&self) -> PathBuf {
         self.dir.join("tracklet_labels.xml")
     }
 
-    /// Path of the velodyne timestamps.
+    /// Path of the velodyne timestamps (raw).
     pub fn scan_timestamps_path(&self) -> PathBuf {
         self.dir.join("velodyne_points/timestamps.txt")
     }
@@ -164,7 +296,8 @@ impl Drive {
     /// frames, named so that they are reported instead of silently dropped. No folder: no frame.
     /// A folder that cannot be listed is an error.
     pub fn scan_listing(&self) -> Result<ScanListing> {
-        let dir = self.dir.join("velodyne_points/data");
+        let dir = self.scan_dir();
+        let width = self.frame_id(0).frame_name().len();
         let mut out = ScanListing::default();
         if !dir.exists() {
             return Ok(out);
@@ -174,8 +307,8 @@ impl Drive {
                 .file_name()
                 .and_then(|n| n.to_str())
                 .and_then(|n| n.strip_suffix(".bin"))
-                .filter(|stem| stem.len() == 10 && stem.bytes().all(|c| c.is_ascii_digit()))
-                .map(|stem| stem.parse().expect("10 digits fit u32"));
+                .filter(|stem| stem.len() == width && stem.bytes().all(|c| c.is_ascii_digit()))
+                .map(|stem| stem.parse().expect("6 or 10 digits fit u32"));
             match frame {
                 Some(f) => out.frames.push(f),
                 None => out.not_frames.push(p),

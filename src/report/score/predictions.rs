@@ -50,14 +50,27 @@ fn frame_id_of(path: &Path) -> Option<FrameId> {
     match path.extension()?.to_str()? {
         "npy" => stem.parse().ok(),
         "label" => {
-            let drive = path.parent()?.file_name()?.to_str()?;
-            let (date, number) = parse_drive_name(drive)?;
-            (stem.len() == 10).then_some(())?;
-            Some(FrameId {
-                date,
-                drive: number,
-                frame: stem.parse().ok()?,
-            })
+            let digits = |t: &str, n| t.len() == n && t.bytes().all(|c| c.is_ascii_digit());
+            let parent = path.parent()?;
+            let drive = parent.file_name()?.to_str()?;
+            if let Some((date, number)) = parse_drive_name(drive) {
+                // convert's raw layout: labels/<date>_drive_<NNNN>_sync/<frame10>.label
+                digits(stem, 10).then_some(())?;
+                return Some(FrameId::raw(&date, number, stem.parse().ok()?));
+            }
+            digits(stem, 6).then_some(())?;
+            // SemanticKITTI's sequences/<NN>/predictions/<frame6>.label, convert's
+            // labels/<NN>/<frame6>.label, or labels/object/<frame6>.label.
+            let seq = if drive == "predictions" {
+                parent.parent()?.file_name()?.to_str()?
+            } else {
+                drive
+            };
+            if drive == "object" {
+                return stem.parse().ok();
+            }
+            digits(seq, 2).then_some(())?;
+            format!("{seq}_{stem}").parse().ok()
         }
         _ => None,
     }
