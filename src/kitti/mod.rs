@@ -417,16 +417,15 @@ mod tests {
     #[test]
     fn frame_id_round_trips() {
         let id: FrameId = "2011_09_26_0001_0000000010".parse().unwrap();
-        assert_eq!(
-            id,
-            FrameId {
-                date: "2011_09_26".into(),
-                drive: 1,
-                frame: 10
-            }
-        );
+        assert_eq!(id, FrameId::raw("2011_09_26", 1, 10));
         assert_eq!(id.to_string(), "2011_09_26_0001_0000000010");
         assert!("2011_09_26_1_10".parse::<FrameId>().is_err());
+        for s in ["00_000123", "000042"] {
+            let id: FrameId = s.parse().unwrap();
+            assert_eq!(id.to_string(), s);
+        }
+        assert_eq!("08_000007".parse::<FrameId>().unwrap().drive_name(), "08");
+        assert!("0_000007".parse::<FrameId>().is_err());
     }
 
     #[test]
