@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use kitti2pgm::convert::labels::FrameLabels;
 use kitti2pgm::convert::{convert_frame, process, ConvertOptions};
 use kitti2pgm::format::atomic_write;
 use kitti2pgm::format::npy::encode_f32;
@@ -38,7 +39,7 @@ fn drive_0052() -> (DrivePlan, u32) {
     let dir = raw_root().join("2011_09_26/2011_09_26_drive_0052_sync");
     let drive = Drive::from_dir(&dir).unwrap();
     let calib = Arc::new(Calibration::read_dir(&drive.date_dir()).unwrap());
-    (DrivePlan::load(drive, calib).unwrap(), 0)
+    (DrivePlan::load(drive, Some(calib)).unwrap(), 0)
 }
 
 fn stages(c: &mut Criterion) {
@@ -51,10 +52,12 @@ fn stages(c: &mut Criterion) {
     let boxes = dp.boxes(f, &classes);
     let spec = PgmSpec::default();
     let cam = CameraProjector {
-        velo_to_image: dp.calib.velo_to_image(2),
+        velo_to_image: dp.camera(0, 2).unwrap().0,
         sampling: Sampling::Nearest,
     };
     let id = dp.drive.frame_id(f);
+    // Labelling is part of processing a frame.
+    let labelled = || FrameLabels::from_boxes(boxes.clone(), &scan, &classes);
 
     let mut g = c.benchmark_group("stage");
     g.throughput(Throughput::Elements(1));
@@ -79,12 +82,12 @@ fn stages(c: &mut Criterion) {
         b.iter(|| project(black_box(&scan.points), &spec))
     });
     g.bench_function("process_lidar", |b| {
-        b.iter(|| process(&id, &scan, &boxes, &spec, &classes, None))
+        b.iter(|| process(&id, &scan, &labelled(), &spec, &classes, None))
     });
     g.bench_function("process_rgb", |b| {
-        b.iter(|| process(&id, &scan, &boxes, &spec, &classes, Some((&cam, &img))))
+        b.iter(|| process(&id, &scan, &labelled(), &spec, &classes, Some((&cam, &img))))
     });
-    let out = process(&id, &scan, &boxes, &spec, &classes, Some((&cam, &img)));
+    let out = process(&id, &scan, &labelled(), &spec, &classes, Some((&cam, &img)));
     g.bench_function("encode_npy_9ch", |b| {
         b.iter(|| encode_f32(&[64, 512, 9], black_box(&out.pgm.data)))
     });

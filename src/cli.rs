@@ -173,9 +173,19 @@ pub enum SamplingArg {
 /// `kitti2pgm convert`.
 #[derive(Debug, ClapArgs)]
 pub struct ConvertArgs {
-    /// KITTI raw root, date folder or drive folder.
-    #[arg(value_name = "RAW_ROOT")]
+    /// The input: a KITTI raw root, date or drive folder; a SemanticKITTI / odometry root
+    /// (sequences/<NN>/) or one sequence folder; a KITTI object root (training/, testing/) or
+    /// one split folder. The layout is detected (see --source).
+    #[arg(value_name = "ROOT")]
     pub raw_root: PathBuf,
+    /// Force the input layout instead of detecting it.
+    #[arg(long, value_enum)]
+    pub source: Option<SourceArg>,
+    /// Class map: a semantic-kitti.yaml-style file (labels, color_map, learning_map,
+    /// learning_map_inv, learning_ignore). Default: SemanticKITTI's own 20 classes for
+    /// sequences, the paper's 4 classes (background, car, pedestrian, cyclist) for boxes.
+    #[arg(long, value_name = "FILE")]
+    pub class_map: Option<PathBuf>,
     /// Output folder (created if needed).
     #[arg(long, short, value_name = "DIR")]
     pub out: PathBuf,
@@ -239,6 +249,17 @@ pub struct ConvertArgs {
     /// Print the summary as JSON on stdout instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Input layouts of `convert`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SourceArg {
+    /// KITTI raw drives with tracklet_labels.xml.
+    Raw,
+    /// SemanticKITTI / KITTI odometry sequences with per-point labels.
+    Semantickitti,
+    /// The KITTI 3D object set with label_2 boxes.
+    Object,
 }
 
 /// Output formats of `convert`.

@@ -5,6 +5,7 @@ use kitti2pgm::convert::{convert, ConvertOptions, FrameOutcome};
 use kitti2pgm::format::layout::OutputDir;
 use kitti2pgm::format::summary::ConvertSummary;
 use kitti2pgm::geom::Degrees;
+use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::{ConvertParams, MapParams, ShardCompression, ShardParams};
 use kitti2pgm::plan::{FrameSelection, Plan};
@@ -12,12 +13,12 @@ use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{PgmSpec, RowMode};
 
 use super::{progress, Global};
-use crate::cli::{CompressionArg, ConvertArgs, FormatArg, RowModeArg, SamplingArg};
+use crate::cli::{CompressionArg, ConvertArgs, FormatArg, RowModeArg, SamplingArg, SourceArg};
 use crate::Outcome;
 
 impl ConvertArgs {
     /// The library's parameters (validated by the library).
-    fn params(&self) -> kitti2pgm::Result<ConvertParams> {
+    fn params(&self, class_map: ClassMap) -> kitti2pgm::Result<ConvertParams> {
         Ok(ConvertParams {
             map: MapParams {
                 spec: PgmSpec {
@@ -43,7 +44,7 @@ impl ConvertArgs {
                 } else {
                     FrameSelection::Annotated
                 },
-                class_map: ClassMap::kitti_paper(),
+                class_map,
             },
             npy: self.format.contains(&FormatArg::Npy),
             labels: !self.no_point_labels,
@@ -64,17 +65,47 @@ impl ConvertArgs {
     }
 }
 
+impl ConvertArgs {
+    /// The class map: `--class-map`'s, else the default of the input's layout.
+    fn class_map(&self, plan: &Plan) -> anyhow::Result<ClassMap> {
+        if let Some(path) = &self.class_map {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            return Ok(ClassMap::from_semantic_kitti_yaml(&text, path)?);
+        }
+        let sequences = plan
+            .drives
+            .first()
+            .is_some_and(|d| d.drive.layout == Layout::Sequence);
+        Ok(if sequences {
+            ClassMap::semantic_kitti()
+        } else {
+            ClassMap::kitti_paper()
+        })
+    }
+}
+
 pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
+    let source = a.source.map(|s| match s {
+        SourceArg::Raw => Layout::Raw,
+        SourceArg::Semantickitti => Layout::Sequence,
+        SourceArg::Object => Layout::Object,
+    });
+    let selection = if a.all_frames {
+        FrameSelection::All
+    } else {
+        FrameSelection::Annotated
+    };
+    let plan = Plan::build_as(&a.raw_root, selection, source)
+        .with_context(|| format!("reading {}", a.raw_root.display()))?;
     let opts = ConvertOptions {
         out: OutputDir::new(&a.out),
-        params: a.params()?,
+        params: a.params(a.class_map(&plan)?)?,
         threads: g.threads,
         sync: a.sync,
         overwrite: a.overwrite,
     };
     opts.params.validate()?;
-    let plan = Plan::build(&a.raw_root, opts.params.map.selection)
-        .with_context(|| format!("reading {}", a.raw_root.display()))?;
     let pb = progress::bar(plan.jobs.len() as u64, g.progress, "converting");
     let summary = convert(&plan, &opts, &|o| match o {
         FrameOutcome::Done(_) => pb.inc(1),
@@ -98,6 +129,14 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         let map = &summary.params.map.class_map;
         let class = map.name(map.class_of_object(t));
         eprintln!("kitti2pgm: {n} tracklet(s) of unknown object type {t:?}, labelled {class}");
+    }
+    if summary.frames_without_labels > 0 {
+        let map = &summary.params.map.class_map;
+        eprintln!(
+            "kitti2pgm: {} frame(s) have no labels: converted with every point {}",
+            summary.frames_without_labels,
+            map.name(map.background)
+        );
     }
     if summary.has_failures() && summary.frames_converted == 0 && summary.shards_skipped == 0 {
         anyhow::bail!(
@@ -166,14 +205,17 @@ fn table(s: &ConvertSummary) -> String {
             pct(s.rgb_cells, p.filled_cells)
         );
     }
-    let _ = writeln!(t, "\nclass        points        %        cells        %");
+    let _ = writeln!(
+        t,
+        "\nclass            points        %        cells        %"
+    );
     let (pts, cells) = (&s.labelled_points, &s.labelled_cells);
     let (tp, tc) = (pts.values().sum::<u64>(), cells.values().sum::<u64>());
     for name in s.params.map.class_map.names() {
         let (np, nc) = (pts[name], cells[name]);
         let _ = writeln!(
             t,
-            "{:<10} {:>10} {:>7.3}% {:>12} {:>7.3}%",
+            "{:<14} {:>10} {:>7.3}% {:>12} {:>7.3}%",
             name,
             np,
             pct(np, tp),

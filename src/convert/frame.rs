@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use super::labels::{frame_labels, FrameLabels};
 use super::ConvertOptions;
 use crate::error::{Error, Result};
 use crate::format::shard::viz::VizFrame;
@@ -9,7 +10,7 @@ use crate::format::{label_file, pgm};
 use crate::kitti::camera::decode_image;
 use crate::kitti::velodyne::Scan;
 use crate::kitti::FrameId;
-use crate::label::{ClassCounts, ClassMap, LabelBox, Labeller};
+use crate::label::{ClassCounts, ClassMap};
 use crate::plan::DrivePlan;
 use crate::project::camera::CameraProjector;
 use crate::project::frame::{assemble, PgmFrame};
@@ -28,6 +29,8 @@ pub struct FrameReport {
     pub dropped_out_of_range: u64,
     /// Boxes of a labelled class at the frame.
     pub boxes: u64,
+    /// Whether the frame has labels (a frame without converts with the background class).
+    pub annotated: bool,
     /// Points per class.
     pub labelled_points: ClassCounts,
     /// Valid cells per class.
@@ -60,22 +63,21 @@ pub struct Converted {
     pub report: FrameReport,
 }
 
-/// Labels and projects one scan (no file access but the image, already decoded, if any).
+/// Projects one labelled scan (no file access but the image, already decoded, if any).
 pub fn process(
     id: &FrameId,
     scan: &Scan,
-    boxes: &[LabelBox],
+    frame_labels: &FrameLabels,
     spec: &PgmSpec,
     classes: &ClassMap,
     camera: Option<(&CameraProjector, &image::RgbImage)>,
 ) -> Converted {
-    let labeller = Labeller::new(boxes, classes.background);
-    let labels = labeller.label(&scan.points);
+    let labels = &frame_labels.points;
     let proj = project(&scan.points, spec);
     let colour_fn = camera.map(|(cam, img)| move |i: usize| cam.colour(img, &scan.points[i]));
     let pgm = assemble(
         scan,
-        &labels,
+        labels,
         &proj,
         colour_fn
             .as_ref()
@@ -86,7 +88,8 @@ pub fn process(
         points: scan.len() as u64,
         dropped_nonfinite: (scan.dropped.len() - scan.dropped_out_of_range) as u64,
         dropped_out_of_range: scan.dropped_out_of_range as u64,
-        boxes: labeller.len() as u64,
+        boxes: frame_labels.boxes.len() as u64,
+        annotated: frame_labels.annotated,
         labelled_points: labels.class_counts(classes.len()),
         labelled_cells: pgm.class_cells(classes.len()),
         projection: proj.stats,
@@ -124,47 +127,45 @@ pub fn produce(
     let map = &opts.params.map;
     let id = dp.drive.frame_id(frame);
     let scan = Scan::read(&dp.drive.scan_path(frame))?;
-    let boxes = dp.boxes(frame, &map.class_map);
+    let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
     let mut png_bytes = None;
-    let camera =
-        match &map.rgb {
-            Some(rgb) => {
-                let path = dp.drive.image_path(rgb.camera, frame);
-                let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-                let img = decode_image(&bytes, &path)?;
-                // The projection matrix maps into an image of the rectified size: a picture of
-                // another size would be sampled at the wrong pixels.
-                let size = dp.calib.cam_to_cam.cameras[rgb.camera as usize].size_rect;
-                if (img.width() as f64, img.height() as f64) != (size.x, size.y) {
+    let camera = match &map.rgb {
+        Some(rgb) => {
+            let path = dp.drive.image_path(rgb.camera, frame);
+            let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+            let img = decode_image(&bytes, &path)?;
+            let (velo_to_image, size, calib_file) = dp.camera(frame, rgb.camera)?;
+            // The projection matrix maps into an image of the rectified size: a picture of
+            // another size would be sampled at the wrong pixels.
+            if let Some([w, h]) = size {
+                if (img.width() as f64, img.height() as f64) != (w, h) {
                     return Err(Error::format(
                         &path,
                         format!(
-                        "image is {}x{}, camera {} is calibrated for {}x{} (S_rect_{:02} of {})",
-                        img.width(),
-                        img.height(),
-                        rgb.camera,
-                        size.x,
-                        size.y,
-                        rgb.camera,
-                        dp.drive.date_dir().join(crate::kitti::calib::CAM_TO_CAM).display()
-                    ),
+                            "image is {}x{}, camera {} is calibrated for {w}x{h} ({})",
+                            img.width(),
+                            img.height(),
+                            rgb.camera,
+                            calib_file.display()
+                        ),
                     ));
                 }
-                if want_viz {
-                    png_bytes = Some(bytes);
-                }
-                let proj = CameraProjector {
-                    velo_to_image: dp.calib.velo_to_image(rgb.camera as usize),
-                    sampling: rgb.sampling,
-                };
-                Some((proj, img))
             }
-            None => None,
-        };
+            if want_viz {
+                png_bytes = Some(bytes);
+            }
+            let proj = CameraProjector {
+                velo_to_image,
+                sampling: rgb.sampling,
+            };
+            Some((proj, img))
+        }
+        None => None,
+    };
     let out = process(
         &id,
         &scan,
-        &boxes,
+        &labels,
         &map.spec,
         &map.class_map,
         camera.as_ref().map(|(p, i)| (p, i)),
@@ -181,10 +182,7 @@ pub fn produce(
                     (*p, scan.reflectance[k], class)
                 })
                 .collect(),
-            boxes: boxes
-                .into_iter()
-                .filter(|b| b.class != map.class_map.background)
-                .collect(),
+            boxes: labels.boxes.clone(),
             png: png_bytes,
             camera: map.rgb.map_or(2, |r| r.camera),
             colours: map.class_map.classes.iter().map(|c| c.colour).collect(),

@@ -11,6 +11,7 @@
 //! - [`shards`]: the shard output (frames in order, written while the next batch converts).
 
 pub mod frame;
+pub mod labels;
 pub mod resume;
 pub mod shards;
 
@@ -85,6 +86,7 @@ impl Totals {
             s.fallback_frames.push(r.id.clone());
         }
         s.rgb_cells += r.rgb_cells;
+        s.frames_without_labels += !r.annotated as u64;
         self.points += &r.labelled_points;
         self.cells += &r.labelled_cells;
     }

@@ -77,7 +77,7 @@ pub fn confusion_chart(c: &Confusion, map: &ClassMap) -> image::RgbImage {
             );
         }
     }
-    let miou = format!("mIoU {:.3}", c.miou(&map.miou));
+    let miou = format!("mIoU {:.3}", c.miou_for(map));
     draw_text(&mut img, left, top + k as u32 * cell + 12, &miou, black, 1);
     img
 }

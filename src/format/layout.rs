@@ -58,7 +58,8 @@ impl OutputDir {
 
     /// `OUT/labels/<date>_drive_<NNNN>_sync/<frame10>.label`.
     pub fn label_path(&self, id: &FrameId) -> PathBuf {
-        self.label_dir(id).join(format!("{}.label", id.frame_name()))
+        self.label_dir(id)
+            .join(format!("{}.label", id.frame_name()))
     }
 
     /// `OUT/shards`.

@@ -44,6 +44,9 @@ pub struct ConvertSummary {
     /// Tracklets of an object type KITTI does not define, by type (labelled as the class map
     /// says: background unless it lists the type).
     pub unknown_object_types: BTreeMap<String, u64>,
+    /// Frames converted without labels (SemanticKITTI test sequences, object `testing/`):
+    /// every point has the class map's background class.
+    pub frames_without_labels: u64,
     /// Finite points read.
     pub points: u64,
     /// Non-finite points dropped.

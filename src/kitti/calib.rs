@@ -284,6 +284,58 @@ impl Calibration {
     }
 }
 
+/// The calibration of an odometry sequence (`calib.txt`: `P0`..`P3`, `Tr`) or of an object
+/// frame (`calib/<frame6>.txt`: `P0`..`P3`, `R0_rect`, `Tr_velo_to_cam`): the rectified
+/// cameras' projections and the velodyne-to-rectified-camera-0 transform.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameCalib {
+    /// `P0`..`P3`: rectified camera-0 coordinates to each camera's pixels.
+    pub p: [Matrix3x4; 4],
+    /// `R0_rect` (identity for odometry sequences, whose `Tr` is already rectified).
+    pub r0_rect: na::Matrix3<f64>,
+    /// `Tr` / `Tr_velo_to_cam`, velodyne to camera 0, kept as written (3x4).
+    pub velo_to_cam: Matrix3x4,
+}
+
+impl FrameCalib {
+    /// Reads a sequence's `calib.txt` or an object frame's calibration file. A missing key
+    /// (`Tr` or `Tr_velo_to_cam`, `P2`, ...) is an error naming the file and the key.
+    pub fn read(path: &Path) -> Result<FrameCalib> {
+        let f = CalibFile::read(path)?;
+        let p = |i: usize| -> Result<Matrix3x4> {
+            Ok(Matrix3x4::from_row_slice(f.values(&format!("P{i}"), 12)?))
+        };
+        let tr_key = if f.numeric.contains_key("Tr_velo_to_cam") {
+            "Tr_velo_to_cam"
+        } else {
+            "Tr"
+        };
+        Ok(FrameCalib {
+            p: [p(0)?, p(1)?, p(2)?, p(3)?],
+            r0_rect: if f.numeric.contains_key("R0_rect") {
+                f.mat3("R0_rect")?
+            } else {
+                na::Matrix3::identity()
+            },
+            velo_to_cam: Matrix3x4::from_row_slice(f.values(tr_key, 12)?),
+        })
+    }
+
+    /// Velodyne to rectified camera 0, 4x4 homogeneous: `R0_rect * Tr`.
+    pub fn velo_to_rect(&self) -> na::Matrix4<f64> {
+        let mut r = na::Matrix4::identity();
+        r.fixed_view_mut::<3, 3>(0, 0).copy_from(&self.r0_rect);
+        let mut t = na::Matrix4::identity();
+        t.fixed_view_mut::<3, 4>(0, 0).copy_from(&self.velo_to_cam);
+        r * t
+    }
+
+    /// Homogeneous velodyne points to homogeneous pixels of `camera`: `P_c * R0_rect * Tr`.
+    pub fn velo_to_image(&self, camera: usize) -> Matrix3x4 {
+        self.p[camera] * self.velo_to_rect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,6 +17,8 @@
 
 pub mod calib;
 pub mod camera;
+mod discover;
+pub mod object;
 pub mod oxts;
 pub mod timestamps;
 pub mod tracklets;
@@ -27,7 +29,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+pub use discover::{discover, discover_all, discover_as, Discovery};
 
 /// Which dataset layout a drive, and its frames, come from.
 #[derive(
@@ -326,88 +329,6 @@ pub struct ScanListing {
     pub frames: Vec<u32>,
     /// Entries that are not `<frame10>.bin` scans (a stray file, a 26-digit name, a folder).
     pub not_frames: Vec<PathBuf>,
-}
-
-/// What [`discover_all`] found under a root.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Discovery {
-    /// The drives, sorted by date and number.
-    pub drives: Vec<Drive>,
-    /// Folders that look like drives or dates but cannot be read as one, with the reason
-    /// (a name that is not valid UTF-8, a date folder that cannot be listed).
-    pub problems: Vec<(PathBuf, String)>,
-}
-
-/// Finds the drives under `root`: a KITTI raw root (date folders), a date folder or one drive
-/// folder. Drives come sorted by date and number. Problems with single folders are left out
-/// (see [`discover_all`], which names them).
-pub fn discover(root: &Path) -> Result<Vec<Drive>> {
-    Ok(discover_all(root)?.drives)
-}
-
-/// Like [`discover`], and names the folders it could not read as drives: a folder name that is
-/// not valid UTF-8, a date folder that cannot be listed. An error when `root` is not a folder
-/// or holds no drive at all.
-pub fn discover_all(root: &Path) -> Result<Discovery> {
-    if !root.is_dir() {
-        return Err(Error::Input {
-            path: root.into(),
-            message: "not a folder".into(),
-        });
-    }
-    let canonical = root.canonicalize().map_err(|e| Error::io(root, e))?;
-    let mut found = Discovery::default();
-    if let Some(d) = Drive::from_dir(&canonical) {
-        found.drives.push(d);
-        return Ok(found);
-    }
-    let not_utf8 = |p: &Path| p.file_name().is_some_and(|n| n.to_str().is_none());
-    let mut date_dirs = Vec::new();
-    if is_date(file_name(&canonical)) {
-        date_dirs.push(canonical.clone());
-    } else {
-        for p in crate::fs::sorted_dir(&canonical)? {
-            if p.is_dir() && is_date(file_name(&p)) {
-                date_dirs.push(p);
-            } else if p.is_dir() && not_utf8(&p) {
-                found
-                    .problems
-                    .push((p, "folder name is not valid UTF-8".into()));
-            }
-        }
-    }
-    for d in date_dirs {
-        let entries = match crate::fs::sorted_dir(&d) {
-            Ok(e) => e,
-            Err(e) => {
-                found.problems.push((d, e.to_string()));
-                continue;
-            }
-        };
-        for p in entries {
-            if !p.is_dir() {
-                continue;
-            }
-            if let Some(drive) = Drive::from_dir(&p) {
-                found.drives.push(drive);
-            } else if not_utf8(&p) {
-                found.problems.push((
-                    p,
-                    "folder name is not valid UTF-8 (a drive folder is <date>_drive_<NNNN>_sync)"
-                        .into(),
-                ));
-            }
-        }
-    }
-    if found.drives.is_empty() && found.problems.is_empty() {
-        return Err(Error::Input {
-            path: root.into(),
-            message: "no KITTI drive found (expected <date>/<date>_drive_<NNNN>_sync/ folders)"
-                .into(),
-        });
-    }
-    found.drives.sort();
-    Ok(found)
 }
 
 #[cfg(test)]

@@ -55,6 +55,45 @@ impl LabelBox {
         }
     }
 
+    /// The box of object line number `index` of a KITTI object frame, of class `class`.
+    /// `label_2` gives the bottom-face centre in the rectified camera 0 frame (y down) and a yaw
+    /// around that frame's y axis; the box is centred (lifted by h/2 along -y), given its
+    /// extents (length along its x, height along y, width along z) and carried into the
+    /// velodyne frame with the inverse of `velo_to_rect` (`R0_rect * Tr_velo_to_cam`).
+    pub fn from_object(
+        index: usize,
+        obj: &crate::kitti::object::ObjectLabel,
+        velo_to_rect: &na::Matrix4<f64>,
+        class: ClassId,
+    ) -> LabelBox {
+        let [h, w, l] = obj.hwl;
+        let centre = obj.location + na::Vector3::new(0.0, -h / 2.0, 0.0);
+        let rect_pose = na::Isometry3::from_parts(
+            na::Translation3::from(centre.coords),
+            na::UnitQuaternion::from_axis_angle(&na::Vector3::y_axis(), obj.rotation_y),
+        );
+        let rect_to_velo = velo_to_rect
+            .try_inverse()
+            .unwrap_or_else(na::Matrix4::identity);
+        let m = rect_to_velo * rect_pose.to_homogeneous();
+        // KITTI's R0_rect is orthonormal to about 1e-6: take the nearest rotation.
+        let rot = na::Rotation3::from_matrix(&m.fixed_view::<3, 3>(0, 0).into_owned());
+        let t = m.fixed_view::<3, 1>(0, 3);
+        LabelBox {
+            class,
+            instance: u16::try_from(index + 1).unwrap_or(u16::MAX),
+            cuboid: Cuboid::new(Vector3::new(
+                (l / 2.0) as Real,
+                (h / 2.0) as Real,
+                (w / 2.0) as Real,
+            )),
+            pose: Iso3::from_parts(
+                na::Translation3::new(t[0] as Real, t[1] as Real, t[2] as Real),
+                na::UnitQuaternion::from_rotation_matrix(&rot).cast::<Real>(),
+            ),
+        }
+    }
+
     /// Volume, cubic metres.
     pub fn volume(&self) -> Real {
         8.0 * self.cuboid.half_extents.product()

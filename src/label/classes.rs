@@ -8,6 +8,7 @@
 
 use std::collections::BTreeMap;
 use std::ops::AddAssign;
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
@@ -44,7 +45,38 @@ pub struct ClassMap {
     /// The loss weights the dataset's reference network was trained with, when it has some
     /// (SqueezeSeg's `[1/15, 1, 10, 10]`).
     pub reference_weights: Option<Vec<f64>>,
+    /// Per-point sources (SemanticKITTI): the dataset's raw label id (low 16 bits of a
+    /// `.label` entry) to class id, its `learning_map`. Empty for box sources.
+    #[serde(default)]
+    pub learning_map: BTreeMap<u32, ClassId>,
+    /// How a class absent from both truth and prediction enters the mean IoU: left out
+    /// (SqueezeSeg's evaluation, the default) or counted as 0 (SemanticKITTI's benchmark).
+    #[serde(default)]
+    pub absent_in_miou: AbsentInMiou,
 }
+
+/// How a class absent from both truth and prediction enters the mean IoU.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AbsentInMiou {
+    /// Left out of the mean.
+    #[default]
+    LeftOut,
+    /// Counted as IoU 0 (SemanticKITTI's `evaluate_semantics.py`: IoU = TP / (TP+FP+FN+1e-15)).
+    Zero,
+}
+
+/// The parts of a `semantic-kitti.yaml` that make a class map.
+#[derive(Debug, Deserialize)]
+struct SemanticKittiYaml {
+    labels: BTreeMap<u32, String>,
+    color_map: BTreeMap<u32, [u8; 3]>,
+    learning_map: BTreeMap<u32, u32>,
+    learning_map_inv: BTreeMap<u32, u32>,
+    learning_ignore: BTreeMap<u32, bool>,
+}
+
+/// The dataset's own `semantic-kitti.yaml`, embedded: the default SemanticKITTI class map.
+pub const SEMANTIC_KITTI_YAML: &str = include_str!("semantic-kitti.yaml");
 
 impl Default for ClassMap {
     fn default() -> Self {
@@ -83,7 +115,92 @@ impl ClassMap {
             miou: vec![1, 2, 3],
             object_types: types.iter().map(|(t, c)| (t.to_string(), *c)).collect(),
             reference_weights: Some(vec![1.0 / 15.0, 1.0, 10.0, 10.0]),
+            learning_map: BTreeMap::new(),
+            absent_in_miou: AbsentInMiou::LeftOut,
         }
+    }
+
+    /// SemanticKITTI's 20 training classes, from the dataset's own `semantic-kitti.yaml`
+    /// (embedded): class `c` is named after `labels[learning_map_inv[c]]` and coloured with
+    /// that label's `color_map` entry (BGR in the file); 0 `unlabeled` is ignored; mIoU over the
+    /// 19 others, absent classes counting 0, as the benchmark computes it.
+    pub fn semantic_kitti() -> ClassMap {
+        ClassMap::from_semantic_kitti_yaml(SEMANTIC_KITTI_YAML, Path::new("semantic-kitti.yaml"))
+            .expect("the embedded semantic-kitti.yaml is valid")
+    }
+
+    /// A class map from a `semantic-kitti.yaml`-style file (`labels`, `color_map`,
+    /// `learning_map`, `learning_map_inv`, `learning_ignore`); `path` names it in errors.
+    pub fn from_semantic_kitti_yaml(text: &str, path: &Path) -> Result<ClassMap> {
+        let y: SemanticKittiYaml = serde_norway::from_str(text).map_err(|e| {
+            Error::format(path, format!("not a semantic-kitti.yaml class file: {e}"))
+        })?;
+        let bad = |m: String| Error::format(path, m);
+        let n = y.learning_map_inv.len();
+        if n == 0 || n > 256 {
+            return Err(bad(format!(
+                "learning_map_inv has {n} classes, expected 1-256"
+            )));
+        }
+        let mut classes = Vec::with_capacity(n);
+        for c in 0..n as u32 {
+            let raw = *y.learning_map_inv.get(&c).ok_or_else(|| {
+                bad(format!(
+                    "learning_map_inv has no class {c} (ids must be 0..{n})"
+                ))
+            })?;
+            let name = y.labels.get(&raw).ok_or_else(|| {
+                bad(format!(
+                    "labels has no id {raw} (learning_map_inv of class {c})"
+                ))
+            })?;
+            let [b, g, r] = *y
+                .color_map
+                .get(&raw)
+                .ok_or_else(|| bad(format!("color_map has no id {raw}")))?;
+            classes.push(ClassInfo {
+                name: name.clone(),
+                colour: [r, g, b],
+            });
+        }
+        let learning_map = y
+            .learning_map
+            .iter()
+            .map(|(&raw, &c)| {
+                if (c as usize) < n {
+                    Ok((raw, c as ClassId))
+                } else {
+                    Err(bad(format!(
+                        "learning_map sends id {raw} to class {c}, beyond the {n} classes"
+                    )))
+                }
+            })
+            .collect::<Result<BTreeMap<_, _>>>()?;
+        let ignore: Vec<ClassId> = (0..n as u32)
+            .filter(|c| y.learning_ignore.get(c).copied().unwrap_or(false))
+            .map(|c| c as ClassId)
+            .collect();
+        let map = ClassMap {
+            name: path.file_stem().map_or("semantic-kitti".into(), |s| {
+                s.to_string_lossy().into_owned()
+            }),
+            miou: (0..n as ClassId).filter(|c| !ignore.contains(c)).collect(),
+            background: ignore.first().copied().unwrap_or(0),
+            ignore,
+            classes,
+            object_types: BTreeMap::new(),
+            reference_weights: None,
+            learning_map,
+            absent_in_miou: AbsentInMiou::Zero,
+        };
+        map.validate().map_err(|e| bad(e.to_string()))?;
+        Ok(map)
+    }
+
+    /// The class of a raw per-point label (through `learning_map`); `None` for an id the map
+    /// does not list.
+    pub fn class_of_raw(&self, raw: u32) -> Option<ClassId> {
+        self.learning_map.get(&raw).copied()
     }
 
     /// Number of classes.
@@ -275,6 +392,29 @@ mod tests {
         assert_eq!(m.labelled(), [1, 2, 3]);
         let j = serde_json::to_string(&m).unwrap();
         assert_eq!(serde_json::from_str::<ClassMap>(&j).unwrap(), m);
+    }
+
+    #[test]
+    fn semantic_kitti_map() {
+        let m = ClassMap::semantic_kitti();
+        assert_eq!(m.len(), 20);
+        assert_eq!(m.name(0), "unlabeled");
+        assert_eq!(m.name(1), "car");
+        assert_eq!(m.name(19), "traffic-sign");
+        assert_eq!(m.ignore, [0]);
+        assert_eq!(m.miou.len(), 19);
+        // color_map is BGR: car is [245, 150, 100] there.
+        assert_eq!(m.colour(1), [100, 150, 245]);
+        assert_eq!(m.class_of_raw(252), Some(1), "moving-car is car");
+        assert_eq!(m.class_of_raw(52), Some(0));
+        assert_eq!(m.class_of_raw(7), None);
+        assert_eq!(m.absent_in_miou, AbsentInMiou::Zero);
+        let e = ClassMap::from_semantic_kitti_yaml("labels: 3", Path::new("x.yaml")).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("x.yaml: not a semantic-kitti.yaml"),
+            "{e}"
+        );
     }
 
     #[test]

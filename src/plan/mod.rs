@@ -16,10 +16,11 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::kitti::calib::Calibration;
+use crate::geom::Matrix3x4;
+use crate::kitti::calib::{Calibration, FrameCalib};
 use crate::kitti::timestamps::{self, Timestamp};
 use crate::kitti::tracklets::{ObjectType, Tracklets};
-use crate::kitti::{discover_all, Drive, FrameId};
+use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::label::{tracklet_boxes, ClassMap, LabelBox};
 pub use selection::FrameSelection;
 
@@ -28,8 +29,9 @@ pub use selection::FrameSelection;
 pub struct DrivePlan {
     /// The drive.
     pub drive: Drive,
-    /// Its day's calibration.
-    pub calib: Arc<Calibration>,
+    /// Its day's calibration (raw drives; sequences and object frames read theirs per frame,
+    /// [`DrivePlan::camera`]).
+    pub calib: Option<Arc<Calibration>>,
     /// Its tracklets (empty without a `tracklet_labels.xml`).
     pub tracklets: Arc<Tracklets>,
     /// Velodyne timestamps, when the file exists.
@@ -37,8 +39,9 @@ pub struct DrivePlan {
 }
 
 impl DrivePlan {
-    /// Reads a drive's tracklets and timestamps; `calib` is its day's calibration.
-    pub fn load(drive: Drive, calib: Arc<Calibration>) -> Result<DrivePlan> {
+    /// Reads a drive's tracklets and timestamps (raw; none elsewhere); `calib` is its day's
+    /// calibration (raw).
+    pub fn load(drive: Drive, calib: Option<Arc<Calibration>>) -> Result<DrivePlan> {
         let tpath = drive.tracklets_path();
         let tracklets = if tpath.exists() {
             Tracklets::read(&tpath)?
@@ -86,6 +89,28 @@ impl DrivePlan {
             .and_then(|t| t.get(frame as usize).copied().flatten())
     }
 
+    /// The camera `camera` at `frame`: homogeneous velodyne points to homogeneous pixels, the
+    /// image size it is calibrated for (raw: `S_rect`; unknown elsewhere), and the
+    /// calibration file (for errors).
+    pub fn camera(&self, frame: u32, camera: u8) -> Result<(Matrix3x4, Option<[f64; 2]>, PathBuf)> {
+        match &self.calib {
+            Some(c) => {
+                let size = c.cam_to_cam.cameras[camera as usize].size_rect;
+                let file = self.drive.date_dir().join(crate::kitti::calib::CAM_TO_CAM);
+                Ok((
+                    c.velo_to_image(camera as usize),
+                    Some([size.x, size.y]),
+                    file,
+                ))
+            }
+            None => {
+                let file = self.drive.calib_path(frame);
+                let c = FrameCalib::read(&file)?;
+                Ok((c.velo_to_image(camera as usize), None, file))
+            }
+        }
+    }
+
     /// The boxes present at a frame, classed by `map`.
     pub fn boxes(&self, frame: u32, map: &ClassMap) -> Vec<LabelBox> {
         tracklet_boxes(&self.tracklets, frame, map)
@@ -124,6 +149,17 @@ pub struct Plan {
 impl Plan {
     /// Finds the drives under `root` and lists the frames `selection` picks.
     pub fn build(root: &Path, selection: FrameSelection) -> Result<Plan> {
+        Plan::build_as(root, selection, None)
+    }
+
+    /// Like [`Plan::build`], for the layout `source` when given (else the one found). Frames of
+    /// sequences and of the object set are all selected (their labels are per frame; a frame
+    /// without labels converts with label 0, and the summary says so).
+    pub fn build_as(
+        root: &Path,
+        selection: FrameSelection,
+        source: Option<Layout>,
+    ) -> Result<Plan> {
         let mut plan = Plan {
             drives: Vec::new(),
             jobs: Vec::new(),
@@ -134,7 +170,7 @@ impl Plan {
         };
         let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> =
             BTreeMap::new();
-        let found = discover_all(root)?;
+        let found = discover_as(root, source)?;
         for (path, why) in found.problems {
             plan.failed.push(FrameFailure {
                 what: path.to_string_lossy().into_owned(),
@@ -158,15 +194,21 @@ impl Plan {
                     continue;
                 }
             };
-            let date_dir = drive.date_dir();
-            let calib = calibs
-                .entry(date_dir.clone())
-                .or_insert_with(|| {
-                    Calibration::read_dir(&date_dir)
-                        .map(Arc::new)
-                        .map_err(|e| e.to_string())
-                })
-                .clone();
+            let raw = drive.layout == Layout::Raw;
+            let calib = if raw {
+                let date_dir = drive.date_dir();
+                calibs
+                    .entry(date_dir.clone())
+                    .or_insert_with(|| {
+                        Calibration::read_dir(&date_dir)
+                            .map(Arc::new)
+                            .map_err(|e| e.to_string())
+                    })
+                    .clone()
+                    .map(Some)
+            } else {
+                Ok(None)
+            };
             let loaded =
                 calib.and_then(|c| DrivePlan::load(drive.clone(), c).map_err(|e| e.to_string()));
             let dp = match loaded {
@@ -188,7 +230,7 @@ impl Plan {
             let index = plan.drives.len();
             let has_file = dp.drive.tracklets_path().exists();
             for &f in &frames {
-                if selection.keeps(&dp.tracklets, f) {
+                if !raw || selection.keeps(&dp.tracklets, f) {
                     plan.jobs.push((index, f));
                 } else {
                     let why = if has_file {

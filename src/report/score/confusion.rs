@@ -2,7 +2,8 @@
 
 use serde::Serialize;
 
-use crate::label::ClassId;
+use crate::label::classes::AbsentInMiou;
+use crate::label::{ClassId, ClassMap};
 
 /// A confusion matrix over `k` classes, `m[ground truth][prediction]`.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
@@ -85,6 +86,26 @@ impl Confusion {
     /// plain three-class mean.
     pub fn miou(&self, over: &[ClassId]) -> f64 {
         self.miou_present(over).unwrap_or(0.0)
+    }
+
+    /// The mean IoU of a class map's `miou` classes, with its rule for absent classes: left out
+    /// ([`Confusion::miou`]) or counted as 0 (SemanticKITTI's benchmark).
+    pub fn miou_for(&self, map: &ClassMap) -> f64 {
+        match map.absent_in_miou {
+            AbsentInMiou::LeftOut => self.miou(&map.miou),
+            AbsentInMiou::Zero => {
+                let v: Vec<f64> = map
+                    .miou
+                    .iter()
+                    .map(|&c| self.iou(c as usize).unwrap_or(0.0))
+                    .collect();
+                if v.is_empty() {
+                    0.0
+                } else {
+                    v.iter().sum::<f64>() / v.len() as f64
+                }
+            }
+        }
     }
 
     /// Mean IoU over the classes of `over` present in truth or prediction, `None` if none is.

@@ -171,7 +171,7 @@ pub fn report(
         missing_frames: frames.iter().filter(|f| f.missing).count() as u64,
         elements: total.total(),
         classes: map.keyed(&scores),
-        miou: total.miou(&map.miou),
+        miou: total.miou_for(map),
         confusion: total,
         predictions_without_truth: Vec::new(),
         per_frame: per_frame.then(|| frames.iter().map(|f| FramePerf::new(f, map)).collect()),

@@ -1,0 +1,136 @@
+//! CONVERT: the labels of one frame's points, from whichever source its layout has.
+//!
+//! - KITTI raw: the tracklet boxes present at the frame, through the [`Labeller`];
+//! - KITTI object: the `label_2` boxes, carried into the velodyne frame with the frame's
+//!   calibration, through the same [`Labeller`] (same containment and overlap rule);
+//!   instance = object line + 1;
+//! - SemanticKITTI: each point's own label, its low 16 bits through the class map's
+//!   `learning_map`, its high 16 bits the instance.
+//!
+//! A frame without labels (SemanticKITTI test sequences, object `testing/`) gets the class
+//! map's background (SemanticKITTI's `unlabeled`) everywhere, and says so (`annotated: false`).
+
+use super::super::format::label_file;
+use crate::error::{Error, Result};
+use crate::kitti::calib::FrameCalib;
+use crate::kitti::object;
+use crate::kitti::velodyne::Scan;
+use crate::kitti::Layout;
+use crate::label::{ClassMap, LabelBox, Labeller, PointLabels};
+use crate::plan::DrivePlan;
+
+/// The labels of one frame.
+#[derive(Debug, Clone)]
+pub struct FrameLabels {
+    /// Class and instance of each point of the scan, in the scan's order.
+    pub points: PointLabels,
+    /// The boxes that took part (box sources), for reports and visualisation.
+    pub boxes: Vec<LabelBox>,
+    /// Whether the frame has labels at all.
+    pub annotated: bool,
+}
+
+impl FrameLabels {
+    /// The labels `boxes` give the scan's points.
+    pub fn from_boxes(boxes: Vec<LabelBox>, scan: &Scan, map: &ClassMap) -> FrameLabels {
+        let labeller = Labeller::new(&boxes, map.background);
+        let kept: Vec<LabelBox> = boxes
+            .into_iter()
+            .filter(|b| b.class != map.background)
+            .collect();
+        FrameLabels {
+            points: labeller.label(&scan.points),
+            boxes: kept,
+            annotated: true,
+        }
+    }
+
+    fn unlabelled(scan: &Scan, map: &ClassMap) -> FrameLabels {
+        FrameLabels {
+            points: PointLabels {
+                class: vec![map.background; scan.len()],
+                instance: vec![0; scan.len()],
+            },
+            boxes: Vec::new(),
+            annotated: false,
+        }
+    }
+}
+
+/// The labels of frame `frame` of `dp` for its `scan`, classed by `map`.
+pub fn frame_labels(
+    dp: &DrivePlan,
+    frame: u32,
+    scan: &Scan,
+    map: &ClassMap,
+) -> Result<FrameLabels> {
+    let drive = &dp.drive;
+    match drive.layout {
+        Layout::Raw => Ok(FrameLabels::from_boxes(dp.boxes(frame, map), scan, map)),
+        Layout::Object => {
+            let path = drive.object_labels_path(frame);
+            if !path.exists() {
+                return Ok(FrameLabels::unlabelled(scan, map));
+            }
+            let objects = object::read(&path)?;
+            let velo_to_rect = FrameCalib::read(&drive.calib_path(frame))?.velo_to_rect();
+            let boxes = objects
+                .iter()
+                .enumerate()
+                .map(|(i, o)| {
+                    LabelBox::from_object(i, o, &velo_to_rect, map.class_of_object(&o.kind))
+                })
+                .collect();
+            Ok(FrameLabels::from_boxes(boxes, scan, map))
+        }
+        Layout::Sequence => {
+            let path = drive.point_labels_path(frame);
+            if !path.exists() {
+                return Ok(FrameLabels::unlabelled(scan, map));
+            }
+            if map.learning_map.is_empty() {
+                return Err(Error::Config(format!(
+                    "{}: per-point labels need a class map with a learning_map (--class-map semantic-kitti.yaml); {} has none",
+                    path.display(),
+                    map.name
+                )));
+            }
+            let raw = label_file::read_raw(&path)?;
+            if raw.len() != scan.file_len {
+                return Err(Error::format(
+                    &path,
+                    format!(
+                        "{} labels, but the scan {} has {} points",
+                        raw.len(),
+                        drive.scan_path(frame).display(),
+                        scan.file_len
+                    ),
+                ));
+            }
+            let mut points = PointLabels {
+                class: Vec::with_capacity(scan.len()),
+                instance: Vec::with_capacity(scan.len()),
+            };
+            for i in scan.file_indices() {
+                let v = raw[i as usize];
+                let class = map.class_of_raw(v & 0xffff).ok_or_else(|| {
+                    Error::format(
+                        &path,
+                        format!(
+                            "point {i} has label id {}, which the learning_map of {} does not list",
+                            v & 0xffff,
+                            map.name
+                        ),
+                    )
+                })?;
+                points.class.push(class);
+                points.instance.push((v >> 16) as u16);
+            }
+            Ok(FrameLabels {
+                points,
+                boxes: Vec::new(),
+                annotated: true,
+            })
+        }
+    }
+}

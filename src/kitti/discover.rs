@@ -1,0 +1,181 @@
+//! READ: finding the drives, sequences or object splits under a root, and naming the folders
+//! that cannot be read as one.
+
+use std::path::{Path, PathBuf};
+
+use super::{file_name, is_date, Drive, Layout};
+use crate::error::{Error, Result};
+
+/// What [`discover_all`] found under a root.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Discovery {
+    /// The drives, sorted by date and number.
+    pub drives: Vec<Drive>,
+    /// Folders that look like drives or dates but cannot be read as one, with the reason
+    /// (a name that is not valid UTF-8, a date folder that cannot be listed).
+    pub problems: Vec<(PathBuf, String)>,
+}
+
+/// Finds the drives under `root`: a KITTI raw root (date folders), a date folder or one drive
+/// folder. Drives come sorted by date and number. Problems with single folders are left out
+/// (see [`discover_all`], which names them).
+pub fn discover(root: &Path) -> Result<Vec<Drive>> {
+    Ok(discover_all(root)?.drives)
+}
+
+/// Like [`discover`], and names the folders it could not read as drives: a folder name that is
+/// not valid UTF-8, a date folder that cannot be listed. An error when `root` is not a folder
+/// or holds no drive at all.
+pub fn discover_all(root: &Path) -> Result<Discovery> {
+    discover_as(root, None)
+}
+
+/// Like [`discover_all`], for the layout `source` when given, else the one `root` shows: KITTI
+/// raw (a root, date or drive folder), SemanticKITTI / odometry (a root with `sequences/`, or
+/// one sequence folder `<NN>` with `velodyne/`), or the object set (a root with `training/`
+/// and/or `testing/`: `training/` is taken when both are there; or one split folder).
+pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
+    if !root.is_dir() {
+        return Err(Error::Input {
+            path: root.into(),
+            message: "not a folder".into(),
+        });
+    }
+    let canonical = root.canonicalize().map_err(|e| Error::io(root, e))?;
+    let has_scans = |d: &Path| d.join("velodyne").is_dir();
+    let sequences = || -> Result<Vec<Drive>> {
+        if has_scans(&canonical) {
+            return Ok(Drive::sequence(&canonical).into_iter().collect());
+        }
+        let dir = if canonical.join("sequences").is_dir() {
+            canonical.join("sequences")
+        } else {
+            canonical.clone()
+        };
+        Ok(crate::fs::sorted_dir(&dir)?
+            .into_iter()
+            .filter(|p| has_scans(p))
+            .filter_map(|p| Drive::sequence(&p))
+            .collect())
+    };
+    let object = || -> Vec<Drive> {
+        if has_scans(&canonical) && !canonical.join("labels").is_dir() {
+            return vec![Drive::object_split(&canonical)];
+        }
+        ["training", "testing"]
+            .iter()
+            .map(|s| canonical.join(s))
+            .find(|d| has_scans(d))
+            .map(|d| Drive::object_split(&d))
+            .into_iter()
+            .collect()
+    };
+    let none = |what: &str| Error::Input {
+        path: root.into(),
+        message: format!("no {what} found here"),
+    };
+    match source {
+        Some(Layout::Sequence) => {
+            let drives = sequences()?;
+            return if drives.is_empty() {
+                Err(none(
+                    "SemanticKITTI / odometry sequence (sequences/<NN>/velodyne/)",
+                ))
+            } else {
+                Ok(Discovery {
+                    drives,
+                    problems: Vec::new(),
+                })
+            };
+        }
+        Some(Layout::Object) => {
+            let drives = object();
+            return if drives.is_empty() {
+                Err(none(
+                    "KITTI object split (training/ or testing/ with velodyne/)",
+                ))
+            } else {
+                Ok(Discovery {
+                    drives,
+                    problems: Vec::new(),
+                })
+            };
+        }
+        Some(Layout::Raw) => {}
+        None => {
+            let raw_like = Drive::from_dir(&canonical).is_some()
+                || is_date(file_name(&canonical))
+                || crate::fs::sorted_dir(&canonical)?
+                    .iter()
+                    .any(|p| p.is_dir() && is_date(file_name(p)));
+            if !raw_like {
+                let seqs = sequences()?;
+                if !seqs.is_empty() {
+                    return Ok(Discovery {
+                        drives: seqs,
+                        problems: Vec::new(),
+                    });
+                }
+                let objs = object();
+                if !objs.is_empty() {
+                    return Ok(Discovery {
+                        drives: objs,
+                        problems: Vec::new(),
+                    });
+                }
+            }
+        }
+    }
+    let mut found = Discovery::default();
+    if let Some(d) = Drive::from_dir(&canonical) {
+        found.drives.push(d);
+        return Ok(found);
+    }
+    let not_utf8 = |p: &Path| p.file_name().is_some_and(|n| n.to_str().is_none());
+    let mut date_dirs = Vec::new();
+    if is_date(file_name(&canonical)) {
+        date_dirs.push(canonical.clone());
+    } else {
+        for p in crate::fs::sorted_dir(&canonical)? {
+            if p.is_dir() && is_date(file_name(&p)) {
+                date_dirs.push(p);
+            } else if p.is_dir() && not_utf8(&p) {
+                found
+                    .problems
+                    .push((p, "folder name is not valid UTF-8".into()));
+            }
+        }
+    }
+    for d in date_dirs {
+        let entries = match crate::fs::sorted_dir(&d) {
+            Ok(e) => e,
+            Err(e) => {
+                found.problems.push((d, e.to_string()));
+                continue;
+            }
+        };
+        for p in entries {
+            if !p.is_dir() {
+                continue;
+            }
+            if let Some(drive) = Drive::from_dir(&p) {
+                found.drives.push(drive);
+            } else if not_utf8(&p) {
+                found.problems.push((
+                    p,
+                    "folder name is not valid UTF-8 (a drive folder is <date>_drive_<NNNN>_sync)"
+                        .into(),
+                ));
+            }
+        }
+    }
+    if found.drives.is_empty() && found.problems.is_empty() {
+        return Err(Error::Input {
+            path: root.into(),
+            message: "no KITTI drive found (expected <date>/<date>_drive_<NNNN>_sync/ folders, sequences/<NN>/velodyne/, or training/velodyne/)"
+                .into(),
+        });
+    }
+    found.drives.sort();
+    Ok(found)
+}
