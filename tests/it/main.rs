@@ -13,5 +13,6 @@ mod readers;
 mod reports;
 mod score;
 mod shards;
+mod sources;
 mod truth;
 mod util;
