@@ -62,6 +62,9 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     if let Some(p) = &a.confusion {
         png::write(p, &confusion_chart(&rep.confusion, map))?;
     }
+    if a.worst.is_some() && matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_)) {
+        anyhow::bail!("--worst draws maps; a SemanticKITTI root holds points (score a converted folder for pictures)");
+    }
     if let Some(n) = a.worst {
         let ranked = worst(&scores, n, map);
         std::fs::create_dir_all(&a.worst_dir)

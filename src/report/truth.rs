@@ -17,7 +17,7 @@ use crate::format::layout::{self, OutputDir};
 use crate::format::pgm::{self, PgmFile};
 use crate::format::shard::Shard;
 use crate::format::summary;
-use crate::kitti::FrameId;
+use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
 use crate::params::MapParams;
 use crate::project::camera::{RgbOptions, Sampling};
@@ -30,6 +30,9 @@ pub enum Source {
     Npy(PathBuf),
     /// These shards, sorted.
     Shards(Vec<PathBuf>),
+    /// A SemanticKITTI root or sequence itself: per-point labels, no maps (what the benchmark
+    /// scores against; `score` only).
+    Dataset(Vec<Drive>),
 }
 
 /// Where the map parameters come from.
@@ -162,6 +165,9 @@ impl GroundTruth {
         if is_npy_folder(path) {
             return Self::from_npy(path, path.to_path_buf(), None);
         }
+        if let Ok(found) = discover_as(path, Some(Layout::Sequence)) {
+            return Self::from_dataset(path, found.drives);
+        }
         Err(input("neither a convert output folder (lidar_2d/ or shards/), a folder of <frame id>.npy maps, nor shards (*.mcap)"))
     }
 
@@ -231,6 +237,37 @@ impl GroundTruth {
             dir: dir.filter(|d| d.has_maps() || d.has_labels()),
             params: params.expect("at least one shard"),
             provenance: Provenance::Recorded(shards[0].clone()),
+            frames,
+        })
+    }
+
+    fn from_dataset(path: &Path, drives: Vec<Drive>) -> Result<GroundTruth> {
+        let mut frames = Vec::new();
+        for d in &drives {
+            for f in d.scan_frames()? {
+                if d.point_labels_path(f).is_file() {
+                    frames.push(d.frame_id(f));
+                }
+            }
+        }
+        if frames.is_empty() {
+            return Err(Error::Input {
+                path: path.into(),
+                message: "a SemanticKITTI root without labels (sequences/<NN>/labels/*.label)"
+                    .into(),
+            });
+        }
+        frames.sort();
+        let params = MapParams {
+            class_map: ClassMap::semantic_kitti(),
+            ..MapParams::default()
+        };
+        Ok(GroundTruth {
+            path: path.into(),
+            source: Source::Dataset(drives),
+            dir: None,
+            params,
+            provenance: Provenance::Recorded(path.join("semantic-kitti.yaml (embedded)")),
             frames,
         })
     }
@@ -318,6 +355,12 @@ impl GroundTruth {
                         out.push(p?);
                     }
                 }
+            }
+            Source::Dataset(_) => {
+                return Err(Error::Input {
+                    path: self.path.clone(),
+                    message: "a SemanticKITTI root holds per-point labels, not maps: convert it first (score reads it as it is)".into(),
+                })
             }
             Source::Shards(shards) => {
                 let parts: Vec<Result<Vec<(FrameId, T)>>> = shards

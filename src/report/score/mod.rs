@@ -12,6 +12,7 @@
 //! - [`predictions`]: finding and reading predictions;
 //! - [`frame`]: one frame.
 
+pub mod benchmark;
 pub mod confusion;
 pub mod frame;
 pub mod predictions;
@@ -188,6 +189,10 @@ pub fn score(
     maps_for: &BTreeSet<FrameId>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Vec<FrameScore>, BTreeMap<FrameId, FrameMaps>)> {
+    if let crate::report::truth::Source::Dataset(drives) = &gt.source {
+        let scores = benchmark::score_dataset(gt, drives, only, preds, opts, progress)?;
+        return Ok((scores, BTreeMap::new()));
+    }
     let per_frame = gt.map_frames(
         only,
         &|f| {

@@ -1,0 +1,142 @@
+//! SCORE against a SemanticKITTI root, with the benchmark's own protocol.
+//!
+//! `evaluate_semantics.py` of the SemanticKITTI API: every point of every scan counts, with
+//! its ground truth from `sequences/<NN>/labels/<frame6>.label` and its prediction from
+//! `sequences/<NN>/predictions/<frame6>.label` (both raw ids, both through the learning map);
+//! points whose ground truth is an ignored class (0, `unlabeled`) are not counted; IoU = TP /
+//! (TP + FP + FN) per class, and mIoU the mean over the 19 other classes, a class absent from
+//! truth and prediction counting 0 (`AbsentInMiou::Zero`). Per-point `.label` files that
+//! `convert` wrote (class ids, `labels/<NN>/<frame6>.label`) are read as class ids.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use super::confusion::Confusion;
+use super::predictions::Predictions;
+use super::{FrameScore, ScoreOptions};
+use crate::error::{Error, Result};
+use crate::format::label_file;
+use crate::kitti::{Drive, FrameId};
+use crate::label::{ClassId, ClassMap};
+use crate::report::truth::GroundTruth;
+
+/// The classes of a `.label` file: raw ids through the learning map for the benchmark's
+/// files (`.../predictions/` and the dataset's `labels/`), class ids for `convert`'s.
+fn classes(path: &Path, raw_ids: bool, map: &ClassMap) -> Result<Vec<ClassId>> {
+    if !raw_ids {
+        return label_file::read_classes(path, map);
+    }
+    label_file::read_raw(path)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, v)| {
+            map.class_of_raw(v & 0xffff).ok_or_else(|| {
+                Error::format(
+                    path,
+                    format!(
+                        "point {i} has label id {}, which the learning_map does not list",
+                        v & 0xffff
+                    ),
+                )
+            })
+        })
+        .collect()
+}
+
+fn score_one(
+    drive: &Drive,
+    id: &FrameId,
+    preds: &Predictions,
+    opts: &ScoreOptions,
+    map: &ClassMap,
+) -> Result<FrameScore> {
+    let truth_path = drive.point_labels_path(id.frame);
+    let truth = classes(&truth_path, true, map)?;
+    let pred = match preds.files.get(id) {
+        Some(p) if preds.points => {
+            let raw = p.parent().and_then(|d| d.file_name()).is_some_and(|n| n == "predictions");
+            Some(classes(p, raw, map)?)
+        }
+        Some(p) => {
+            return Err(Error::Input {
+                path: p.clone(),
+                message: "a SemanticKITTI root is scored per point: predictions are .label files (sequences/<NN>/predictions/<frame6>.label)".into(),
+            })
+        }
+        None if opts.missing_as_background => None,
+        None => {
+            return Err(Error::Input {
+                path: preds.root.clone(),
+                message: format!("no prediction for ground-truth frame {id} (use --missing-as-background to score it as {})", map.name(map.background)),
+            })
+        }
+    };
+    if let Some(p) = &pred {
+        if p.len() != truth.len() {
+            return Err(Error::format(
+                &preds.files[id],
+                format!(
+                    "{} predictions, the ground truth {} has {} points",
+                    p.len(),
+                    truth_path.display(),
+                    truth.len()
+                ),
+            ));
+        }
+    }
+    let mut c = Confusion::new(map.len());
+    for (k, t) in truth.iter().enumerate() {
+        if map.is_scored(*t) {
+            c.count(*t, pred.as_ref().map_or(map.background, |p| p[k]));
+        }
+    }
+    Ok(FrameScore {
+        id: id.to_string(),
+        confusion: c,
+        missing: pred.is_none(),
+    })
+}
+
+/// Scores every labelled frame of the SemanticKITTI root (or those of `only`), in parallel
+/// chunks; results in frame order.
+pub fn score_dataset(
+    gt: &GroundTruth,
+    drives: &[Drive],
+    only: Option<&std::collections::BTreeSet<FrameId>>,
+    preds: &Predictions,
+    opts: &ScoreOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Vec<FrameScore>> {
+    let map = &gt.params.class_map;
+    if let Some(missing) = only.and_then(|o| o.iter().find(|id| !gt.frames.contains(id))) {
+        return Err(Error::Input {
+            path: gt.path.clone(),
+            message: format!("listed frame {missing} is not in the ground truth"),
+        });
+    }
+    let ids: Vec<&FrameId> = gt
+        .frames
+        .iter()
+        .filter(|id| only.is_none_or(|o| o.contains(id)))
+        .collect();
+    let mut out = Vec::with_capacity(ids.len());
+    for chunk in ids.chunks(64) {
+        let part: Vec<Result<FrameScore>> = chunk
+            .par_iter()
+            .map(|id| {
+                let drive = drives
+                    .iter()
+                    .find(|d| d.number == id.drive)
+                    .expect("the frame comes from one of the drives");
+                let r = score_one(drive, id, preds, opts, map);
+                progress(1);
+                r
+            })
+            .collect();
+        for r in part {
+            out.push(r?);
+        }
+    }
+    Ok(out)
+}
