@@ -114,9 +114,13 @@ pub struct ScoreArgs {
 /// `kitti2pgm split`.
 #[derive(Debug, ClapArgs)]
 pub struct SplitArgs {
-    /// KITTI raw root, date folder or drive folder.
-    #[arg(value_name = "RAW_ROOT")]
+    /// The input, as for convert: a KITTI raw, SemanticKITTI or KITTI object root (or one
+    /// drive, sequence or split folder).
+    #[arg(value_name = "ROOT")]
     pub raw_root: PathBuf,
+    /// Force the input layout instead of detecting it.
+    #[arg(long, value_enum)]
+    pub source: Option<SourceArg>,
     /// Output folder: the lists go to DIR/ImageSet/.
     #[arg(long, short, value_name = "DIR")]
     pub out: PathBuf,
@@ -282,14 +286,24 @@ pub enum CompressionArg {
     None,
 }
 
-/// The val-drive rule, shared by `split` and `convert --format mcap`.
+/// The val rule, shared by `split` and `convert --format mcap`. Default: SqueezeSeg's val drives
+/// (KITTI raw), the dataset's own split (SemanticKITTI: sequence 08 is val), a seeded
+/// half-and-half frame split (KITTI object).
 #[derive(Debug, ClapArgs)]
 pub struct SplitRuleArgs {
     /// Val drives instead of SqueezeSeg's: NNNN (of 2011_09_26), <date>_NNNN or
     /// <date>_drive_NNNN_sync, comma separated or repeated.
-    #[arg(long, value_name = "DRIVES", conflicts_with = "random_val")]
+    #[arg(long, value_name = "DRIVES", conflicts_with_all = ["random_val", "val_sequences", "val_list"])]
     pub val_drives: Vec<String>,
-    /// A seeded random split, disjoint by drive, with about this share of the frames in val.
+    /// Val sequences (SemanticKITTI / odometry), comma separated or repeated.
+    #[arg(long, value_name = "NN", value_delimiter = ',', conflicts_with_all = ["random_val", "val_list"])]
+    pub val_sequences: Vec<u32>,
+    /// An ImageSet list of the val frames (one frame id a line), e.g. the KITTI object set's
+    /// usual val.txt.
+    #[arg(long, value_name = "FILE", conflicts_with = "random_val")]
+    pub val_list: Option<PathBuf>,
+    /// A seeded random split, disjoint by drive (by frame for the object set), with about this
+    /// share of the frames in val.
     #[arg(long, value_name = "FRACTION")]
     pub random_val: Option<f64>,
     /// Seed of --random-val.
@@ -298,16 +312,42 @@ pub struct SplitRuleArgs {
 }
 
 impl SplitRuleArgs {
-    /// The library's rule.
-    pub fn rule(&self) -> kitti2pgm::Result<kitti2pgm::plan::split::SplitRule> {
+    /// The library's rule; the layout's default when none is given.
+    pub fn rule(
+        &self,
+        layout: kitti2pgm::kitti::Layout,
+    ) -> kitti2pgm::Result<kitti2pgm::plan::split::SplitRule> {
         use kitti2pgm::plan::split::SplitRule;
-        match (self.random_val, self.val_drives.is_empty()) {
-            (Some(fraction), _) => Ok(SplitRule::Random {
+        if let Some(fraction) = self.random_val {
+            return Ok(SplitRule::Random {
                 fraction,
                 seed: self.seed,
-            }),
-            (None, false) => SplitRule::parse_drives(&self.val_drives),
-            (None, true) => Ok(SplitRule::squeezeseg()),
+            });
+        }
+        if !self.val_drives.is_empty() {
+            return SplitRule::parse_drives(&self.val_drives);
+        }
+        if !self.val_sequences.is_empty() {
+            return Ok(SplitRule::Sequences(
+                self.val_sequences.iter().copied().collect(),
+            ));
+        }
+        if let Some(list) = &self.val_list {
+            let ids = kitti2pgm::format::imageset::read(list)?;
+            return Ok(SplitRule::Frames(ids.into_iter().collect()));
+        }
+        Ok(SplitRule::default_for(layout))
+    }
+}
+
+impl SourceArg {
+    /// The library's layout.
+    pub fn layout(self) -> kitti2pgm::kitti::Layout {
+        use kitti2pgm::kitti::Layout;
+        match self {
+            SourceArg::Raw => Layout::Raw,
+            SourceArg::Semantickitti => Layout::Sequence,
+            SourceArg::Object => Layout::Object,
         }
     }
 }

@@ -18,7 +18,7 @@ use crate::Outcome;
 
 impl ConvertArgs {
     /// The library's parameters (validated by the library).
-    fn params(&self, class_map: ClassMap) -> kitti2pgm::Result<ConvertParams> {
+    fn params(&self, class_map: ClassMap, layout: Layout) -> kitti2pgm::Result<ConvertParams> {
         Ok(ConvertParams {
             map: MapParams {
                 spec: PgmSpec {
@@ -57,7 +57,7 @@ impl ConvertArgs {
                     },
                     frames_per_shard: self.shard_frames,
                     viz: self.viz,
-                    split: self.split.rule()?,
+                    split: self.split.rule(layout)?,
                 }),
                 false => None,
             },
@@ -73,11 +73,7 @@ impl ConvertArgs {
                 .with_context(|| format!("reading {}", path.display()))?;
             return Ok(ClassMap::from_semantic_kitti_yaml(&text, path)?);
         }
-        let sequences = plan
-            .drives
-            .first()
-            .is_some_and(|d| d.drive.layout == Layout::Sequence);
-        Ok(if sequences {
+        Ok(if plan.layout() == Layout::Sequence {
             ClassMap::semantic_kitti()
         } else {
             ClassMap::kitti_paper()
@@ -86,11 +82,7 @@ impl ConvertArgs {
 }
 
 pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
-    let source = a.source.map(|s| match s {
-        SourceArg::Raw => Layout::Raw,
-        SourceArg::Semantickitti => Layout::Sequence,
-        SourceArg::Object => Layout::Object,
-    });
+    let source = a.source.map(SourceArg::layout);
     let selection = if a.all_frames {
         FrameSelection::All
     } else {
@@ -100,7 +92,7 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         .with_context(|| format!("reading {}", a.raw_root.display()))?;
     let opts = ConvertOptions {
         out: OutputDir::new(&a.out),
-        params: a.params(a.class_map(&plan)?)?,
+        params: a.params(a.class_map(&plan)?, plan.layout())?,
         threads: g.threads,
         sync: a.sync,
         overwrite: a.overwrite,

@@ -10,13 +10,19 @@ use crate::cli::SplitArgs;
 use crate::Outcome;
 
 pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
-    let rule = a.split.rule()?;
+    let source = a.source.map(crate::cli::SourceArg::layout);
+    let layout = kitti2pgm::kitti::discover_as(&a.raw_root, source)
+        .with_context(|| format!("reading {}", a.raw_root.display()))?
+        .drives
+        .first()
+        .map_or(kitti2pgm::kitti::Layout::Raw, |d| d.layout);
+    let rule = a.split.rule(layout)?;
     let selection = if a.all_frames {
         FrameSelection::All
     } else {
         FrameSelection::Annotated
     };
-    let lists = split(&a.raw_root, selection, &rule)
+    let lists = split(&a.raw_root, selection, &rule, source)
         .with_context(|| format!("reading {}", a.raw_root.display()))?;
     let dir = OutputDir::new(&a.out).imageset_dir();
     create_dir(&dir)?;
@@ -27,12 +33,16 @@ pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
     ] {
         imageset::write(&dir.join(format!("{name}.txt")), ids)?;
     }
+    if !lists.test.is_empty() {
+        imageset::write(&dir.join("test.txt"), &lists.test)?;
+    }
     if a.json {
         let j = serde_json::json!({
             "out": dir,
             "all": lists.all.len(),
             "train": lists.train.len(),
             "val": lists.val.len(),
+            "test": lists.test.len(),
             "val_drives": lists.val_drives,
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
@@ -46,6 +56,9 @@ pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
             lists.val_drives.len(),
             lists.val_drives.join(" ")
         );
+        if !lists.test.is_empty() {
+            println!("test   {:>8}  (frames without labels)", lists.test.len());
+        }
     }
     Ok(Outcome::Ok)
 }

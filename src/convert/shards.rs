@@ -2,7 +2,6 @@
 //! are converted in parallel batches and appended in order while the next batch converts. A
 //! shard that a re-run finds complete and intact is left as it is.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use rayon::prelude::*;
@@ -12,8 +11,9 @@ use super::{ConvertOptions, FrameOutcome, Run};
 use crate::error::Result;
 use crate::format::create_dir;
 use crate::format::shard::{shard_is_intact, FrameMsg, ShardMetadata, ShardWriter};
+use crate::kitti::FrameId;
 use crate::params::ShardParams;
-use crate::plan::split::val_drives;
+use crate::plan::split::assign;
 use crate::plan::Plan;
 
 /// The frames of one shard.
@@ -77,26 +77,32 @@ pub(crate) fn convert_to_shards(
 
 /// Assigns each job to a split by its drive, then cuts each split into shards, in frame-id order.
 fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardParams) -> Result<Vec<ShardPlan>> {
-    let mut counts: BTreeMap<(String, u32), usize> = BTreeMap::new();
-    for &(d, _) in &plan.jobs {
-        let drive = &plan.drives[d].drive;
-        *counts
-            .entry((drive.date.clone(), drive.number))
-            .or_default() += 1;
-    }
-    let counts: Vec<_> = counts.into_iter().collect();
-    let val = val_drives(&sh.split, &counts)?;
+    // Frames without labels (SemanticKITTI test sequences, object testing/) go to `test`.
+    let labelled = |&(d, f): &(usize, u32)| plan.drives[d].has_labels(f);
+    let ids: Vec<FrameId> = plan
+        .jobs
+        .iter()
+        .filter(|j| labelled(j))
+        .map(|&(d, f)| plan.drives[d].drive.frame_id(f))
+        .collect();
+    let val = assign(&sh.split, &ids)?;
     let map = &opts.params.map;
     let per_shard = sh.frames_per_shard(&map.spec, map.rgb.is_some());
     let mut out = Vec::new();
-    for split in ["train", "val"] {
+    for split in ["train", "val", "test"] {
         let jobs: Vec<(usize, u32)> = plan
             .jobs
             .iter()
             .copied()
-            .filter(|&(d, _)| {
-                let drive = &plan.drives[d].drive;
-                val.contains(&(drive.date.clone(), drive.number)) == (split == "val")
+            .filter(|&(d, f)| {
+                let which = if !labelled(&(d, f)) {
+                    "test"
+                } else if val.contains(&plan.drives[d].drive.frame_id(f)) {
+                    "val"
+                } else {
+                    "train"
+                };
+                which == split
             })
             .collect();
         for (index, chunk) in jobs.chunks(per_shard).enumerate() {

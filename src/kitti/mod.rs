@@ -63,7 +63,8 @@ pub struct Drive {
 /// A frame's identity: `<date>_<drive4>_<frame10>` (raw, SqueezeSeg's, e.g.
 /// `2011_09_26_0001_0000000010`), `<seq2>_<frame6>` (sequences, `00_000000`) or `<frame6>`
 /// (object set).
-#[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
 pub struct FrameId {
     /// The layout.
     pub layout: Layout,
@@ -108,6 +109,19 @@ impl FrameId {
 /// The drive folder name `<date>_drive_<NNNN>_sync`: the one place it is spelled.
 pub fn drive_name(date: &str, number: u32) -> String {
     format!("{date}_drive_{number:04}_sync")
+}
+
+impl From<FrameId> for String {
+    fn from(id: FrameId) -> String {
+        id.to_string()
+    }
+}
+
+impl TryFrom<String> for FrameId {
+    type Error = String;
+    fn try_from(s: String) -> std::result::Result<FrameId, String> {
+        s.parse()
+    }
 }
 
 impl fmt::Display for FrameId {

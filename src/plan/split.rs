@@ -5,6 +5,11 @@
 //! least one tracklet pose of any object type; `val` = drives 0064 0070 0079 0084 0086 0087 0091
 //! 0093 of 2011_09_26; `train` = the rest. Other val drives, or a seeded, drive-disjoint random
 //! split with a target val fraction, are options.
+//!
+//! SemanticKITTI: the dataset's own split (`semantic-kitti.yaml`: valid = sequence 08; train =
+//! the other labelled sequences); scans without labels (the test sequences 11-21) go to `test`.
+//! KITTI object: a seeded random split of the frames (each frame is its own unit), or a given
+//! ImageSet list of val frames; frames without `label_2` go to `test`.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -14,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use super::selection::FrameSelection;
 use crate::error::{Error, Result};
 use crate::kitti::tracklets::Tracklets;
-use crate::kitti::{discover, Drive, FrameId};
+use crate::kitti::{discover_as, Drive, FrameId, Layout};
 
 /// SqueezeSeg's validation drives (all of 2011_09_26).
 pub const SQUEEZESEG_VAL: [u32; 8] = [64, 70, 79, 84, 86, 87, 91, 93];
@@ -27,6 +32,10 @@ pub type DriveKey = (String, u32);
 pub enum SplitRule {
     /// These drives are val, the others train.
     Drives(BTreeSet<DriveKey>),
+    /// These odometry / SemanticKITTI sequences are val, the others train.
+    Sequences(BTreeSet<u32>),
+    /// These frames are val (an ImageSet list), the others train.
+    Frames(BTreeSet<FrameId>),
     /// Drives shuffled with `seed`, then taken into val until its share of frames is nearest
     /// `fraction`.
     Random {
@@ -38,6 +47,35 @@ pub enum SplitRule {
 }
 
 impl SplitRule {
+    /// The default rule for a layout: SqueezeSeg's (raw), SemanticKITTI's own (sequences), a
+    /// seeded half-and-half frame split (object).
+    pub fn default_for(layout: Layout) -> SplitRule {
+        match layout {
+            Layout::Raw => SplitRule::squeezeseg(),
+            Layout::Sequence => SplitRule::semantic_kitti(),
+            Layout::Object => SplitRule::Random {
+                fraction: 0.5,
+                seed: 0,
+            },
+        }
+    }
+
+    /// SemanticKITTI's split, from the dataset's own `semantic-kitti.yaml`: its `valid`
+    /// sequences are val.
+    pub fn semantic_kitti() -> SplitRule {
+        #[derive(Deserialize)]
+        struct Yaml {
+            split: YamlSplit,
+        }
+        #[derive(Deserialize)]
+        struct YamlSplit {
+            valid: Vec<u32>,
+        }
+        let y: Yaml = serde_norway::from_str(crate::label::classes::SEMANTIC_KITTI_YAML)
+            .expect("the embedded semantic-kitti.yaml has a split");
+        SplitRule::Sequences(y.split.valid.into_iter().collect())
+    }
+
     /// SqueezeSeg's split.
     pub fn squeezeseg() -> SplitRule {
         SplitRule::Drives(
@@ -83,7 +121,9 @@ pub struct SplitLists {
     pub train: Vec<FrameId>,
     /// Val frames, sorted.
     pub val: Vec<FrameId>,
-    /// Val drives, as `<date>_drive_NNNN_sync`.
+    /// Frames without labels (SemanticKITTI test sequences, object `testing/`), sorted.
+    pub test: Vec<FrameId>,
+    /// Val drives (or sequences), by name.
     pub val_drives: Vec<String>,
 }
 
@@ -91,7 +131,7 @@ pub struct SplitLists {
 /// every scan. Reads the tracklets file when there is one; never reads point data.
 pub fn drive_frames(drive: &Drive, selection: FrameSelection) -> Result<Vec<u32>> {
     let scans = drive.scan_frames()?;
-    if selection == FrameSelection::All {
+    if selection == FrameSelection::All || drive.layout != Layout::Raw {
         return Ok(scans);
     }
     let path = drive.tracklets_path();
@@ -116,73 +156,99 @@ pub fn splitmix64(state: &mut u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// The val drives that `rule` picks among `drives` (each with its number of selected frames).
-pub fn val_drives(rule: &SplitRule, drives: &[(DriveKey, usize)]) -> Result<BTreeSet<DriveKey>> {
-    Ok(match rule {
-        SplitRule::Drives(set) => set.clone(),
+/// The unit a frame is split with: its drive (raw, sequences), or itself (object set).
+fn unit(id: &FrameId) -> DriveKey {
+    match id.layout {
+        Layout::Object => (String::new(), id.frame),
+        _ => (id.date.clone(), id.drive),
+    }
+}
+
+/// The val frames among `frames` (sorted ids) under `rule`.
+pub fn assign(rule: &SplitRule, frames: &[FrameId]) -> Result<BTreeSet<FrameId>> {
+    let is_val: Box<dyn Fn(&FrameId) -> bool> = match rule {
+        SplitRule::Drives(set) => {
+            Box::new(move |id| id.layout == Layout::Raw && set.contains(&unit(id)))
+        }
+        SplitRule::Sequences(set) => {
+            Box::new(move |id| id.layout == Layout::Sequence && set.contains(&id.drive))
+        }
+        SplitRule::Frames(set) => Box::new(move |id| set.contains(id)),
         SplitRule::Random { fraction, seed } => {
             if !(0.0..=1.0).contains(fraction) {
                 return Err(Error::Config(format!(
                     "val fraction {fraction} must be in [0, 1]"
                 )));
             }
-            let mut order: Vec<usize> = (0..drives.len()).collect();
+            let mut counts: std::collections::BTreeMap<DriveKey, usize> = Default::default();
+            for id in frames {
+                *counts.entry(unit(id)).or_default() += 1;
+            }
+            let units: Vec<(DriveKey, usize)> = counts.into_iter().collect();
+            let mut order: Vec<usize> = (0..units.len()).collect();
             let mut state = *seed;
             for i in (1..order.len()).rev() {
                 let j = (splitmix64(&mut state) % (i as u64 + 1)) as usize;
                 order.swap(i, j);
             }
-            let total: usize = drives.iter().map(|(_, n)| n).sum();
+            let total: usize = units.iter().map(|(_, n)| n).sum();
             let target = fraction * total as f64;
             let mut taken = 0usize;
             let mut set = BTreeSet::new();
             for i in order {
-                let n = drives[i].1;
-                if n == 0 {
-                    continue;
-                }
-                // Take the drive when that brings val closer to the target.
+                let n = units[i].1;
+                // Take the unit when that brings val closer to the target.
                 if ((taken + n) as f64 - target).abs() < (taken as f64 - target).abs() {
                     taken += n;
-                    set.insert(drives[i].0.clone());
+                    set.insert(units[i].0.clone());
                 }
             }
-            set
+            Box::new(move |id| set.contains(&unit(id)))
         }
-    })
+    };
+    Ok(frames.iter().filter(|id| is_val(id)).cloned().collect())
 }
 
-/// Builds the lists for the drives under `root`.
-pub fn split(root: &Path, selection: FrameSelection, rule: &SplitRule) -> Result<SplitLists> {
-    let drives = discover(root)?;
-    let mut per_drive: Vec<(Drive, Vec<u32>)> = Vec::with_capacity(drives.len());
-    for d in drives {
-        let frames = drive_frames(&d, selection)?;
-        per_drive.push((d, frames));
-    }
-    let counts: Vec<(DriveKey, usize)> = per_drive
-        .iter()
-        .map(|(d, f)| ((d.date.clone(), d.number), f.len()))
-        .collect();
-    let val = val_drives(rule, &counts)?;
+/// Builds the lists for the drives under `root` (any layout; `source` forces one).
+pub fn split(
+    root: &Path,
+    selection: FrameSelection,
+    rule: &SplitRule,
+    source: Option<Layout>,
+) -> Result<SplitLists> {
+    let drives = discover_as(root, source)?.drives;
+    let mut labelled = Vec::new();
     let mut out = SplitLists::default();
-    for (d, frames) in &per_drive {
-        let is_val = val.contains(&(d.date.clone(), d.number));
-        if is_val && !frames.is_empty() {
-            out.val_drives.push(d.name());
-        }
-        for &f in frames {
+    for d in &drives {
+        for f in drive_frames(d, selection)? {
             let id = d.frame_id(f);
+            let has_labels = match d.layout {
+                Layout::Raw => true,
+                Layout::Sequence => d.point_labels_path(f).is_file(),
+                Layout::Object => d.object_labels_path(f).is_file(),
+            };
             out.all.push(id.clone());
-            if is_val {
-                out.val.push(id)
+            if has_labels {
+                labelled.push(id);
             } else {
-                out.train.push(id)
+                out.test.push(id);
             }
+        }
+    }
+    labelled.sort();
+    let val = assign(rule, &labelled)?;
+    for id in labelled {
+        if val.contains(&id) {
+            let name = id.drive_name();
+            if id.layout != Layout::Object && !out.val_drives.contains(&name) {
+                out.val_drives.push(name);
+            }
+            out.val.push(id);
+        } else {
+            out.train.push(id);
         }
     }
     out.all.sort();
-    out.train.sort();
-    out.val.sort();
+    out.test.sort();
     Ok(out)
 }

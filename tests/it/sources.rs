@@ -280,3 +280,97 @@ fn shared_semantickitti_scans_convert_with_every_ring() {
     assert_eq!(j["frames_converted"], 3);
     assert_eq!(j["ring_fallbacks"], 0);
 }
+
+fn split_json(root: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["split", s(root), "--out", s(out), "--json"];
+    args.extend_from_slice(extra);
+    let (code, stdout, stderr) = run_text(&args);
+    assert_eq!(code, 0, "{stderr}");
+    serde_json::from_str(&stdout).unwrap()
+}
+
+#[test]
+fn splits_follow_each_dataset() {
+    let t = tmp();
+    // SemanticKITTI: the dataset's own split (sequence 00 is train); scans without labels: test.
+    let sk = t.path().join("sk");
+    copy_tree(&fixture("semantickitti"), &sk);
+    let j = split_json(&sk, &t.path().join("a"), &[]);
+    assert_eq!((j["train"].as_u64(), j["val"].as_u64()), (Some(1), Some(0)));
+    let j = split_json(&sk, &t.path().join("b"), &["--val-sequences", "0"]);
+    assert_eq!(j["val"], 1);
+    let val = std::fs::read_to_string(t.path().join("b/ImageSet/val.txt")).unwrap();
+    assert_eq!(val, "00_000000\n");
+    std::fs::remove_dir_all(sk.join("sequences/00/labels")).unwrap();
+    let j = split_json(&sk, &t.path().join("c"), &[]);
+    assert_eq!(
+        (j["train"].as_u64(), j["test"].as_u64()),
+        (Some(0), Some(1))
+    );
+    // KITTI object: a seeded frame split, the same for the same seed, or a given list.
+    let ko = fixture("kitti_object");
+    let a = split_json(
+        &ko,
+        &t.path().join("d"),
+        &["--random-val", "0.5", "--seed", "3"],
+    );
+    assert_eq!((a["train"].as_u64(), a["val"].as_u64()), (Some(1), Some(1)));
+    let read =
+        |d: &str| std::fs::read_to_string(t.path().join(d).join("ImageSet/val.txt")).unwrap();
+    split_json(
+        &ko,
+        &t.path().join("e"),
+        &["--random-val", "0.5", "--seed", "3"],
+    );
+    assert_eq!(read("d"), read("e"));
+    let list = t.path().join("val.txt");
+    std::fs::write(&list, "000001\n").unwrap();
+    split_json(&ko, &t.path().join("f"), &["--val-list", s(&list)]);
+    assert_eq!(read("f"), "000001\n");
+}
+
+#[test]
+fn shards_stats_and_previews_take_twenty_classes() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let args = ["--fov-deg", "360", "--cols", "2048", "--format", "npy,mcap"];
+    let (code, _, e) = convert_json(&fixture("semantickitti"), &out, &args);
+    assert_eq!(code, 0, "{e}");
+    // The shard carries the class map; sequence 00 is train.
+    let shard = out.join("shards/train-00000.mcap");
+    let md = kitti2pgm::format::shard::Shard::open(&shard)
+        .unwrap()
+        .metadata()
+        .unwrap();
+    assert_eq!(md.params.map.class_map, ClassMap::semantic_kitti());
+    let (code, stdout, e) = run_text(&["stats", s(&out), "--json"]);
+    assert_eq!(code, 0, "{e}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        j["class_weights"]["inverse_frequency"]
+            .as_array()
+            .unwrap()
+            .len(),
+        20
+    );
+    assert_eq!(
+        j["class_weights"]["inverse_frequency"][0], 0.0,
+        "unlabeled is ignored"
+    );
+    assert!(j["splits"]["all"]["cells"]["road"].as_u64().unwrap() > 10_000);
+    let png = t.path().join("p.png");
+    let (code, _, e) = run_text(&[
+        "preview",
+        s(&out.join("lidar_2d/00_000000.npy")),
+        "--out",
+        s(&png),
+    ]);
+    assert_eq!(code, 0, "{e}");
+    let img = image::open(&png).unwrap().to_rgb8();
+    // Some label pixel is road's colour (color_map 40: [255, 0, 255] BGR = RGB 255, 0, 255).
+    let road = ClassMap::semantic_kitti().colour(9);
+    assert!(
+        img.pixels().any(|p| p.0 == road),
+        "road drawn in its colour {road:?}"
+    );
+}
