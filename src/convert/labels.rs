@@ -111,9 +111,17 @@ pub fn frame_labels(
                 class: Vec::with_capacity(scan.len()),
                 instance: Vec::with_capacity(scan.len()),
             };
-            for i in scan.file_indices() {
-                let v = raw[i as usize];
-                let class = map.class_of_raw(v & 0xffff).ok_or_else(|| {
+            // A table over all 2^16 raw ids: one lookup a point (a tree lookup was most of
+            // the frame's time).
+            let mut lut = vec![None; 1 << 16];
+            for (&r, &c) in &map.learning_map {
+                if let Some(slot) = lut.get_mut(r as usize) {
+                    *slot = Some(c);
+                }
+            }
+            let mut take = |i: usize| -> Result<()> {
+                let v = raw[i];
+                let class = lut[(v & 0xffff) as usize].ok_or_else(|| {
                     Error::format(
                         &path,
                         format!(
@@ -125,6 +133,14 @@ pub fn frame_labels(
                 })?;
                 points.class.push(class);
                 points.instance.push((v >> 16) as u16);
+                Ok(())
+            };
+            if scan.dropped.is_empty() {
+                (0..raw.len()).try_for_each(&mut take)?;
+            } else {
+                scan.file_indices()
+                    .into_iter()
+                    .try_for_each(|i| take(i as usize))?;
             }
             Ok(FrameLabels {
                 points,

@@ -17,6 +17,10 @@ pub fn encode_f32(shape: &[u64], data: &[f32]) -> Vec<u8> {
     debug_assert_eq!(shape.iter().product::<u64>() as usize, data.len());
     let mut out = header_f32(shape);
     out.reserve(data.len() * 4);
+    // The values' memory is already little-endian float32 on such targets: one copy.
+    #[cfg(target_endian = "little")]
+    out.extend_from_slice(bytemuck::cast_slice(data));
+    #[cfg(not(target_endian = "little"))]
     for v in data {
         out.extend_from_slice(&v.to_le_bytes());
     }
