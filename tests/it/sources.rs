@@ -227,8 +227,24 @@ fn bad_source_inputs_name_the_file() {
     let (_, j, _) = convert_json(&sk, &t.path().join("o2"), &[]);
     let f = j["failures"].to_string();
     assert!(f.contains("point 10 has label id 7"), "{f}");
-    // A calibration without Tr (needed for colour).
+    // Colour through P2 and Tr of calib.txt; then a calibration without Tr (needed for colour).
     std::fs::write(&label, &good).unwrap();
+    std::fs::create_dir_all(sk.join("sequences/00/image_2")).unwrap();
+    let mut img = image::RgbImage::new(1241, 376);
+    img.pixels_mut().for_each(|p| p.0 = [255, 128, 0]);
+    img.save(sk.join("sequences/00/image_2/000000.png"))
+        .unwrap();
+    let (code, j, e) = convert_json(&sk, &t.path().join("rgb"), &["--rgb"]);
+    assert_eq!(code, 0, "{e}");
+    let coloured = j["rgb_cells"].as_u64().unwrap();
+    assert!(
+        coloured > 10_000 && coloured < j["filled_cells"].as_u64().unwrap(),
+        "{coloured}"
+    );
+    let (_, m) = read_f32(&t.path().join("rgb/lidar_2d/00_000000.npy")).unwrap();
+    assert!(m
+        .chunks_exact(9)
+        .any(|c| c[6..] == [1.0, 128.0 / 255.0, 0.0]));
     let calib = sk.join("sequences/00/calib.txt");
     let text = std::fs::read_to_string(&calib).unwrap();
     let no_tr: String = text
