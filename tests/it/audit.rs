@@ -66,21 +66,6 @@ fn inspect_names_a_folder() {
 const D1: &str = "2011_09_26/2011_09_26_drive_0001_sync";
 const D52: &str = "2011_09_26/2011_09_26_drive_0052_sync";
 
-fn convert_json(root: &Path, out: &Path, extra: &[&str]) -> (i32, serde_json::Value, String) {
-    let mut args = vec![
-        "convert",
-        s(root),
-        "--out",
-        s(out),
-        "--json",
-        "--all-frames",
-    ];
-    args.extend_from_slice(extra);
-    let (code, stdout, stderr) = run_text(&args);
-    let j = serde_json::from_str(&stdout).unwrap_or(serde_json::Value::Null);
-    (code, j, stderr)
-}
-
 #[test]
 fn stray_files_are_named_and_the_drive_converts() {
     let t = tmp();

@@ -8,14 +8,6 @@ use crate::util::*;
 const D1: &str = "2011_09_26/2011_09_26_drive_0001_sync";
 const D52: &str = "2011_09_26/2011_09_26_drive_0052_sync";
 
-fn convert(root: &Path, out: &Path, extra: &[&str]) -> (i32, serde_json::Value, String) {
-    let mut args = vec!["convert", s(root), "--out", s(out), "--json"];
-    args.extend_from_slice(extra);
-    let (code, stdout, stderr) = run_text(&args);
-    let j = serde_json::from_str(&stdout).unwrap_or(serde_json::Value::Null);
-    (code, j, stderr)
-}
-
 fn failures(j: &serde_json::Value) -> String {
     j["failures"].to_string()
 }
@@ -45,7 +37,7 @@ fn truncated_empty_and_nan_scans() {
     std::fs::write(&nan_path, &bytes).unwrap();
 
     let out = t.path().join("out");
-    let (code, j, stderr) = convert(&root, &out, &[]);
+    let (code, j, stderr) = convert_json(&root, &out, &[]);
     assert_eq!(code, 3);
     assert_eq!(j["frames_converted"], 1);
     assert_eq!(j["frames_failed"], 2);
@@ -81,7 +73,7 @@ fn missing_and_malformed_calibration_keys() {
         .map(|l| format!("{l}\n"))
         .collect();
     std::fs::write(&c2c, without).unwrap();
-    let (code, j, _) = convert(&root, &t.path().join("out"), &[]);
+    let (code, j, _) = convert_json(&root, &t.path().join("out"), &[]);
     // Every frame failed: exit 1, the summary still printed and written.
     assert_eq!(code, 1);
     assert_eq!(j["frames_failed"], 3);
@@ -97,7 +89,7 @@ fn missing_and_malformed_calibration_keys() {
         .unwrap()
         .replace("T: ", "T: 1.0 oops ");
     std::fs::write(&v2c, vt).unwrap();
-    let (code, j, _) = convert(&root, &t.path().join("out"), &[]);
+    let (code, j, _) = convert_json(&root, &t.path().join("out"), &[]);
     assert_eq!(code, 1);
     let f = failures(&j);
     assert!(
@@ -113,7 +105,7 @@ fn malformed_tracklets_fail_their_drive_only() {
     let xml = root.join(D52).join("tracklet_labels.xml");
     let text = std::fs::read_to_string(&xml).unwrap();
     std::fs::write(&xml, &text[..text.len() / 2]).unwrap();
-    let (code, j, _) = convert(&root, &t.path().join("out"), &[]);
+    let (code, j, _) = convert_json(&root, &t.path().join("out"), &[]);
     assert_eq!(code, 3);
     assert_eq!(j["frames_converted"], 2, "drive 0001 still converts");
     assert_eq!(j["frames_failed"], 1);
@@ -125,14 +117,14 @@ fn malformed_tracklets_fail_their_drive_only() {
 
     // A count that disagrees with the items, and an unknown state code.
     std::fs::write(&xml, text.replacen("<count>", "<count>9", 1)).unwrap();
-    let (_, j, _) = convert(&root, &t.path().join("out"), &[]);
+    let (_, j, _) = convert_json(&root, &t.path().join("out"), &[]);
     assert!(failures(&j).contains("items but"), "{}", failures(&j));
     std::fs::write(
         &xml,
         text.replacen("<state>2</state>", "<state>7</state>", 1),
     )
     .unwrap();
-    let (_, j, _) = convert(&root, &t.path().join("out"), &[]);
+    let (_, j, _) = convert_json(&root, &t.path().join("out"), &[]);
     assert!(failures(&j).contains("unknown code 7"), "{}", failures(&j));
 }
 
@@ -149,7 +141,7 @@ fn tracklet_past_the_last_frame() {
         .map(|l| format!("{l}\n"))
         .collect();
     std::fs::write(&ts, lines).unwrap();
-    let (code, j, _) = convert(&root, &t.path().join("out"), &[]);
+    let (code, j, _) = convert_json(&root, &t.path().join("out"), &[]);
     assert_eq!(code, 3);
     let f = failures(&j);
     assert!(
@@ -164,16 +156,16 @@ fn missing_image_with_rgb() {
     let t = tmp();
     let root = fixture_copy(t.path());
     std::fs::remove_file(root.join(D1).join("image_02/data/0000000045.png")).unwrap();
-    let (code, j, _) = convert(&root, &t.path().join("out"), &["--rgb"]);
+    let (code, j, _) = convert_json(&root, &t.path().join("out"), &["--rgb"]);
     assert_eq!(code, 3);
     assert_eq!(j["frames_converted"], 2);
     let f = failures(&j);
     assert!(f.contains("image_02/data/0000000045.png"), "{f}");
     // Without --rgb the image is not needed.
-    let (code, _, _) = convert(&root, &t.path().join("out2"), &[]);
+    let (code, _, _) = convert_json(&root, &t.path().join("out2"), &[]);
     assert_eq!(code, 0);
     // Camera 3 is not in the fixtures: every frame names its missing image.
-    let (code, j, _) = convert(&root, &t.path().join("out3"), &["--rgb", "--camera", "3"]);
+    let (code, j, _) = convert_json(&root, &t.path().join("out3"), &["--rgb", "--camera", "3"]);
     assert_eq!(code, 1, "every frame failed");
     assert!(failures(&j).contains("image_03/data"));
 }
@@ -187,7 +179,7 @@ fn corrupt_image() {
         b"\x89PNG\r\n\x1a\nnot really",
     )
     .unwrap();
-    let (code, j, _) = convert(&root, &t.path().join("out"), &["--rgb"]);
+    let (code, j, _) = convert_json(&root, &t.path().join("out"), &["--rgb"]);
     assert_eq!(code, 3);
     assert!(
         failures(&j).contains("cannot decode image"),
@@ -246,7 +238,7 @@ fn read_only_output_folder() {
         eprintln!("skipped: running as root, permissions do not apply");
         return;
     }
-    let (code, j, _) = convert(&fixtures(), &out, &[]);
+    let (code, j, _) = convert_json(&fixtures(), &out, &[]);
     assert_eq!(code, 3);
     assert!(failures(&j).contains("lidar_2d"), "{}", failures(&j));
 }

@@ -18,24 +18,6 @@ fn fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn convert_json(root: &Path, out: &Path, extra: &[&str]) -> (i32, serde_json::Value, String) {
-    let mut args = vec![
-        "convert",
-        s(root),
-        "--out",
-        s(out),
-        "--json",
-        "--no-progress",
-    ];
-    args.extend_from_slice(extra);
-    let (code, stdout, stderr) = run_text(&args);
-    (
-        code,
-        serde_json::from_str(&stdout).unwrap_or_default(),
-        stderr,
-    )
-}
-
 fn points(bin: &Path) -> Vec<[f32; 4]> {
     std::fs::read(bin)
         .unwrap()

@@ -102,3 +102,20 @@ pub fn convert_fixtures(out: &Path, extra: &[&str]) {
     let (code, _, stderr) = run_text(&args);
     assert_eq!(code, 0, "{args:?}: {stderr}");
 }
+
+/// Runs `convert ROOT --out OUT --json EXTRA...`; returns (exit code, summary JSON or null,
+/// stderr).
+pub fn convert_json(root: &Path, out: &Path, extra: &[&str]) -> (i32, serde_json::Value, String) {
+    let mut args = vec![
+        "convert",
+        s(root),
+        "--out",
+        s(out),
+        "--json",
+        "--no-progress",
+    ];
+    args.extend_from_slice(extra);
+    let (code, stdout, stderr) = run_text(&args);
+    let j = serde_json::from_str(&stdout).unwrap_or(serde_json::Value::Null);
+    (code, j, stderr)
+}
