@@ -46,6 +46,15 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--workers", type=int, default=2, help="DataLoader worker processes reading the shards (0 = in the training process)")
     t.add_argument("--device", default="auto", help="auto, cpu or cuda")
+    t.add_argument("--amp", action=argparse.BooleanOptionalAction, default=None,
+                   help="bf16 autocast of the forward pass (default: on with CUDA, off on CPU)")
+    t.add_argument("--channels-last", action=argparse.BooleanOptionalAction, default=None,
+                   help="channels-last memory format (default: on with CUDA)")
+    t.add_argument("--compile", action="store_true", help="torch.compile the model")
+    t.add_argument("--data-on-gpu", choices=["auto", "on", "off"], default="auto",
+                   help="load the decoded train split onto the device once and batch, flip and normalise there "
+                        "(auto: on CUDA when it takes at most half the free memory; on also works on CPU); "
+                        "otherwise DataLoader workers with pinned memory and prefetching")
     t.add_argument("--log-every", type=int, default=50)
     t.add_argument("--checkpoint-every", type=int, default=1000)
     t.add_argument("--tensorboard", action="store_true", help="also log to <out>/tensorboard")

@@ -135,6 +135,56 @@ class FrameSet:
         }
 
 
+class DeviceFrames:
+    """The whole split decoded once into tensors on ``device`` (``--data-on-gpu``): batches are
+    gathered, flipped and normalised there, with no worker and no copy from the host. The
+    arithmetic is ``FrameSet.item``'s, in the same order on float32, so a batch is bit for bit
+    the one the worker path builds for the same (frame, flip) keys (tested on CPU)."""
+
+    def __init__(self, frames: FrameSet, device: torch.device):
+        self.frames, self.device = frames, device
+        ts, masks, labels, ids = [], [], [], []
+        for i in range(len(frames)):
+            f = frames.ds[i]
+            ts.append(torch.from_numpy(np.ascontiguousarray(np.asarray(f["tensor"]).transpose(2, 0, 1))))
+            masks.append(torch.from_numpy(np.asarray(f["mask"]).astype(bool)))
+            labels.append(torch.from_numpy(np.asarray(f["label"]).astype(np.int64)))
+            ids.append(f["id"])
+        self.t = torch.stack(ts).to(device)          # N x C x H x W, raw channels
+        self.mask = torch.stack(masks).to(device)    # N x H x W
+        self.label = torch.stack(labels).to(device)  # N x H x W
+        self.ids = ids
+
+    @staticmethod
+    def bytes_needed(frames: FrameSet) -> int:
+        """Device memory the split takes (tensor float32, label int64, mask bool)."""
+        c = len(frames.channels)
+        return len(frames) * frames.height * frames.width * (4 * c + 8 + 1)
+
+    def batch(self, keys: Sequence) -> dict:
+        """The batch of ``keys`` [(frame index, flip)], as ``collate`` of ``FrameSet.item``."""
+        fs = self.frames
+        idx = torch.tensor([i for i, _ in keys], device=self.device)
+        flip = torch.tensor([bool(f) for _, f in keys], device=self.device)
+        t, mask, label = self.t[idx], self.mask[idx], self.label[idx]
+        fl = flip.view(-1, 1, 1)
+        t = torch.where(fl.unsqueeze(1), t.flip(-1), t)
+        mask = torch.where(fl, mask.flip(-1), mask)
+        label = torch.where(fl, label.flip(-1), label)
+        sign = torch.where(flip, -1.0, 1.0).view(-1, 1, 1)
+        groups = []
+        for g in fs.groups:
+            planes = []
+            for c in g:
+                v = t[:, fs.index[c]]
+                if c == "y":
+                    v = v * sign
+                planes.append((v - fs.norm.mean[c]) / fs.norm.std[c])
+            groups.append(torch.stack(planes, 1) * mask.unsqueeze(1))
+        xyz = torch.stack([t[:, fs.index["x"]], t[:, fs.index["y"]] * sign, t[:, fs.index["z"]]], 1)
+        return {"id": [self.ids[i] for i, _ in keys], "inputs": groups, "xyz": xyz, "mask": mask, "label": label}
+
+
 def collate(items: List[dict]) -> dict:
     return {
         "id": [it["id"] for it in items],

@@ -21,8 +21,25 @@ from kitti2pgm_data import class_map, read_metadata
 
 from . import __version__
 from .common import Progress, atomic_save, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
-from .data import FrameSet, Normaliser, StepBatches, TorchFrames, class_weights, collate, find_shards, load_stats
+from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames, class_weights, collate, find_shards,
+                   load_stats)
 from .models import SegNet
+
+
+def resolve_flag(value, device: torch.device) -> bool:
+    """An on/off speed option: as given, else on for CUDA and off elsewhere."""
+    return device.type == "cuda" if value is None else bool(value)
+
+
+def use_device_data(mode: str, data: FrameSet, device: torch.device) -> bool:
+    """Whether the split is loaded onto the device (``--data-on-gpu``): ``on``, ``off``, or
+    ``auto`` = on a CUDA device when it takes at most half of the free memory."""
+    if mode in ("on", "off"):
+        return mode == "on"
+    if device.type != "cuda":
+        return False
+    free, _total = torch.cuda.mem_get_info(device)
+    return DeviceFrames.bytes_needed(data) <= free // 2
 
 
 def train(args) -> dict:
@@ -49,8 +66,13 @@ def train(args) -> dict:
     classes = class_map(train_paths[0])
     weights = class_weights(stats, args.class_weights, classes)
     data = FrameSet(train_paths, args.input, norm)
+    amp = resolve_flag(args.amp, device)
+    channels_last = resolve_flag(args.channels_last, device)
+    on_device = use_device_data(args.data_on_gpu, data, device)
     model = SegNet(args.model, args.input, len(classes["classes"]), width_mult=args.width_mult,
                    dropout=args.dropout, crf=args.crf).to(device)
+    if channels_last:
+        model = model.to(memory_format=torch.channels_last)
     if world > 1:
         model = torch.nn.parallel.DistributedDataParallel(model, device_ids=[local_rank] if device.type == "cuda" else None)
     opt = torch.optim.SGD(model.parameters(), lr=args.lr, momentum=args.momentum, weight_decay=args.weight_decay)
@@ -68,6 +90,8 @@ def train(args) -> dict:
             "train_shards": train_paths, "frames": len(data), "channels": data.channels,
             "normalisation": {"source": norm.source, "mean": norm.mean, "std": norm.std},
             "class_weights": weights, "world_size": world,
+            "speed": {"amp_bf16": amp, "channels_last": channels_last, "compile": args.compile,
+                      "data_on_device": on_device},
         }
         with open(os.path.join(run, "config.json"), "w") as f:
             json.dump(config, f, indent=2)
@@ -77,7 +101,7 @@ def train(args) -> dict:
     log = open(log_path, "a", newline="") if rank == 0 else None
     writer = csv.writer(log) if log else None
     if writer and new_log:
-        writer.writerow(["step", "loss", "lr", "frames_per_s"])
+        writer.writerow(["step", "loss", "lr", "frames_per_s", "data_wait_share"])
     tb = None
     if rank == 0 and args.tensorboard:
         from torch.utils.tensorboard import SummaryWriter
@@ -86,26 +110,43 @@ def train(args) -> dict:
     progress = Progress(args.steps, "training") if rank == 0 else None
     t_last, frames_since = time.perf_counter(), 0
     loss_value = float("nan")
-    loader = torch.utils.data.DataLoader(
-        TorchFrames(data),
-        batch_sampler=StepBatches(len(data), args.batch, start, args.steps, args.seed, args.flip, rank, world),
-        collate_fn=collate,
-        num_workers=args.workers,
-        pin_memory=device.type == "cuda",
-        # Its own generator: the loader's worker seed must not consume the global RNG that
-        # dropout draws from, or a resumed run would diverge.
-        generator=torch.Generator().manual_seed(args.seed),
-    )
+    sampler = StepBatches(len(data), args.batch, start, args.steps, args.seed, args.flip, rank, world)
+    if on_device:
+        resident = DeviceFrames(data, device)
+        batches = (resident.batch(keys) for keys in sampler)
+    else:
+        batches = iter(torch.utils.data.DataLoader(
+            TorchFrames(data),
+            batch_sampler=sampler,
+            collate_fn=collate,
+            num_workers=args.workers,
+            pin_memory=device.type == "cuda",
+            prefetch_factor=4 if args.workers > 0 else None,
+            persistent_workers=args.workers > 0,
+            # Its own generator: the loader's worker seed must not consume the global RNG that
+            # dropout draws from, or a resumed run would diverge.
+            generator=torch.Generator().manual_seed(args.seed),
+        ))
+    forward = torch.compile(model) if args.compile else model
     done = start
-    for step, batch in zip(range(start, args.steps), loader):
+    wait = 0.0  # seconds spent waiting for batches since the last log line
+    for step in range(start, args.steps):
+        t_wait = time.perf_counter()
+        batch = next(batches, None)
+        if batch is None:
+            break
+        wait += time.perf_counter() - t_wait
         lr = lr_at(step, args.lr, args.lr_halve_every)
         for g in opt.param_groups:
             g["lr"] = lr
         idx = batch["id"]
-        inputs = [x.to(device, non_blocking=True) for x in batch["inputs"]]
+        memory = torch.channels_last if channels_last else torch.contiguous_format
+        inputs = [x.to(device, non_blocking=True).contiguous(memory_format=memory) for x in batch["inputs"]]
         mask, label = batch["mask"].to(device, non_blocking=True), batch["label"].to(device, non_blocking=True)
-        logits = model(inputs, mask=mask, xyz=batch["xyz"].to(device))
-        loss = masked_loss(logits, label, mask, weight)
+        with torch.autocast(device_type=device.type, dtype=torch.bfloat16, enabled=amp):
+            logits = forward(inputs, mask=mask, xyz=batch["xyz"].to(device))
+        # The loss in float32 whatever the forward pass ran in.
+        loss = masked_loss(logits.float(), label, mask, weight)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
@@ -115,12 +156,13 @@ def train(args) -> dict:
         if rank == 0 and (done % args.log_every == 0 or done == args.steps):
             now = time.perf_counter()
             fps = frames_since / max(now - t_last, 1e-9)
-            writer.writerow([done, f"{loss_value:.6f}", f"{lr:.6g}", f"{fps:.2f}"])
+            share = wait / max(now - t_last, 1e-9)
+            writer.writerow([done, f"{loss_value:.6f}", f"{lr:.6g}", f"{fps:.2f}", f"{share:.4f}"])
             log.flush()
             if tb:
                 tb.add_scalar("loss", loss_value, done)
                 tb.add_scalar("lr", lr, done)
-            t_last, frames_since = now, 0
+            t_last, frames_since, wait = now, 0, 0.0
         if progress:
             progress.update(done, f"loss {loss_value:.4f}")
         if rank == 0 and (done % args.checkpoint_every == 0 or done == args.steps):

@@ -101,7 +101,7 @@ def test_overfits_real_frames_and_agrees_with_kitti2pgm_score(converted, tmp_pat
     assert config["git_commit"] is None or len(config["git_commit"]) == 40
     assert config["kitti2pgm_version"] and config["class_weights"] == [1.0, 1.0, 1.0, 1.0]
     log = (run / "log.csv").read_text().splitlines()
-    assert log[0] == "step,loss,lr,frames_per_s" and len(log) == 7
+    assert log[0] == "step,loss,lr,frames_per_s,data_wait_share" and len(log) == 7
     first, last = float(log[1].split(",")[1]), float(log[-1].split(",")[1])
     assert last < first
 
@@ -163,3 +163,29 @@ def test_torchrun_two_processes(converted, tmp_path):
     assert json.loads((run / "config.json").read_text())["world_size"] == 2
     assert (run / "checkpoint.pt").exists()
     assert len((run / "log.csv").read_text().splitlines()) == 3
+
+
+def test_device_resident_batches_equal_the_worker_batches(converted):
+    """--data-on-gpu builds, on the device (here the CPU), exactly the worker path's batches."""
+    from kitti2pgm_train.data import DeviceFrames, collate
+
+    fs = FrameSet(sorted((converted / "shards").glob("*.mcap")), "xyzdi+dirgb", Normaliser.from_stats(None))
+    keys = [(0, False), (1, True), (2, True), (0, True)]
+    a = DeviceFrames(fs, torch.device("cpu")).batch(keys)
+    b = collate([fs.item(i, flip=f) for i, f in keys])
+    assert a["id"] == b["id"]
+    for x, y in zip(a["inputs"], b["inputs"]):
+        assert torch.equal(x, y)
+    for k in ("xyz", "mask", "label"):
+        assert torch.equal(a[k], b[k]), k
+
+
+def test_amp_and_device_data_on_cpu(converted, tmp_path):
+    """bf16 autocast and the device-resident data path train on CPU; the config records them."""
+    run = tmp_path / "amp"
+    _train(run, converted / "shards", 3, ["--amp", "--data-on-gpu", "on", "--channels-last"])
+    config = json.loads((run / "config.json").read_text())
+    assert config["speed"] == {"amp_bf16": True, "channels_last": True, "compile": False, "data_on_device": True}
+    log = (run / "log.csv").read_text().splitlines()
+    loss = float(log[-1].split(",")[1])
+    assert np.isfinite(loss)
