@@ -56,6 +56,10 @@ def parser() -> argparse.ArgumentParser:
                         "(auto: on CUDA when it takes at most half the free memory; on also works on CPU); "
                         "otherwise DataLoader workers with pinned memory and prefetching")
     t.add_argument("--log-every", type=int, default=50)
+    t.add_argument("--val-every", type=int, default=0,
+                   help="every N steps, predict the val shards, log the IoUs to val.csv (and TensorBoard) and keep "
+                        "the best model in best.pt (which evaluate then uses)")
+    t.add_argument("--val-shards", help="explicit val shards (glob) instead of <shards>/val-*.mcap")
     t.add_argument("--checkpoint-every", type=int, default=1000)
     t.add_argument("--tensorboard", action="store_true", help="also log to <out>/tensorboard")
     t.add_argument("--stop-after", type=int, default=0, help=argparse.SUPPRESS)

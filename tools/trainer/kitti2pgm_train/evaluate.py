@@ -20,15 +20,32 @@ from .models import SegNet
 
 
 def load_run(run: str, device: torch.device):
+    """The run's model (its best checkpoint when it kept one, else the last), config and
+    normalisation."""
     with open(os.path.join(run, "config.json")) as f:
         config = json.load(f)
     a = config["args"]
     model = SegNet(a["model"], a["input"], len(config["class_map"]["classes"]), width_mult=a["width_mult"],
                    dropout=a["dropout"], crf=a["crf"])
-    ck = torch.load(os.path.join(run, "checkpoint.pt"), map_location=device, weights_only=False)
+    which = "best.pt" if os.path.exists(os.path.join(run, "best.pt")) else "checkpoint.pt"
+    ck = torch.load(os.path.join(run, which), map_location=device, weights_only=False)
     model.load_state_dict(ck["model"])
     norm = Normaliser(config["normalisation"]["mean"], config["normalisation"]["std"], config["normalisation"]["source"])
     return model.to(device).eval(), config, norm
+
+
+@torch.no_grad()
+def predict(model, data: FrameSet, device: torch.device, batch: int, conf: Confusion = None):
+    """Yields (frame id, H x W uint8 predicted labels) for every frame of ``data``, in order,
+    adding each batch's valid cells to ``conf`` when given. The model is in eval mode."""
+    for start in range(0, len(data), batch):
+        b = collate([data.item(i) for i in range(start, min(start + batch, len(data)))])
+        mask = b["mask"].to(device)
+        logits = model([x.to(device) for x in b["inputs"]], mask=mask, xyz=b["xyz"].to(device))
+        pred = logits.argmax(1)
+        if conf is not None:
+            conf.add(pred, b["label"].to(device), mask)
+        yield from zip(b["id"], pred.to(torch.uint8).cpu().numpy())
 
 
 @torch.no_grad()
@@ -48,19 +65,13 @@ def evaluate(args) -> dict:
     progress = Progress(len(data), "evaluating")
 
     def predictions():
-        for start in range(0, len(data), args.batch):
-            batch = collate([data.item(i) for i in range(start, min(start + args.batch, len(data)))])
-            mask = batch["mask"].to(device)
-            logits = model([x.to(device) for x in batch["inputs"]], mask=mask, xyz=batch["xyz"].to(device))
-            pred = logits.argmax(1)
-            conf.add(pred, batch["label"].to(device), mask)
-            for fid, p in zip(batch["id"], pred.to(torch.uint8).cpu().numpy()):
-                if write_npy:
-                    tmp = os.path.join(out, f".{fid}.tmp.npy")
-                    np.save(tmp, p)
-                    os.replace(tmp, os.path.join(out, f"{fid}.npy"))
-                yield {"id": fid, "label": p}
-            progress.update(min(start + args.batch, len(data)))
+        for k, (fid, p) in enumerate(predict(model, data, device, args.batch, conf)):
+            if write_npy:
+                tmp = os.path.join(out, f".{fid}.tmp.npy")
+                np.save(tmp, p)
+                os.replace(tmp, os.path.join(out, f"{fid}.npy"))
+            yield {"id": fid, "label": p}
+            progress.update(k + 1)
 
     shard_out = None
     if args.format in ("mcap", "both"):

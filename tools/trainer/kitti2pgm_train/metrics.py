@@ -18,6 +18,8 @@ class Confusion:
         self.k = len(self.names)
         self.ignore = list(class_map.get("ignore", []))
         self.miou_ids = list(class_map["miou"])
+        # SemanticKITTI's benchmark counts a class absent from truth and prediction as 0.
+        self.absent_zero = class_map.get("absent_in_miou") == "Zero"
         self.m = torch.zeros(self.k, self.k, dtype=torch.int64)
 
     def add(self, pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor) -> None:
@@ -36,7 +38,8 @@ class Confusion:
         return tp / d if d else None
 
     def miou(self) -> float:
-        v = [x for x in (self.iou(c) for c in self.miou_ids) if x is not None]
+        ious = [self.iou(c) for c in self.miou_ids]
+        v = [0.0 if x is None else x for x in ious] if self.absent_zero else [x for x in ious if x is not None]
         return sum(v) / len(v) if v else 0.0
 
     def as_dict(self) -> Dict[str, object]:

@@ -23,6 +23,8 @@ from . import __version__
 from .common import Progress, atomic_save, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
 from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames, class_weights, collate, find_shards,
                    load_stats)
+from .evaluate import predict
+from .metrics import Confusion
 from .models import SegNet
 
 
@@ -128,6 +130,20 @@ def train(args) -> dict:
             generator=torch.Generator().manual_seed(args.seed),
         ))
     forward = torch.compile(model) if args.compile else model
+    val_data, best = None, float("-inf")
+    if args.val_every and rank == 0:
+        val_paths = find_shards(args.val_shards or args.shards, None if args.val_shards else "val")
+        val_data = FrameSet(val_paths, args.input, norm)
+        if args.resume:
+            best = ck.get("best_miou", best)
+    val_log = None
+    if val_data is not None:
+        val_path = os.path.join(run, "val.csv")
+        new_val = not os.path.exists(val_path)
+        val_log = open(val_path, "a", newline="")
+        val_writer = csv.writer(val_log)
+        if new_val:
+            val_writer.writerow(["step", "miou"] + [c["name"] for c in classes["classes"]])
     done = start
     wait = 0.0  # seconds spent waiting for batches since the last log line
     for step in range(start, args.steps):
@@ -165,15 +181,34 @@ def train(args) -> dict:
             t_last, frames_since, wait = now, 0, 0.0
         if progress:
             progress.update(done, f"loss {loss_value:.4f}")
+        if val_data is not None and (done % args.val_every == 0 or done == args.steps):
+            net = model.module if world > 1 else model
+            net.eval()
+            conf = Confusion(classes)
+            for _ in predict(net, val_data, device, args.batch, conf):
+                pass
+            net.train()
+            miou = conf.miou()
+            val_writer.writerow([done, f"{miou:.6f}"] + ["" if v is None else f"{v:.6f}" for v in
+                                                          (conf.iou(c) for c in range(conf.k))])
+            val_log.flush()
+            if tb:
+                tb.add_scalar("val/miou", miou, done)
+            if miou > best:
+                best = miou
+                atomic_save({"model": net.state_dict(), "step": done, "miou": miou}, os.path.join(run, "best.pt"))
         if rank == 0 and (done % args.checkpoint_every == 0 or done == args.steps):
             atomic_save({"model": (model.module if world > 1 else model).state_dict(), "optimizer": opt.state_dict(),
-                         "step": done, "torch_rng": torch.get_rng_state(), "args": vars(args)}, ckpt_path)
+                         "step": done, "torch_rng": torch.get_rng_state(), "args": vars(args),
+                         "best_miou": best}, ckpt_path)
         if args.stop_after and done - start >= args.stop_after:
             break  # a deliberate interruption (tests of --resume)
     if progress:
         progress.close()
     if log:
         log.close()
+    if val_log:
+        val_log.close()
     if world > 1:
         torch.distributed.destroy_process_group()
     return {"step": done, "loss": loss_value}

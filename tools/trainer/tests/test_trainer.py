@@ -189,3 +189,13 @@ def test_amp_and_device_data_on_cpu(converted, tmp_path):
     log = (run / "log.csv").read_text().splitlines()
     loss = float(log[-1].split(",")[1])
     assert np.isfinite(loss)
+
+
+def test_validation_keeps_the_best_model(converted, tmp_path):
+    run = tmp_path / "val"
+    shards = converted / "shards"
+    _train(run, shards, 4, ["--val-every", "2", "--val-shards", str(shards / "train-*.mcap")])
+    rows = (run / "val.csv").read_text().splitlines()
+    assert rows[0].startswith("step,miou,background,car") and len(rows) == 3
+    best = torch.load(run / "best.pt", weights_only=False)
+    assert best["miou"] == max(float(r.split(",")[1]) for r in rows[1:])
