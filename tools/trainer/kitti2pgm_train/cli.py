@@ -74,6 +74,11 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--device", default="auto")
     e.add_argument("--timing-frames", type=int, default=10, help="frames timed for inference ms/frame")
     e.add_argument("--json", action="store_true")
+    e.add_argument("--onnx", help="also time this exported model (onnxruntime, CPU) per frame")
+    x = sub.add_parser("export", help="export a run as ONNX and/or TorchScript, normalisation inside")
+    x.add_argument("--run", required=True)
+    x.add_argument("--out", help="the .onnx file to write")
+    x.add_argument("--torchscript", help="the TorchScript .pt file to write")
     return p
 
 
@@ -90,6 +95,12 @@ def main(argv=None) -> int:
             from .train import train
             r = train(args)
             print(f"trained to step {r['step']}, last loss {r['loss']:.4f}; run in {args.out}")
+        elif args.command == "export":
+            if not args.out and not args.torchscript:
+                raise ValueError("export: give --out model.onnx and/or --torchscript model.pt")
+            from .export import export
+            for kind, path in export(args.run, args.out, args.torchscript).items():
+                print(f"{kind}: {path}")
         else:
             from .evaluate import evaluate
             r = evaluate(args)

@@ -85,6 +85,8 @@ def evaluate(args) -> dict:
             pass
     progress.close()
     timing = inference_time(model, data, device, args.timing_frames)
+    if getattr(args, "onnx", None):
+        timing["onnxruntime_cpu"] = onnx_time(args.onnx, data, args.timing_frames)
     result = {"frames": len(data), "class_map": config["class_map"], "predictions": out if write_npy else None, "prediction_shard": shard_out,
               **conf.as_dict(), "inference_ms_per_frame": timing}
     with open(os.path.join(args.run, "eval.json"), "w") as f:
@@ -115,3 +117,20 @@ def inference_time(model, data: FrameSet, device: torch.device, frames: int) -> 
         out[d.type] = float(np.median(times)) if times else None
     model.to(device)
     return out
+
+
+def onnx_time(path: str, data: FrameSet, frames: int) -> float:
+    """Median onnxruntime (CPU) time of one frame of an exported model, ms."""
+    import onnxruntime
+
+    session = onnxruntime.InferenceSession(path, providers=["CPUExecutionProvider"])
+    f = data.ds[0]
+    x = np.ascontiguousarray(np.asarray(f["tensor"])[None], dtype=np.float32)
+    name = session.get_inputs()[0].name
+    times = []
+    for k in range(frames + 2):
+        t = time.perf_counter()
+        session.run(None, {name: x})
+        if k >= 2:
+            times.append((time.perf_counter() - t) * 1e3)
+    return float(np.median(times)) if times else None

@@ -199,3 +199,29 @@ def test_validation_keeps_the_best_model(converted, tmp_path):
     assert rows[0].startswith("step,miou,background,car") and len(rows) == 3
     best = torch.load(run / "best.pt", weights_only=False)
     assert best["miou"] == max(float(r.split(",")[1]) for r in rows[1:])
+
+
+def test_exported_models_label_like_pytorch(converted, tmp_path):
+    """ONNX (onnxruntime) and TorchScript give PyTorch's labels on the real frames, from the raw
+    shard channels (the normalisation is inside the graph)."""
+    import onnxruntime
+
+    from kitti2pgm_train.evaluate import load_run, predict
+    from kitti2pgm_train.export import export
+
+    run = tmp_path / "exp"
+    shards = converted / "shards"
+    _train(run, shards, 2, ["--input", "xyzdi"])
+    paths = export(str(run), str(tmp_path / "m.onnx"), str(tmp_path / "m.pt"))
+    model, config, norm = load_run(str(run), torch.device("cpu"))
+    fs = FrameSet(sorted(shards.glob("*.mcap")), "xyzdi", norm)
+    want = dict(predict(model, fs, torch.device("cpu"), 1))
+    session = onnxruntime.InferenceSession(paths["onnx"], providers=["CPUExecutionProvider"])
+    scripted = torch.jit.load(paths["torchscript"])
+    for i in range(len(fs)):
+        f = fs.ds[i]
+        x = np.ascontiguousarray(np.asarray(f["tensor"])[None], dtype=np.float32)
+        labels = session.run(None, {session.get_inputs()[0].name: x})[0][0]
+        assert np.array_equal(labels, want[f["id"]]), f["id"]
+        ts = scripted(torch.from_numpy(x))[0][0].numpy()
+        assert np.array_equal(ts, want[f["id"]]), f["id"]

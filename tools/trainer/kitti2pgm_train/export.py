@@ -1,0 +1,77 @@
+"""Export a trained run for deployment: ONNX (opened by onnxruntime, TensorRT, ...) and
+TorchScript, with the normalisation inside the graph.
+
+The exported model takes the raw channels exactly as a kitti2pgm shard stores them (a
+1 x H x W x C float32 tensor, C = the run's channels, e.g. x y z intensity range r g b), builds
+the mask (range > 0), selects and normalises each input group with the run's constants, and
+returns the predicted class of every cell (1 x H x W int64) and the logits (1 x K x H x W).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import List
+
+import torch
+import torch.nn as nn
+
+from .evaluate import load_run
+from .models import INPUTS
+
+
+class Deployable(nn.Module):
+    """A trained network behind its input preparation: raw shard channels in, labels out."""
+
+    def __init__(self, model: nn.Module, channels: List[str], inputs: str, mean: dict, std: dict):
+        super().__init__()
+        self.model = model
+        index = {c: i for i, c in enumerate(channels)}
+        self.groups = [list(g) for g in INPUTS[inputs]]
+        for g in self.groups:
+            self.register_buffer(f"idx_{len(self._buffers)}", torch.tensor([index[c] for c in g]))
+        self.mean = nn.ParameterList([nn.Parameter(torch.tensor([float(mean[c]) for c in g]), requires_grad=False)
+                                      for g in self.groups])
+        self.std = nn.ParameterList([nn.Parameter(torch.tensor([float(std[c]) for c in g]), requires_grad=False)
+                                     for g in self.groups])
+        self.range_index = index["range"]
+        self.xyz_index = [index["x"], index["y"], index["z"]]
+
+    def forward(self, tensor: torch.Tensor):
+        t = tensor.permute(0, 3, 1, 2)
+        mask = t[:, self.range_index] > 0
+        xs = []
+        for k, idx in enumerate(self._buffers.values()):
+            v = t.index_select(1, idx)
+            xs.append((v - self.mean[k].view(1, -1, 1, 1)) / self.std[k].view(1, -1, 1, 1) * mask.unsqueeze(1))
+        xyz = t[:, self.xyz_index]
+        logits = self.model(xs, mask=mask, xyz=xyz)
+        return logits.argmax(1), logits
+
+
+def deployable(run: str) -> tuple:
+    """The run's best (or last) model wrapped for deployment, and an example input."""
+    model, config, norm = load_run(run, torch.device("cpu"))
+    spec = config["shard_params"]["map"]["spec"]
+    channels = config["channels"]
+    net = Deployable(model, channels, config["args"]["input"], norm.mean, norm.std).eval()
+    example = torch.zeros(1, spec["rows"], spec["cols"], len(channels))
+    return net, example
+
+
+def export(run: str, onnx_path: str = None, torchscript_path: str = None) -> dict:
+    """Writes the ONNX and/or TorchScript file (atomically); returns their paths."""
+    net, example = deployable(run)
+    out = {}
+    with torch.no_grad():
+        if onnx_path:
+            tmp = onnx_path + ".tmp"
+            torch.onnx.export(net, (example,), tmp, input_names=["tensor"], output_names=["labels", "logits"],
+                              dynamo=True, verbose=False)
+            os.replace(tmp, onnx_path)
+            out["onnx"] = onnx_path
+        if torchscript_path:
+            tmp = torchscript_path + ".tmp"
+            torch.jit.save(torch.jit.trace(net, (example,)), tmp)
+            os.replace(tmp, torchscript_path)
+            out["torchscript"] = torchscript_path
+    return out
