@@ -3,7 +3,11 @@
 configurations at the paper's size (64 x 512 maps, full width), on the CPU and, when present,
 the GPU. Synthetic inputs of the right shapes (speed does not depend on values).
 
-Usage: bench_models.py [--batch 32] [--steps 5] [--device cpu|cuda|all]
+Usage: bench_models.py [--batch 32] [--steps 5] [--device cpu|cuda|all] [--amp] [--channels-last]
+                       [--compile]
+
+--amp runs the forward pass in bf16 autocast, --channels-last uses that memory format and
+--compile wraps the network in torch.compile, as the trainer's options of the same names.
 """
 import argparse
 import statistics
@@ -20,9 +24,12 @@ def sync(d):
         torch.cuda.synchronize()
 
 
-def bench(model, inputs, device, batch, steps):
+def bench(model, inputs, device, batch, steps, amp=False, channels_last=False, compile=False):
     net = SegNet(model, inputs, 4).to(device)  # the paper's 4 classes
-    xs = [torch.randn(batch, len(g), 64, 512, device=device) for g in INPUTS[inputs]]
+    memory = torch.channels_last if channels_last else torch.contiguous_format
+    net = net.to(memory_format=memory)
+    run = torch.compile(net) if compile else net
+    xs = [torch.randn(batch, len(g), 64, 512, device=device).contiguous(memory_format=memory) for g in INPUTS[inputs]]
     label = torch.randint(0, 4, (batch, 64, 512), device=device)
     mask = torch.ones(batch, 64, 512, dtype=torch.bool, device=device)
     w = torch.tensor([1 / 15, 1, 10, 10], device=device)
@@ -31,7 +38,9 @@ def bench(model, inputs, device, batch, steps):
     for k in range(steps + 1):
         sync(device)
         t = time.perf_counter()
-        loss = masked_loss(net(xs), label, mask, w)
+        with torch.autocast(device_type=device.type, dtype=torch.bfloat16, enabled=amp):
+            logits = run(xs)
+        loss = masked_loss(logits.float(), label, mask, w)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -46,7 +55,8 @@ def bench(model, inputs, device, batch, steps):
         for k in range(steps + 2):
             sync(device)
             t = time.perf_counter()
-            net(one)
+            with torch.autocast(device_type=device.type, dtype=torch.bfloat16, enabled=amp):
+                run(one)
             sync(device)
             if k >= 2:
                 inf.append((time.perf_counter() - t) * 1e3)
@@ -58,15 +68,19 @@ def main():
     p.add_argument("--batch", type=int, default=32)
     p.add_argument("--steps", type=int, default=5)
     p.add_argument("--device", default="all")
+    p.add_argument("--amp", action="store_true")
+    p.add_argument("--channels-last", action="store_true")
+    p.add_argument("--compile", action="store_true")
     a = p.parse_args()
     devices = ["cpu", "cuda"] if a.device == "all" else [a.device]
     devices = [d for d in devices if d == "cpu" or torch.cuda.is_available()]
-    print(f"torch {torch.__version__}, threads {torch.get_num_threads()}, batch {a.batch}")
+    print(f"torch {torch.__version__}, threads {torch.get_num_threads()}, batch {a.batch}, amp {a.amp}, "
+          f"channels_last {a.channels_last}, compile {a.compile}")
     print(f"{'device':<6} {'model':<11} {'input':<12} {'train frames/s':>15} {'inference ms/frame':>19}")
     for d in devices:
         for m in sorted(MODELS):
             for i in ["xyzdi", "xyzdirgb", "xyzdi+dirgb"]:
-                fps, ms = bench(m, i, torch.device(d), a.batch, a.steps)
+                fps, ms = bench(m, i, torch.device(d), a.batch, a.steps, a.amp, a.channels_last, a.compile)
                 print(f"{d:<6} {m:<11} {i:<12} {fps:>15.1f} {ms:>19.1f}", flush=True)
 
 

@@ -225,3 +225,22 @@ def test_exported_models_label_like_pytorch(converted, tmp_path):
         assert np.array_equal(labels, want[f["id"]]), f["id"]
         ts = scripted(torch.from_numpy(x))[0][0].numpy()
         assert np.array_equal(ts, want[f["id"]]), f["id"]
+
+
+def test_reproduce_script_runs_end_to_end(tmp_path, kitti2pgm_path):
+    """reproduce.sh on the fixtures, two steps a run, writes the six-row table."""
+    import os
+    import subprocess
+
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[3]
+    env = dict(os.environ, STEPS="2", BATCH="3", WIDTH="0.25", GPUS="1", VAL_DRIVES="52",
+               KITTI2PGM=kitti2pgm_path, EXTRA="--device cpu --workers 0", CONVERT="--cols 64",
+               EVAL="--device cpu --timing-frames 0")
+    r = subprocess.run(["bash", str(repo / "tools/trainer/reproduce.sh"), str(repo / "fixtures/raw"), str(tmp_path / "r")],
+                       env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    rows = json.loads((tmp_path / "r/table.json").read_text())
+    assert len(rows) == 6 and all(0.0 <= row["miou"] <= 1.0 for row in rows)
+    assert "| squeezeseg | xyzdi+dirgb |" in (tmp_path / "r/table.md").read_text()

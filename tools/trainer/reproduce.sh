@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Reproduces the paper's table end to end: convert, split, stats, then for SqueezeSeg and
+# PointSeg with LiDAR-only, early- and mid-fusion inputs: train, evaluate, kitti2pgm score.
+# Writes OUT/table.md (this run's IoUs beside the paper's figures) and OUT/table.json.
+#
+#   tools/trainer/reproduce.sh RAW_ROOT OUT
+#
+# Environment (defaults are the paper's setting): STEPS (50000), BATCH (32 a step, split over
+# GPUS processes), GPUS (the CUDA devices present, else 1 CPU process), WIDTH (1.0),
+# VAL_DRIVES (SqueezeSeg's), KITTI2PGM (the binary; else target/release, built if needed),
+# EXTRA (more trainer options, e.g. "--compile"), CONVERT (more convert options), EVAL (more
+# evaluate options).
+set -euo pipefail
+raw=${1:?usage: reproduce.sh RAW_ROOT OUT}
+out=${2:?usage: reproduce.sh RAW_ROOT OUT}
+here=$(cd "$(dirname "$0")/../.." && pwd)
+steps=${STEPS:-50000}
+batch=${BATCH:-32}
+width=${WIDTH:-1.0}
+gpus=${GPUS:-$(python3 -c 'import torch; print(max(torch.cuda.device_count(), 1))')}
+if [ -z "${KITTI2PGM:-}" ]; then
+  (cd "$here" && cargo build --release --quiet)
+  KITTI2PGM=$here/target/release/kitti2pgm
+fi
+split=()
+[ -n "${VAL_DRIVES:-}" ] && split=(--val-drives "$VAL_DRIVES")
+mkdir -p "$out"
+"$KITTI2PGM" --no-progress convert "$raw" --out "$out/data" --rgb --format npy,mcap "${split[@]}" ${CONVERT:-}
+"$KITTI2PGM" --no-progress split "$raw" --out "$out/data" "${split[@]}"
+"$KITTI2PGM" --no-progress stats "$out/data" --imageset "$out/data/ImageSet" --json > "$out/stats.json"
+per_gpu=$((batch / gpus))
+for m in squeezeseg pointseg; do
+  for i in xyzdi xyzdirgb xyzdi+dirgb; do
+    run=$out/runs/$m-$i
+    if [ ! -f "$run/eval.json" ]; then
+      resume=()
+      [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+      torchrun --standalone --nproc_per_node "$gpus" -m kitti2pgm_train train --shards "$out/data/shards" \
+        --model "$m" --input "$i" --stats "$out/stats.json" --class-weights reference --batch "$per_gpu" \
+        --steps "$steps" --width-mult "$width" --out "$run" "${resume[@]}" ${EXTRA:-}
+      python3 -m kitti2pgm_train evaluate --run "$run" --shards "$out/data/shards" --json ${EVAL:-} > /dev/null
+    fi
+    "$KITTI2PGM" --no-progress score --gt "$out/data" --pred "$run/predictions" \
+      --imageset "$out/data/ImageSet/val.txt" --json > "$run/score.json"
+  done
+done
+python3 - "$out" <<'PY'
+import json, pathlib, sys
+out = pathlib.Path(sys.argv[1])
+paper = {("squeezeseg", "xyzdi"): 33.7, ("squeezeseg", "xyzdirgb"): 36.7, ("squeezeseg", "xyzdi+dirgb"): 37.4,
+         ("pointseg", "xyzdi"): 34.8, ("pointseg", "xyzdirgb"): 37.8, ("pointseg", "xyzdi+dirgb"): 37.6}
+rows, table = [], ["| model | input | car | pedestrian | cyclist | mIoU | paper mIoU |", "|---|---|---|---|---|---|---|"]
+f = lambda v: "-" if v is None else f"{100 * v:.1f}"
+for (m, i), ref in paper.items():
+    s = json.loads((out / "runs" / f"{m}-{i}" / "score.json").read_text())
+    iou = {c: s["classes"][c]["iou"] for c in ("car", "pedestrian", "cyclist")}
+    rows.append({"model": m, "input": i, **iou, "miou": s["miou"], "paper_miou": ref})
+    table.append(f"| {m} | {i} | {f(iou['car'])} | {f(iou['pedestrian'])} | {f(iou['cyclist'])} | {f(s['miou'])} | {ref} |")
+(out / "table.json").write_text(json.dumps(rows, indent=2))
+(out / "table.md").write_text("\n".join(table) + "\n")
+print("\n".join(table))
+PY
