@@ -16,16 +16,20 @@ import torch.nn.functional as F
 
 
 class Progress:
-    """A one-line progress display on a terminal (stderr); silent otherwise."""
+    """A one-line progress display with rate and ETA on a terminal (stderr); silent otherwise.
+    ``start`` is where a resumed run begins, so that the rate counts this run's work only."""
 
-    def __init__(self, total: int, what: str):
+    def __init__(self, total: int, what: str, start: int = 0):
         self.total, self.what, self.tty = total, what, sys.stderr.isatty()
-        self.t0 = time.perf_counter()
+        self.start, self.t0 = start, time.perf_counter()
 
     def update(self, done: int, extra: str = "") -> None:
         if self.tty:
-            rate = done / max(time.perf_counter() - self.t0, 1e-9)
-            sys.stderr.write(f"\r{self.what} {done}/{self.total} ({rate:.1f}/s) {extra}   ")
+            rate = (done - self.start) / max(time.perf_counter() - self.t0, 1e-9)
+            eta = (self.total - done) / rate if rate > 0 else 0.0
+            h, rest = divmod(int(eta), 3600)
+            sys.stderr.write(f"\r{self.what} {done}/{self.total} ({rate:.1f}/s, ETA {h}:{rest // 60:02}:{rest % 60:02}) "
+                             f"{extra}   ")
             sys.stderr.flush()
 
     def close(self) -> None:

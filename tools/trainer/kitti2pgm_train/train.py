@@ -109,7 +109,7 @@ def train(args) -> dict:
         from torch.utils.tensorboard import SummaryWriter
         tb = SummaryWriter(os.path.join(run, "tensorboard"))
     model.train()
-    progress = Progress(args.steps, "training") if rank == 0 else None
+    progress = Progress(args.steps, "training", start) if rank == 0 else None
     t_last, frames_since = time.perf_counter(), 0
     loss_value = float("nan")
     sampler = StepBatches(len(data), args.batch, start, args.steps, args.seed, args.flip, rank, world)

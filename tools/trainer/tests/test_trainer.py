@@ -244,3 +244,28 @@ def test_reproduce_script_runs_end_to_end(tmp_path, kitti2pgm_path):
     rows = json.loads((tmp_path / "r/table.json").read_text())
     assert len(rows) == 6 and all(0.0 <= row["miou"] <= 1.0 for row in rows)
     assert "| squeezeseg | xyzdi+dirgb |" in (tmp_path / "r/table.md").read_text()
+
+
+def test_twenty_semantickitti_classes_train_and_score_like_kitti2pgm(tmp_path, kitti2pgm):
+    """SemanticKITTI shards (20 classes from their metadata) train, evaluate, and the trainer's
+    table equals kitti2pgm score's (the benchmark's mIoU rule: absent classes count 0)."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[3]
+    data = tmp_path / "sk"
+    kitti2pgm("convert", str(repo / "fixtures/semantickitti"), "--out", str(data), "--format", "npy,mcap",
+              "--cols", "256")
+    shards = data / "shards"
+    run = tmp_path / "run"
+    _train(run, shards, 3, [])
+    config = json.loads((run / "config.json").read_text())
+    assert len(config["class_map"]["classes"]) == 20 and config["class_weights"][0] == 0.0
+    assert main(["evaluate", "--run", str(run), "--shards", str(shards), "--val-shards", str(shards / "train-*.mcap"),
+                 "--device", "cpu", "--json", "--timing-frames", "0"]) == 0
+    ev = json.loads((run / "eval.json").read_text())
+    assert len(ev["iou"]) == 20
+    score = json.loads(kitti2pgm("score", "--gt", str(data), "--pred", str(run / "predictions"), "--json").stdout)
+    assert score["confusion"]["m"] == ev["confusion"]
+    assert score["miou"] == ev["miou"]
+    for name, iou in ev["iou"].items():
+        assert score["classes"][name]["iou"] == iou, name
