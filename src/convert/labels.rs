@@ -10,8 +10,8 @@
 //! A frame without labels (SemanticKITTI test sequences, object `testing/`) gets the class
 //! map's background (SemanticKITTI's `unlabeled`) everywhere, and says so (`annotated: false`).
 
-use super::super::format::label_file;
 use crate::error::{Error, Result};
+use crate::format::label_file;
 use crate::kitti::calib::FrameCalib;
 use crate::kitti::object;
 use crate::kitti::velodyne::Scan;
@@ -73,12 +73,18 @@ pub fn frame_labels(
                 return Ok(FrameLabels::unlabelled(scan, map));
             }
             let objects = object::read(&path)?;
-            let velo_to_rect = FrameCalib::read(&drive.calib_path(frame))?.velo_to_rect();
+            let calib_path = drive.calib_path(frame);
+            let rect_to_velo = FrameCalib::read(&calib_path)?
+                .velo_to_rect()
+                .try_inverse()
+                .ok_or_else(|| {
+                    Error::format(&calib_path, "R0_rect * Tr_velo_to_cam is not invertible")
+                })?;
             let boxes = objects
                 .iter()
                 .enumerate()
                 .map(|(i, o)| {
-                    LabelBox::from_object(i, o, &velo_to_rect, map.class_of_object(&o.kind))
+                    LabelBox::from_object(i, o, &rect_to_velo, map.class_of_object(&o.kind))
                 })
                 .collect();
             Ok(FrameLabels::from_boxes(boxes, scan, map))

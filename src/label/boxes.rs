@@ -59,11 +59,11 @@ impl LabelBox {
     /// `label_2` gives the bottom-face centre in the rectified camera 0 frame (y down) and a yaw
     /// around that frame's y axis; the box is centred (lifted by h/2 along -y), given its
     /// extents (length along its x, height along y, width along z) and carried into the
-    /// velodyne frame with the inverse of `velo_to_rect` (`R0_rect * Tr_velo_to_cam`).
+    /// velodyne frame with `rect_to_velo`, the inverse of `R0_rect * Tr_velo_to_cam`.
     pub fn from_object(
         index: usize,
         obj: &crate::kitti::object::ObjectLabel,
-        velo_to_rect: &na::Matrix4<f64>,
+        rect_to_velo: &na::Matrix4<f64>,
         class: ClassId,
     ) -> LabelBox {
         let [h, w, l] = obj.hwl;
@@ -72,9 +72,6 @@ impl LabelBox {
             na::Translation3::from(centre.coords),
             na::UnitQuaternion::from_axis_angle(&na::Vector3::y_axis(), obj.rotation_y),
         );
-        let rect_to_velo = velo_to_rect
-            .try_inverse()
-            .unwrap_or_else(na::Matrix4::identity);
         let m = rect_to_velo * rect_pose.to_homogeneous();
         // KITTI's R0_rect is orthonormal to about 1e-6: take the nearest rotation.
         let rot = na::Rotation3::from_matrix(&m.fixed_view::<3, 3>(0, 0).into_owned());
