@@ -60,7 +60,40 @@ def bench(model, inputs, device, batch, steps, amp=False, channels_last=False, c
             sync(device)
             if k >= 2:
                 inf.append((time.perf_counter() - t) * 1e3)
-    return fps, statistics.median(inf)
+    return fps, statistics.median(inf), net, one
+
+
+class _Flat(torch.nn.Module):
+    """The network with one tensor argument per input group (what ONNX export takes)."""
+
+    def __init__(self, net):
+        super().__init__()
+        self.net = net
+
+    def forward(self, *xs):
+        return self.net(list(xs))
+
+
+def onnx_ms(net, one, steps):
+    """Median onnxruntime (CPU) time of one frame of the exported network, ms."""
+    import os
+    import tempfile
+
+    import onnxruntime
+
+    path = os.path.join(tempfile.mkdtemp(), "m.onnx")
+    with torch.no_grad():
+        torch.onnx.export(_Flat(net.cpu().float()).eval(), tuple(x.cpu() for x in one), path, dynamo=True,
+                          verbose=False)
+    session = onnxruntime.InferenceSession(path, providers=["CPUExecutionProvider"])
+    feed = {i.name: x.cpu().numpy() for i, x in zip(session.get_inputs(), one)}
+    times = []
+    for k in range(steps + 2):
+        t = time.perf_counter()
+        session.run(None, feed)
+        if k >= 2:
+            times.append((time.perf_counter() - t) * 1e3)
+    return statistics.median(times)
 
 
 def main():
@@ -71,17 +104,20 @@ def main():
     p.add_argument("--amp", action="store_true")
     p.add_argument("--channels-last", action="store_true")
     p.add_argument("--compile", action="store_true")
+    p.add_argument("--onnx", action="store_true", help="also time the exported model (onnxruntime, CPU)")
     a = p.parse_args()
     devices = ["cpu", "cuda"] if a.device == "all" else [a.device]
     devices = [d for d in devices if d == "cpu" or torch.cuda.is_available()]
     print(f"torch {torch.__version__}, threads {torch.get_num_threads()}, batch {a.batch}, amp {a.amp}, "
           f"channels_last {a.channels_last}, compile {a.compile}")
-    print(f"{'device':<6} {'model':<11} {'input':<12} {'train frames/s':>15} {'inference ms/frame':>19}")
+    print(f"{'device':<6} {'model':<11} {'input':<12} {'train frames/s':>15} {'inference ms/frame':>19}"
+          + (f" {'onnxruntime ms/frame':>21}" if a.onnx else ""))
     for d in devices:
         for m in sorted(MODELS):
             for i in ["xyzdi", "xyzdirgb", "xyzdi+dirgb"]:
-                fps, ms = bench(m, i, torch.device(d), a.batch, a.steps, a.amp, a.channels_last, a.compile)
-                print(f"{d:<6} {m:<11} {i:<12} {fps:>15.1f} {ms:>19.1f}", flush=True)
+                fps, ms, net, one = bench(m, i, torch.device(d), a.batch, a.steps, a.amp, a.channels_last, a.compile)
+                extra = f" {onnx_ms(net.eval(), one, a.steps):>21.1f}" if a.onnx else ""
+                print(f"{d:<6} {m:<11} {i:<12} {fps:>15.1f} {ms:>19.1f}{extra}", flush=True)
 
 
 if __name__ == "__main__":
