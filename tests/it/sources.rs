@@ -74,6 +74,21 @@ fn semantickitti_cells_carry_the_learning_mapped_label_of_their_point() {
         );
         assert_eq!(v >> 16, raw[k] >> 16);
     }
+    // The point protocol finds the scans of a SemanticKITTI root.
+    let (code, stdout, e) = run_text(&[
+        "score",
+        "--gt",
+        s(&out),
+        "--pred",
+        s(&out.join("labels")),
+        "--points",
+        "--raw",
+        s(&root),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{e}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["classes"]["car"]["iou"], 1.0);
 }
 
 #[test]

@@ -8,7 +8,7 @@ use super::{FrameMaps, FrameScore, Protocol, ScoreOptions};
 use crate::error::{Error, Result};
 use crate::format::label_file;
 use crate::kitti::velodyne::Scan;
-use crate::kitti::{Drive, FrameId};
+use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::project::{project_with_point_cells, EMPTY};
 use crate::report::truth::GroundTruth;
 
@@ -164,6 +164,17 @@ pub fn score_frame(
 /// The raw drive of a frame under `raw` (a raw root, date folder or drive folder).
 fn raw_drive(raw: &Path, id: &FrameId) -> Result<Drive> {
     let name = id.drive_name();
+    if id.layout != Layout::Raw {
+        // A SemanticKITTI root or sequence, an object root or split.
+        return discover_as(raw, Some(id.layout))?
+            .drives
+            .into_iter()
+            .find(|d| d.number == id.drive)
+            .ok_or_else(|| Error::Input {
+                path: raw.into(),
+                message: format!("no {name} for frame {id}"),
+            });
+    }
     for candidate in [
         raw.join(&id.date).join(&name),
         raw.join(&name),
