@@ -24,24 +24,31 @@ pub struct Args {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Convert KITTI raw drives to 64x512 Polar Grid Maps (.npy), per-point .label files and MCAP shards.
+    /// Convert KITTI raw, SemanticKITTI or KITTI object scans to labelled Polar Grid Maps (.npy),
+    /// per-point .label files and MCAP shards.
     ///
-    /// RAW_ROOT is a KITTI raw root (<date>/calib_*.txt and <date>/<date>_drive_NNNN_sync/),
-    /// one date folder, or one drive folder. Writes DIR/lidar_2d/<date>_<drive4>_<frame10>.npy
-    /// (float32 64x512x6: x, y, z, intensity, range, label; with --rgb 64x512x9 adding r, g, b)
-    /// and DIR/labels/<drive>/<frame10>.label (u32 per point: class | instance << 16).
-    /// Exit status: 0 all converted, 1 fatal error, 3 some frames failed (reported, others written).
+    /// ROOT is a KITTI raw root (<date>/calib_*.txt and <date>/<date>_drive_NNNN_sync/), date or
+    /// drive folder; a SemanticKITTI root (sequences/<NN>/) or sequence; a KITTI object root
+    /// (training/) or split folder. Writes DIR/lidar_2d/<frame id>.npy (float32 64x512x6: x, y,
+    /// z, intensity, range, label; with --rgb x9 adding r, g, b) and
+    /// DIR/labels/<drive>/<frame>.label (u32 per point: class | instance << 16). A re-run with the
+    /// same parameters keeps finished frames (--overwrite converts all). Exit status: 0 all
+    /// converted, 1 fatal error or every frame failed, 3 some frames failed (reported, others
+    /// written).
     Convert(ConvertArgs),
-    /// Draw converted frames (.npy) as PNG: range, intensity, colour and labels stacked.
+    /// Draw converted frames (.npy files, or every frame of a convert folder, lidar_2d folder or
+    /// shards) as PNG: range, intensity, colour and labels stacked.
     Preview(PreviewArgs),
-    /// Write the train/val split lists (DIR/ImageSet/{all,train,val}.txt) from the tracklets and
-    /// the list of velodyne files alone (no point data is read).
+    /// Write the train/val split lists (DIR/ImageSet/{all,train,val}.txt, and test.txt for frames
+    /// without labels) from the annotations and the list of velodyne files alone (no point data).
     ///
-    /// Default: SqueezeSeg's split. all = frames with a velodyne scan and at least one tracklet
-    /// pose; val = drives 0064 0070 0079 0084 0086 0087 0091 0093 of 2011_09_26; train = the rest.
+    /// Default for KITTI raw: SqueezeSeg's split. all = frames with a velodyne scan and at least
+    /// one tracklet pose; val = drives 0064 0070 0079 0084 0086 0087 0091 0093 of 2011_09_26;
+    /// train = the rest. SemanticKITTI: the dataset's own (sequence 08 is val). KITTI object: a
+    /// seeded half-and-half frame split.
     Split(SplitArgs),
-    /// Class balance, normalisation constants and class weights of a convert output folder,
-    /// per split.
+    /// Class balance, normalisation constants and class weights of converted data (a convert
+    /// folder, its lidar_2d, a folder of maps, or shards), per split.
     ///
     /// Per class: labelled cells and points, shares, frames, instances and poses (with --raw);
     /// per split: each class's train/val share; per channel: mean and standard deviation over
@@ -51,10 +58,12 @@ pub enum Command {
     /// Score a model's predictions against converted ground truth: per-class IoU, mIoU.
     ///
     /// Cell protocol (SqueezeSeg's, default): cells with ground-truth range > 0, TP/FP/FN summed
-    /// over all frames, IoU = TP / (TP + FP + FN); mIoU over car, pedestrian, cyclist. --points:
-    /// the same per scan point in the field of view (needs --raw). Predictions, matched by frame
-    /// id, may be HxW label maps, HxWx4 scores (argmax), SqueezeSeg-layout HxWx6/9 .npy, or
-    /// per-point .label files. Exit status 1 on bad or missing predictions, naming the frame.
+    /// over all frames, IoU = TP / (TP + FP + FN); mIoU over the class map's classes (car,
+    /// pedestrian, cyclist). --points: the same per scan point in the field of view (needs
+    /// --raw). With a SemanticKITTI root as --gt: the benchmark's own protocol on
+    /// sequences/<NN>/predictions/*.label. Predictions, matched by frame id, may be HxW label
+    /// maps, HxWxK scores (argmax), SqueezeSeg-layout HxWx6/9 .npy, per-point .label files or
+    /// prediction shards. Exit status 1 on bad or missing predictions, naming the frame.
     Score(ScoreArgs),
     /// Describe MCAP shards: frames, channels, sizes, compression ratio, class counts, and the
     /// conversion parameters stored in them. Fails, naming the shard and frame, on a corrupted one.
