@@ -78,7 +78,7 @@ pub(crate) fn convert_to_shards(
 /// Assigns each job to a split by its drive, then cuts each split into shards, in frame-id order.
 fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardParams) -> Result<Vec<ShardPlan>> {
     // Frames without labels (SemanticKITTI test sequences, object testing/) go to `test`.
-    let labelled = |&(d, f): &(usize, u32)| plan.drives[d].has_labels(f);
+    let labelled = |&(d, f): &(usize, u32)| plan.drives[d].drive.has_labels(f);
     let ids: Vec<FrameId> = plan
         .jobs
         .iter()

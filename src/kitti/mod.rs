@@ -294,6 +294,16 @@ impl Drive {
         }
     }
 
+    /// Whether a frame has labels: always for raw drives (a frame without a tracklet pose is
+    /// still ground truth: all background); a label file for sequences and object frames.
+    pub fn has_labels(&self, frame: u32) -> bool {
+        match self.layout {
+            Layout::Raw => true,
+            Layout::Sequence => self.point_labels_path(frame).is_file(),
+            Layout::Object => self.object_labels_path(frame).is_file(),
+        }
+    }
+
     /// Path of the drive's tracklets (raw).
     pub fn tracklets_path(&self) -> PathBuf {
         self.dir.join("tracklet_labels.xml")

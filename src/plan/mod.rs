@@ -111,16 +111,6 @@ impl DrivePlan {
         }
     }
 
-    /// Whether a frame has labels: always for raw drives (frames without a tracklet pose are
-    /// still ground truth: all background); a label file for sequences and object frames.
-    pub fn has_labels(&self, frame: u32) -> bool {
-        match self.drive.layout {
-            Layout::Raw => true,
-            Layout::Sequence => self.drive.point_labels_path(frame).is_file(),
-            Layout::Object => self.drive.object_labels_path(frame).is_file(),
-        }
-    }
-
     /// The boxes present at a frame, classed by `map`.
     pub fn boxes(&self, frame: u32, map: &ClassMap) -> Vec<LabelBox> {
         tracklet_boxes(&self.tracklets, frame, map)

@@ -222,13 +222,8 @@ pub fn split(
     for d in &drives {
         for f in drive_frames(d, selection)? {
             let id = d.frame_id(f);
-            let has_labels = match d.layout {
-                Layout::Raw => true,
-                Layout::Sequence => d.point_labels_path(f).is_file(),
-                Layout::Object => d.object_labels_path(f).is_file(),
-            };
             out.all.push(id.clone());
-            if has_labels {
+            if d.has_labels(f) {
                 labelled.push(id);
             } else {
                 out.test.push(id);

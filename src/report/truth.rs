@@ -245,7 +245,7 @@ impl GroundTruth {
         let mut frames = Vec::new();
         for d in &drives {
             for f in d.scan_frames()? {
-                if d.point_labels_path(f).is_file() {
+                if d.has_labels(f) {
                     frames.push(d.frame_id(f));
                 }
             }
