@@ -113,41 +113,17 @@ pub fn frame_labels(
                     ),
                 ));
             }
-            let mut points = PointLabels {
-                class: Vec::with_capacity(scan.len()),
-                instance: Vec::with_capacity(scan.len()),
-            };
-            // A table over all 2^16 raw ids: one lookup a point (a tree lookup was most of
-            // the frame's time).
-            let mut lut = vec![None; 1 << 16];
-            for (&r, &c) in &map.learning_map {
-                if let Some(slot) = lut.get_mut(r as usize) {
-                    *slot = Some(c);
-                }
-            }
-            let mut take = |i: usize| -> Result<()> {
-                let v = raw[i];
-                let class = lut[(v & 0xffff) as usize].ok_or_else(|| {
-                    Error::format(
-                        &path,
-                        format!(
-                            "point {i} has label id {}, which the learning_map of {} does not list",
-                            v & 0xffff,
-                            map.name
-                        ),
-                    )
-                })?;
-                points.class.push(class);
-                points.instance.push((v >> 16) as u16);
-                Ok(())
-            };
-            if scan.dropped.is_empty() {
-                (0..raw.len()).try_for_each(&mut take)?;
+            let class = map.classes_of_raw(&raw, &path)?;
+            let instance: Vec<u16> = raw.iter().map(|v| (v >> 16) as u16).collect();
+            let points = if scan.dropped.is_empty() {
+                PointLabels { class, instance }
             } else {
-                scan.file_indices()
-                    .into_iter()
-                    .try_for_each(|i| take(i as usize))?;
-            }
+                let kept = scan.file_indices();
+                PointLabels {
+                    class: kept.iter().map(|&i| class[i as usize]).collect(),
+                    instance: kept.iter().map(|&i| instance[i as usize]).collect(),
+                }
+            };
             Ok(FrameLabels {
                 points,
                 boxes: Vec::new(),

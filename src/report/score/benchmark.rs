@@ -27,21 +27,7 @@ fn classes(path: &Path, raw_ids: bool, map: &ClassMap) -> Result<Vec<ClassId>> {
     if !raw_ids {
         return label_file::read_classes(path, map);
     }
-    label_file::read_raw(path)?
-        .into_iter()
-        .enumerate()
-        .map(|(i, v)| {
-            map.class_of_raw(v & 0xffff).ok_or_else(|| {
-                Error::format(
-                    path,
-                    format!(
-                        "point {i} has label id {}, which the learning_map does not list",
-                        v & 0xffff
-                    ),
-                )
-            })
-        })
-        .collect()
+    map.classes_of_raw(&label_file::read_raw(path)?, path)
 }
 
 fn score_one(
