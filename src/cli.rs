@@ -321,31 +321,28 @@ pub struct SplitRuleArgs {
 }
 
 impl SplitRuleArgs {
-    /// The library's rule; the layout's default when none is given.
-    pub fn rule(
-        &self,
-        layout: kitti2pgm::kitti::Layout,
-    ) -> kitti2pgm::Result<kitti2pgm::plan::split::SplitRule> {
+    /// The library's rule; `None` when none is given (the layout's default applies).
+    pub fn rule(&self) -> kitti2pgm::Result<Option<kitti2pgm::plan::split::SplitRule>> {
         use kitti2pgm::plan::split::SplitRule;
         if let Some(fraction) = self.random_val {
-            return Ok(SplitRule::Random {
+            return Ok(Some(SplitRule::Random {
                 fraction,
                 seed: self.seed,
-            });
+            }));
         }
         if !self.val_drives.is_empty() {
-            return SplitRule::parse_drives(&self.val_drives);
+            return SplitRule::parse_drives(&self.val_drives).map(Some);
         }
         if !self.val_sequences.is_empty() {
-            return Ok(SplitRule::Sequences(
+            return Ok(Some(SplitRule::Sequences(
                 self.val_sequences.iter().copied().collect(),
-            ));
+            )));
         }
         if let Some(list) = &self.val_list {
             let ids = kitti2pgm::format::imageset::read(list)?;
-            return Ok(SplitRule::Frames(ids.into_iter().collect()));
+            return Ok(Some(SplitRule::Frames(ids.into_iter().collect())));
         }
-        Ok(SplitRule::default_for(layout))
+        Ok(None)
     }
 }
 

@@ -8,6 +8,7 @@ use kitti2pgm::geom::Degrees;
 use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::{ConvertParams, MapParams, ShardCompression, ShardParams};
+use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{PgmSpec, RowMode};
@@ -57,7 +58,10 @@ impl ConvertArgs {
                     },
                     frames_per_shard: self.shard_frames,
                     viz: self.viz,
-                    split: self.split.rule(layout)?,
+                    split: self
+                        .split
+                        .rule()?
+                        .unwrap_or_else(|| SplitRule::default_for(layout)),
                 }),
                 false => None,
             },

@@ -11,18 +11,13 @@ use crate::Outcome;
 
 pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
     let source = a.source.map(crate::cli::SourceArg::layout);
-    let layout = kitti2pgm::kitti::discover_as(&a.raw_root, source)
-        .with_context(|| format!("reading {}", a.raw_root.display()))?
-        .drives
-        .first()
-        .map_or(kitti2pgm::kitti::Layout::Raw, |d| d.layout);
-    let rule = a.split.rule(layout)?;
+    let rule = a.split.rule()?;
     let selection = if a.all_frames {
         FrameSelection::All
     } else {
         FrameSelection::Annotated
     };
-    let lists = split(&a.raw_root, selection, &rule, source)
+    let lists = split(&a.raw_root, selection, rule.as_ref(), source)
         .with_context(|| format!("reading {}", a.raw_root.display()))?;
     let dir = OutputDir::new(&a.out).imageset_dir();
     create_dir(&dir)?;

@@ -209,14 +209,17 @@ pub fn assign(rule: &SplitRule, frames: &[FrameId]) -> Result<BTreeSet<FrameId>>
     Ok(frames.iter().filter(|id| is_val(id)).cloned().collect())
 }
 
-/// Builds the lists for the drives under `root` (any layout; `source` forces one).
+/// Builds the lists for the drives under `root` (any layout; `source` forces one) with `rule`,
+/// or the layout's default ([`SplitRule::default_for`]).
 pub fn split(
     root: &Path,
     selection: FrameSelection,
-    rule: &SplitRule,
+    rule: Option<&SplitRule>,
     source: Option<Layout>,
 ) -> Result<SplitLists> {
     let drives = discover_as(root, source)?.drives;
+    let default = SplitRule::default_for(drives.first().map_or(Layout::Raw, |d| d.layout));
+    let rule = rule.unwrap_or(&default);
     let mut labelled = Vec::new();
     let mut out = SplitLists::default();
     for d in &drives {
