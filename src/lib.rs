@@ -34,5 +34,6 @@ pub mod params;
 pub mod plan;
 pub mod project;
 pub mod report;
+pub mod rng;
 
 pub use error::{Error, Result};

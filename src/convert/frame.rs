@@ -11,9 +11,10 @@ use crate::kitti::camera::decode_image;
 use crate::kitti::velodyne::Scan;
 use crate::kitti::FrameId;
 use crate::label::{ClassCounts, ClassMap};
+use crate::params::MapParams;
 use crate::plan::DrivePlan;
 use crate::project::camera::CameraProjector;
-use crate::project::frame::{assemble, PgmFrame};
+use crate::project::frame::{assemble, PgmFrame, PointValues};
 use crate::project::{project, PgmSpec, ProjectionStats};
 
 /// What converting one frame found.
@@ -76,8 +77,7 @@ pub fn process(
     let proj = project(&scan.points, spec);
     let colour_fn = camera.map(|(cam, img)| move |i: usize| cam.colour(img, &scan.points[i]));
     let pgm = assemble(
-        scan,
-        labels,
+        PointValues::of_scan(scan, labels),
         &proj,
         colour_fn
             .as_ref()
@@ -116,19 +116,43 @@ pub struct Produced {
     pub viz: Option<VizFrame>,
 }
 
-/// Reads and converts one frame (no output written). `want_viz` keeps the scan points, boxes
-/// and camera PNG for the visualisation topics.
-pub fn produce(
-    dp: &DrivePlan,
-    frame: u32,
-    opts: &ConvertOptions,
-    want_viz: bool,
-) -> Result<Produced> {
-    let map = &opts.params.map;
+/// One frame read and labelled: everything projecting it needs.
+#[derive(Debug, Clone)]
+pub struct LoadedFrame {
+    /// The frame.
+    pub id: FrameId,
+    /// Its scan (finite, in-range points in file order).
+    pub scan: Scan,
+    /// The labels of the scan's points.
+    pub labels: FrameLabels,
+    /// The camera and its decoded image, when colour is asked for.
+    pub camera: Option<(CameraProjector, image::RgbImage)>,
+    /// The camera's PNG bytes, when kept (visualisation).
+    pub png: Option<Vec<u8>>,
+}
+
+impl LoadedFrame {
+    /// The colour of every point of the scan (`None` where the camera does not see it), when
+    /// colour is on.
+    pub fn point_colours(&self) -> Option<Vec<Option<[f32; 3]>>> {
+        let (cam, img) = self.camera.as_ref()?;
+        Some(
+            self.scan
+                .points
+                .iter()
+                .map(|p| cam.colour(img, p))
+                .collect(),
+        )
+    }
+}
+
+/// Reads frame `frame` of `dp` as `map` asks: scan, labels and, with colour, the camera image
+/// (checked against the calibrated size). `keep_png` keeps the image's file bytes.
+pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, keep_png: bool) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
     let scan = Scan::read(&dp.drive.scan_path(frame))?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
-    let mut png_bytes = None;
+    let mut png = None;
     let camera = match &map.rgb {
         Some(rgb) => {
             let path = dp.drive.image_path(rgb.camera, frame);
@@ -151,8 +175,8 @@ pub fn produce(
                     ));
                 }
             }
-            if want_viz {
-                png_bytes = Some(bytes);
+            if keep_png {
+                png = Some(bytes);
             }
             let proj = CameraProjector {
                 velo_to_image,
@@ -162,6 +186,31 @@ pub fn produce(
         }
         None => None,
     };
+    Ok(LoadedFrame {
+        id,
+        scan,
+        labels,
+        camera,
+        png,
+    })
+}
+
+/// Reads and converts one frame (no output written). `want_viz` keeps the scan points, boxes
+/// and camera PNG for the visualisation topics.
+pub fn produce(
+    dp: &DrivePlan,
+    frame: u32,
+    opts: &ConvertOptions,
+    want_viz: bool,
+) -> Result<Produced> {
+    let map = &opts.params.map;
+    let LoadedFrame {
+        id,
+        scan,
+        labels,
+        camera,
+        png,
+    } = load(dp, frame, map, want_viz)?;
     let out = process(
         &id,
         &scan,
@@ -183,7 +232,7 @@ pub fn produce(
                 })
                 .collect(),
             boxes: labels.boxes.clone(),
-            png: png_bytes,
+            png,
             camera: map.rgb.map_or(2, |r| r.camera),
             colours: map.class_map.classes.iter().map(|c| c.colour).collect(),
         }

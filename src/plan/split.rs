@@ -146,15 +146,7 @@ pub fn drive_frames(drive: &Drive, selection: FrameSelection) -> Result<Vec<u32>
         .collect())
 }
 
-/// splitmix64: a tiny, fully specified generator, so that a seed gives the same split with every
-/// version of this tool (a library generator may change its stream between releases).
-pub fn splitmix64(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+pub use crate::rng::splitmix64;
 
 /// The unit a frame is split with: its drive (raw, sequences), or itself (object set).
 fn unit(id: &FrameId) -> DriveKey {

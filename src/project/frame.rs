@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use super::channels::{Channel, Channels};
 use super::{Projection, EMPTY};
+use crate::geom::Point3;
 use crate::kitti::velodyne::Scan;
 use crate::label::{ClassCounts, ClassId, PointLabels};
 
@@ -46,10 +47,34 @@ impl PgmFrame {
     }
 }
 
+/// What each point of a projected cloud carries into the map, in the cloud's order.
+#[derive(Debug, Clone, Copy)]
+pub struct PointValues<'a> {
+    /// Coordinates, velodyne frame, metres.
+    pub points: &'a [Point3],
+    /// Reflectance (0-1).
+    pub intensity: &'a [f32],
+    /// Class id.
+    pub class: &'a [ClassId],
+    /// Instance id (0 = none).
+    pub instance: &'a [u16],
+}
+
+impl<'a> PointValues<'a> {
+    /// The values of a scan's points with their labels.
+    pub fn of_scan(scan: &'a Scan, labels: &'a PointLabels) -> PointValues<'a> {
+        PointValues {
+            points: &scan.points,
+            intensity: &scan.reflectance,
+            class: &labels.class,
+            instance: &labels.instance,
+        }
+    }
+}
+
 /// Assembles the frame. `colour(point index)` gives the colour of a kept point, when colour is on.
 pub fn assemble(
-    scan: &Scan,
-    labels: &PointLabels,
+    values: PointValues<'_>,
     proj: &Projection,
     colour: Option<&dyn Fn(usize) -> Option<[f32; 3]>>,
 ) -> PgmFrame {
@@ -74,16 +99,16 @@ pub fn assemble(
             continue;
         }
         let i = pi as usize;
-        let p = &scan.points[i];
+        let p = &values.points[i];
         let range = proj.cell_range[c];
         let out = &mut data[c * depth..(c + 1) * depth];
-        let class = labels.class[i];
+        let class = values.class[i];
         out[x..x + 3].copy_from_slice(&[p.x, p.y, p.z]);
-        out[intensity] = scan.reflectance[i];
+        out[intensity] = values.intensity[i];
         out[range_at] = range;
         out[label_at] = class as f32;
         label[c] = class;
-        instance[c] = labels.instance[i];
+        instance[c] = values.instance[i];
         mask[c] = (range > 0.0) as u8;
         if let (Some(f), Some(valid), Some(r)) = (colour, rgb_valid.as_mut(), rgb_at) {
             if let Some(rgb) = f(i) {

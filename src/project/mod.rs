@@ -17,11 +17,15 @@
 //! When several points land in one cell the nearest wins (ties: the earlier point in the scan);
 //! the losers are counted as collisions.
 
+pub mod augment;
 pub mod camera;
 pub mod channels;
+pub mod cloud;
 pub mod frame;
 
+pub use augment::Augment;
 pub use channels::{Channel, Channels};
+pub use cloud::{project_cloud, Cloud, CloudMap};
 pub use frame::PgmFrame;
 
 use serde::{Deserialize, Serialize};
@@ -104,8 +108,17 @@ impl PgmSpec {
     /// with `yaw = atan2(y, x)` in double precision (the definition).
     #[inline]
     pub fn column(&self, p: &Point3) -> Option<usize> {
+        self.column_rotated(p, 0.0)
+    }
+
+    /// The column `p` takes once the cloud is rotated by `rotate` radians about z (in
+    /// `[-pi, pi]`): the definition with `yaw = atan2(y, x) + rotate`, wrapped into
+    /// `(-pi, pi]`. A rotation by a multiple of the column angle is then an exact shift of the
+    /// columns, which rotating the coordinates in float32 first would not be.
+    #[inline]
+    pub fn column_rotated(&self, p: &Point3, rotate: f64) -> Option<usize> {
         let half = self.fov.to_radians() / 2.0;
-        let yaw = (p.y as f64).atan2(p.x as f64);
+        let yaw = rotated_yaw((p.y as f64).atan2(p.x as f64), rotate);
         let c = floor_i64((half - yaw) / (2.0 * half / self.cols as f64));
         (c >= 0 && c < self.cols as i64).then_some(c as usize)
     }
@@ -116,15 +129,23 @@ impl PgmSpec {
     /// result is always the definition's (tested on every point of the shared scans).
     #[inline]
     pub fn column_fast(&self, p: &Point3) -> Option<usize> {
+        self.column_fast_rotated(p, 0.0)
+    }
+
+    /// [`PgmSpec::column_rotated`] with the single-precision `atan2`, checked as
+    /// [`PgmSpec::column_fast`] is.
+    #[inline]
+    pub fn column_fast_rotated(&self, p: &Point3, rotate: f64) -> Option<usize> {
         let half = self.fov.to_radians() / 2.0;
         let step = 2.0 * half / self.cols as f64;
         // atan2f is within a few ulp of the true angle (< 1e-6 rad for |yaw| <= pi), far below
         // a thousandth of a column of any map this tool makes (at least 1e-3 * 2 pi / 65536).
-        let t = (half - p.y.atan2(p.x) as f64) / step;
+        // The wrap at +-pi falls on a column border of a full map, where the check decides.
+        let t = (half - rotated_yaw(p.y.atan2(p.x) as f64, rotate)) / step;
         let c = floor_i64(t);
         let frac = t - c as f64;
         if !(1e-3..=1.0 - 1e-3).contains(&frac) {
-            return self.column(p);
+            return self.column_rotated(p, rotate);
         }
         (c >= 0 && c < self.cols as i64).then_some(c as usize)
     }
@@ -149,6 +170,24 @@ impl PgmSpec {
         } else {
             ring as usize * self.rows / LASERS
         }
+    }
+}
+
+/// `yaw + rotate` wrapped into `(-pi, pi]`; `yaw` itself when `rotate` is 0 (so that the
+/// unrotated column is the definition, bit for bit).
+#[inline(always)]
+fn rotated_yaw(yaw: f64, rotate: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    if rotate == 0.0 {
+        return yaw;
+    }
+    let y = yaw + rotate;
+    if y > PI {
+        y - TAU
+    } else if y <= -PI {
+        y + TAU
+    } else {
+        y
     }
 }
 
@@ -245,23 +284,65 @@ impl Projection {
     }
 }
 
+/// Where the rows of a projection come from.
+#[derive(Debug, Clone, Copy)]
+pub enum Rows<'a> {
+    /// The spec's rule: rings recovered from the scan order (elevation binning when the scan does
+    /// not show [`LASERS`] rings), or elevation binning.
+    FromSpec,
+    /// These ring indices (one per point, each below [`LASERS`]), e.g. recovered before the
+    /// points were augmented; elevation binning if the spec asks for it.
+    Rings(&'a [u8]),
+    /// Elevation binning, counted as a ring fallback (the rings were not recoverable).
+    Fallback,
+}
+
 /// Projects a scan's points onto the map.
 pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
-    project_impl(points, spec, false)
+    project_impl(points, spec, false, Rows::FromSpec, |_, p| {
+        spec.column_fast(p).map(|c| (c, norm(p)))
+    })
 }
 
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
 /// for scoring per point.
 pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection {
-    project_impl(points, spec, true)
+    project_impl(points, spec, true, Rows::FromSpec, |_, p| {
+        spec.column_fast(p).map(|c| (c, norm(p)))
+    })
 }
 
-fn project_impl(points: &[Point3], spec: &PgmSpec, keep_point_cells: bool) -> Projection {
-    let (ring_ids, rings_found) = match spec.row_mode {
-        RowMode::Rings => rings(points),
-        RowMode::Elevation => (None, 0),
+/// The range of a point, metres (float32, as every map stores it).
+#[inline(always)]
+pub fn norm(p: &Point3) -> f32 {
+    (p.x * p.x + p.y * p.y + p.z * p.z).sqrt()
+}
+
+/// The projection of `points` with rows from `rows`; `locate(i, p)` gives the column and range
+/// of point `i` (at `p`), `None` outside the field of view. `p` is what the map stores; the
+/// cheap half-plane reject below is applied to it.
+pub(crate) fn project_impl<F>(
+    points: &[Point3],
+    spec: &PgmSpec,
+    keep_point_cells: bool,
+    rows: Rows<'_>,
+    locate: F,
+) -> Projection
+where
+    F: Fn(usize, &Point3) -> Option<(usize, f32)>,
+{
+    let by_rings = spec.row_mode == RowMode::Rings;
+    let recovered;
+    let (ring_ids, rings_found, fallback): (Option<&[u8]>, usize, bool) = match rows {
+        Rows::FromSpec if by_rings => {
+            let (r, found) = rings(points);
+            recovered = r;
+            (recovered.as_deref(), found, recovered.is_none())
+        }
+        Rows::Rings(r) if by_rings => (Some(r), LASERS, false),
+        Rows::Fallback if by_rings => (None, 0, true),
+        _ => (None, 0, false),
     };
-    let fallback = spec.row_mode == RowMode::Rings && ring_ids.is_none();
     let mut cell_point = vec![EMPTY; spec.cells()];
     let mut cell_range = vec![0f32; spec.cells()];
     let mut point_cell = if keep_point_cells {
@@ -271,18 +352,17 @@ fn project_impl(points: &[Point3], spec: &PgmSpec, keep_point_cells: bool) -> Pr
     };
     let mut in_fov = 0u64;
     // Cheap half-plane reject for maps narrower than 180 degrees: a point with x <= 0 is at least
-    // 90 degrees off the axis.
+    // 90 degrees off the axis (with a margin, so that rounding never rejects a point in view).
     let front_only = spec.fov.0 < 180.0;
     let tan_half = (spec.fov.to_radians() / 2.0).tan() as f32 * 1.001 + 1e-6;
     for (i, p) in points.iter().enumerate() {
         if front_only && !(p.x > 0.0 && p.y.abs() <= p.x * tan_half) {
             continue;
         }
-        let Some(col) = spec.column_fast(p) else {
+        let Some((col, range)) = locate(i, p) else {
             continue;
         };
-        let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
-        let row = match &ring_ids {
+        let row = match ring_ids {
             Some(r) => spec.ring_row(r[i]),
             None => spec.elevation_row(p, range),
         };

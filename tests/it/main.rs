@@ -5,6 +5,7 @@ mod architecture;
 mod audit;
 mod bad_input;
 mod cli;
+mod cloud;
 mod fuzz;
 mod label;
 mod pinned;

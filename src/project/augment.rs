@@ -1,0 +1,197 @@
+//! PROJECT: 3D augmentation of a scan before it is projected (training on the fly).
+//!
+//! Range-image networks since RangeNet++ augment the point cloud, not the picture: points are
+//! dropped, jittered, mirrored, rotated about z and scaled, then projected. Here the rows stay
+//! the laser rings found in the *original* scan order (a point never changes row), and the
+//! rotation is applied to the azimuth itself (`yaw + rotate`, [`super::PgmSpec::column_rotated`]),
+//! so that a rotation by k column angles shifts the map by exactly k columns.
+//!
+//! Order, per point, with one seeded [`SplitMix`] stream: drop (probability `drop`), jitter
+//! (independent normal noise of standard deviation `jitter` metres on x, y, z), mirror
+//! (`y -> -y`), then rotate by `rotate` about z and scale by `scale`. The range is
+//! `scale * |p|` of the jittered, mirrored point, so that a rotation leaves it unchanged to the
+//! bit. With no drop, no jitter, no mirror, no rotation and unit scale the map is the
+//! unaugmented one, byte for byte.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::geom::Point3;
+use crate::rng::SplitMix;
+
+/// One sample's augmentation (the trainer draws one per sample).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Augment {
+    /// Rotation about z, radians (counter-clockwise seen from above; any value, wrapped).
+    pub rotate: f64,
+    /// Scale of the coordinates and the range (1 = none).
+    pub scale: f32,
+    /// Mirror left and right (`y -> -y`), before the rotation.
+    pub flip: bool,
+    /// Standard deviation of the noise added to x, y and z, metres (0 = none).
+    pub jitter: f32,
+    /// Probability that a point is dropped, in [0, 1).
+    pub drop: f32,
+    /// Seed of the per-point draws (drop and jitter).
+    pub seed: u64,
+}
+
+impl Default for Augment {
+    /// The identity.
+    fn default() -> Self {
+        Augment {
+            rotate: 0.0,
+            scale: 1.0,
+            flip: false,
+            jitter: 0.0,
+            drop: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// The points of an augmented cloud.
+#[derive(Debug, Clone)]
+pub struct Augmented {
+    /// Index, in the input cloud, of each kept point (ascending).
+    pub kept: Vec<u32>,
+    /// Kept points after jitter and mirror, before rotation and scale: their azimuth plus
+    /// [`Augmented::rotate`] gives the column.
+    pub base: Vec<Point3>,
+    /// Kept points as the map stores them (rotated and scaled).
+    pub points: Vec<Point3>,
+    /// The rotation, wrapped into [-pi, pi].
+    pub rotate: f64,
+    /// The scale.
+    pub scale: f32,
+}
+
+impl Augment {
+    /// Checks the numbers.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |what: String| Err(Error::Config(what));
+        if !self.rotate.is_finite() {
+            return bad(format!("rotation {} is not finite", self.rotate));
+        }
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            return bad(format!("scale {} must be a positive number", self.scale));
+        }
+        if !(self.jitter.is_finite() && self.jitter >= 0.0) {
+            return bad(format!("jitter {} must be >= 0 metres", self.jitter));
+        }
+        if !(0.0..1.0).contains(&self.drop) {
+            return bad(format!("drop {} must be in [0, 1)", self.drop));
+        }
+        Ok(())
+    }
+
+    /// Applies the augmentation to `points` (in scan order).
+    pub fn apply(&self, points: &[Point3]) -> Augmented {
+        let rotate = wrap_pi(self.rotate);
+        let (sin, cos) = rotate.sin_cos();
+        let scale = self.scale;
+        let mut rng = SplitMix::new(self.seed);
+        let n = points.len();
+        let cap = if self.drop > 0.0 { n - n / 2 } else { n };
+        let mut kept = Vec::with_capacity(cap);
+        let mut base = Vec::with_capacity(cap);
+        let mut out = Vec::with_capacity(cap);
+        let drop = self.drop as f64;
+        let sigma = self.jitter as f64;
+        let sign = if self.flip { -1.0f32 } else { 1.0 };
+        for (i, p) in points.iter().enumerate() {
+            if drop > 0.0 && rng.uniform() < drop {
+                continue;
+            }
+            let mut q = *p;
+            if sigma > 0.0 {
+                let (a, b) = rng.normal_pair();
+                let (c, _) = rng.normal_pair();
+                q.x = (q.x as f64 + sigma * a) as f32;
+                q.y = (q.y as f64 + sigma * b) as f32;
+                q.z = (q.z as f64 + sigma * c) as f32;
+            }
+            q.y *= sign;
+            let (x, y) = (q.x as f64, q.y as f64);
+            let s = scale as f64;
+            out.push(Point3::new(
+                (s * (x * cos - y * sin)) as f32,
+                (s * (x * sin + y * cos)) as f32,
+                q.z * scale,
+            ));
+            base.push(q);
+            kept.push(i as u32);
+        }
+        Augmented {
+            kept,
+            base,
+            points: out,
+            rotate,
+            scale,
+        }
+    }
+}
+
+/// `a` wrapped into [-pi, pi].
+fn wrap_pi(a: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    if (-PI..=PI).contains(&a) {
+        a
+    } else {
+        (a + PI).rem_euclid(TAU) - PI
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_keeps_every_point_unchanged() {
+        let pts = vec![Point3::new(1.5, -2.25, 0.1), Point3::new(-3.0, 4.0, -1.0)];
+        let a = Augment::default().apply(&pts);
+        assert_eq!(a.points, pts);
+        assert_eq!(a.base, pts);
+        assert_eq!(a.kept, [0, 1]);
+    }
+
+    #[test]
+    fn quarter_turn_mirror_and_scale() {
+        let pts = vec![Point3::new(1.0, 0.0, 1.0)];
+        let a = Augment {
+            rotate: std::f64::consts::FRAC_PI_2,
+            scale: 2.0,
+            flip: true,
+            ..Default::default()
+        }
+        .apply(&pts);
+        let p = a.points[0];
+        assert!(
+            p.x.abs() < 1e-6 && (p.y - 2.0).abs() < 1e-6 && p.z == 2.0,
+            "{p:?}"
+        );
+        assert_eq!(wrap_pi(3.0 * std::f64::consts::PI), std::f64::consts::PI);
+    }
+
+    #[test]
+    fn drop_and_jitter_are_seeded() {
+        let pts: Vec<Point3> = (0..10_000)
+            .map(|i| Point3::new(i as f32, 1.0, 0.0))
+            .collect();
+        let aug = Augment {
+            drop: 0.25,
+            jitter: 0.01,
+            seed: 9,
+            ..Default::default()
+        };
+        let (a, b) = (aug.apply(&pts), aug.apply(&pts));
+        assert_eq!(a.kept, b.kept);
+        assert_eq!(a.points, b.points);
+        let share = a.kept.len() as f64 / pts.len() as f64;
+        assert!((share - 0.75).abs() < 0.02, "{share}");
+        let c = Augment { seed: 10, ..aug }.apply(&pts);
+        assert_ne!(a.kept, c.kept);
+        assert!(Augment { drop: 1.0, ..aug }.validate().is_err());
+        assert!(Augment { scale: 0.0, ..aug }.validate().is_err());
+    }
+}

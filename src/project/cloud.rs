@@ -1,0 +1,248 @@
+//! PROJECT: a point cloud held in memory (the Python module's input) to a map, optionally
+//! augmented first.
+//!
+//! [`project_cloud`] is the conversion's own projection ([`super::project`] and
+//! [`super::frame::assemble`]) on arrays instead of a scan file: for the points of a scan as
+//! read (finite, in range, in file order), their labels and colours, it gives the map `convert`
+//! writes, byte for byte. Rows come from the given ring indices, else from the scan order; with
+//! an [`Augment`] the rings are taken from the original order first, so that augmenting never
+//! moves a point to another row.
+
+use super::augment::Augment;
+use super::frame::{assemble, PgmFrame, PointValues};
+use super::{norm, project_impl, rings, PgmSpec, ProjectionStats, RowMode, Rows, EMPTY, LASERS};
+use crate::error::{Error, Result};
+use crate::geom::Point3;
+use crate::label::ClassId;
+
+/// A cloud to project: one entry per point in every array, in scan order.
+#[derive(Debug, Clone, Copy)]
+pub struct Cloud<'a> {
+    /// Coordinates, velodyne frame, metres.
+    pub points: &'a [Point3],
+    /// Reflectance (0-1).
+    pub intensity: &'a [f32],
+    /// Ring (laser) index of each point, below [`LASERS`]; `None`: from the scan order.
+    pub rings: Option<&'a [u8]>,
+    /// Class id of each point; `None`: 0 everywhere.
+    pub labels: Option<&'a [ClassId]>,
+    /// Instance id of each point; `None`: 0 everywhere.
+    pub instance: Option<&'a [u16]>,
+    /// Colour of each point (0-1) when the map has colour channels.
+    pub colours: Option<&'a [[f32; 3]]>,
+    /// Whether each point has a colour; `None`: all have.
+    pub colour_valid: Option<&'a [bool]>,
+}
+
+/// A projected cloud.
+#[derive(Debug, Clone)]
+pub struct CloudMap {
+    /// The map (channels in the `.npy` order; colour channels when the cloud had colours).
+    pub frame: PgmFrame,
+    /// The cell (`row * cols + col`) of every input point; [`EMPTY`] outside the field of view
+    /// or dropped by the augmentation.
+    pub point_cell: Vec<u32>,
+    /// Index of the input point kept in each cell; [`EMPTY`] for empty cells.
+    pub cell_point: Vec<u32>,
+    /// What the projection found.
+    pub stats: ProjectionStats,
+    /// Rings seen in the scan order (64 when the rings were given).
+    pub rings_found: usize,
+}
+
+impl Cloud<'_> {
+    /// A cloud of points alone.
+    pub fn of_points<'a>(points: &'a [Point3], intensity: &'a [f32]) -> Cloud<'a> {
+        Cloud {
+            points,
+            intensity,
+            rings: None,
+            labels: None,
+            instance: None,
+            colours: None,
+            colour_valid: None,
+        }
+    }
+
+    /// Checks lengths, finiteness and ring indices; the error says which array and which point.
+    pub fn validate(&self) -> Result<()> {
+        let n = self.points.len();
+        let len = |name: &str, m: Option<usize>| match m {
+            Some(m) if m != n => Err(Error::Config(format!(
+                "{name} has {m} entries for {n} points"
+            ))),
+            _ => Ok(()),
+        };
+        len("intensity", Some(self.intensity.len()))?;
+        len("rings", self.rings.map(<[u8]>::len))?;
+        len("labels", self.labels.map(<[ClassId]>::len))?;
+        len("instance", self.instance.map(<[u16]>::len))?;
+        len("colours", self.colours.map(<[[f32; 3]]>::len))?;
+        len("colour_valid", self.colour_valid.map(<[bool]>::len))?;
+        if self.colour_valid.is_some() && self.colours.is_none() {
+            return Err(Error::Config("colour_valid without colours".into()));
+        }
+        let finite = |p: &Point3| p.x.is_finite() && p.y.is_finite() && p.z.is_finite();
+        if let Some(i) = self.points.iter().position(|p| !finite(p)) {
+            return Err(Error::Config(format!(
+                "point {i} is not finite ({:?})",
+                self.points[i].coords.as_slice()
+            )));
+        }
+        if let Some(i) = self.intensity.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Config(format!(
+                "intensity of point {i} is not finite ({})",
+                self.intensity[i]
+            )));
+        }
+        if let Some(c) = self.colours {
+            if let Some(i) = c.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
+                return Err(Error::Config(format!(
+                    "colour of point {i} is not finite ({:?})",
+                    c[i]
+                )));
+            }
+        }
+        if let Some(r) = self.rings {
+            if let Some(i) = r.iter().position(|&v| v as usize >= LASERS) {
+                return Err(Error::Config(format!(
+                    "ring {} of point {i} is not below {LASERS}",
+                    r[i]
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Projects a cloud, augmented first when `augment` is given (and not the identity).
+pub fn project_cloud(
+    cloud: &Cloud<'_>,
+    spec: &PgmSpec,
+    augment: Option<&Augment>,
+) -> Result<CloudMap> {
+    spec.validate()?;
+    cloud.validate()?;
+    let n = cloud.points.len();
+    let zeros_class;
+    let zeros_instance;
+    let class = match cloud.labels {
+        Some(l) => l,
+        None => {
+            zeros_class = vec![0 as ClassId; n];
+            &zeros_class[..]
+        }
+    };
+    let instance = match cloud.instance {
+        Some(l) => l,
+        None => {
+            zeros_instance = vec![0u16; n];
+            &zeros_instance[..]
+        }
+    };
+    let colour_of = |i: usize| -> Option<[f32; 3]> {
+        let c = cloud.colours?;
+        match cloud.colour_valid {
+            Some(v) if !v[i] => None,
+            _ => Some(c[i]),
+        }
+    };
+    let aug = match augment {
+        Some(a) => {
+            a.validate()?;
+            (*a != Augment {
+                seed: a.seed,
+                ..Augment::default()
+            })
+            .then_some(a)
+        }
+        None => None,
+    };
+    let Some(aug) = aug else {
+        let rows = cloud.rings.map_or(Rows::FromSpec, Rows::Rings);
+        let proj = project_impl(cloud.points, spec, true, rows, |_, p| {
+            spec.column_fast(p).map(|c| (c, norm(p)))
+        });
+        let values = PointValues {
+            points: cloud.points,
+            intensity: cloud.intensity,
+            class,
+            instance,
+        };
+        let colour = cloud
+            .colours
+            .map(|_| &colour_of as &dyn Fn(usize) -> Option<[f32; 3]>);
+        let frame = assemble(values, &proj, colour);
+        return Ok(CloudMap {
+            frame,
+            point_cell: proj.point_cell,
+            cell_point: proj.cell_point,
+            stats: proj.stats,
+            rings_found: proj.rings_found,
+        });
+    };
+    // Rings from the original order, before any point moves or goes.
+    let (recovered, rings_found) = match (cloud.rings, spec.row_mode) {
+        (Some(_), _) => (None, LASERS),
+        (None, RowMode::Rings) => rings(cloud.points),
+        (None, RowMode::Elevation) => (None, 0),
+    };
+    let a = aug.apply(cloud.points);
+    let all_rings = cloud.rings.or(recovered.as_deref());
+    let kept_rings = all_rings.map(|r| pick(&a.kept, r));
+    let rows = match &kept_rings {
+        Some(r) => Rows::Rings(r),
+        None if spec.row_mode == RowMode::Rings => Rows::Fallback,
+        None => Rows::FromSpec,
+    };
+    let (rotate, scale) = (a.rotate, a.scale);
+    let proj = project_impl(&a.points, spec, true, rows, |i, _| {
+        let b = &a.base[i];
+        spec.column_fast_rotated(b, rotate)
+            .map(|c| (c, norm(b) * scale))
+    });
+    let (k_int, k_class, k_inst) = (
+        pick(&a.kept, cloud.intensity),
+        pick(&a.kept, class),
+        pick(&a.kept, instance),
+    );
+    let values = PointValues {
+        points: &a.points,
+        intensity: &k_int,
+        class: &k_class,
+        instance: &k_inst,
+    };
+    let kept_colour = |k: usize| colour_of(a.kept[k] as usize);
+    let colour = cloud
+        .colours
+        .map(|_| &kept_colour as &dyn Fn(usize) -> Option<[f32; 3]>);
+    let frame = assemble(values, &proj, colour);
+    // Back to the input's indices.
+    let mut point_cell = vec![EMPTY; n];
+    for (k, &i) in a.kept.iter().enumerate() {
+        point_cell[i as usize] = proj.point_cell[k];
+    }
+    let cell_point = proj
+        .cell_point
+        .iter()
+        .map(|&k| {
+            if k == EMPTY {
+                EMPTY
+            } else {
+                a.kept[k as usize]
+            }
+        })
+        .collect();
+    Ok(CloudMap {
+        frame,
+        point_cell,
+        cell_point,
+        stats: proj.stats,
+        rings_found,
+    })
+}
+
+/// The entries of `v` at `kept`.
+fn pick<T: Copy>(kept: &[u32], v: &[T]) -> Vec<T> {
+    kept.iter().map(|&i| v[i as usize]).collect()
+}

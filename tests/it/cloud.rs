@@ -1,0 +1,204 @@
+//! PROJECT from memory: `project_cloud` is the conversion's projection, and augmentation keeps
+//! rings and shifts columns exactly.
+
+use kitti2pgm::convert::frame::{load, process};
+use kitti2pgm::params::MapParams;
+use kitti2pgm::plan::{FrameSelection, Plan};
+use kitti2pgm::project::camera::{RgbOptions, Sampling};
+use kitti2pgm::project::{project_cloud, rings, Augment, Cloud, CloudMap, PgmSpec, EMPTY};
+
+use crate::util::*;
+
+fn spec360() -> PgmSpec {
+    PgmSpec {
+        fov: kitti2pgm::geom::Degrees(360.0),
+        cols: 2048,
+        ..Default::default()
+    }
+}
+
+/// `project_cloud` of a loaded frame's arrays.
+fn cloud_map(
+    l: &kitti2pgm::convert::frame::LoadedFrame,
+    spec: &PgmSpec,
+    aug: Option<&Augment>,
+) -> CloudMap {
+    let colours = l.point_colours();
+    let rgb: Option<Vec<[f32; 3]>> = colours
+        .as_ref()
+        .map(|c| c.iter().map(|v| v.unwrap_or([0.0; 3])).collect());
+    let valid: Option<Vec<bool>> = colours
+        .as_ref()
+        .map(|c| c.iter().map(Option::is_some).collect());
+    let cloud = Cloud {
+        labels: Some(&l.labels.points.class),
+        instance: Some(&l.labels.points.instance),
+        colours: rgb.as_deref(),
+        colour_valid: valid.as_deref(),
+        ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+    };
+    project_cloud(&cloud, spec, aug).unwrap()
+}
+
+#[test]
+fn cloud_projection_is_the_conversion() {
+    let plan = Plan::build(&raw_root(), FrameSelection::Annotated).unwrap();
+    for (spec, rgb) in [
+        (PgmSpec::default(), false),
+        (PgmSpec::default(), true),
+        (spec360(), false),
+    ] {
+        let map = MapParams {
+            spec,
+            rgb: rgb.then_some(RgbOptions {
+                camera: 2,
+                sampling: Sampling::Nearest,
+            }),
+            ..Default::default()
+        };
+        for &(d, f) in plan.jobs.iter().take(3) {
+            let l = load(&plan.drives[d], f, &map, false).unwrap();
+            let conv = process(
+                &l.id,
+                &l.scan,
+                &l.labels,
+                &spec,
+                &map.class_map,
+                l.camera.as_ref().map(|(p, i)| (p, i)),
+            );
+            let m = cloud_map(&l, &spec, None);
+            assert_eq!(m.frame, conv.pgm, "{} rgb={rgb} cols={}", l.id, spec.cols);
+            // The identity augmentation is no augmentation, whatever its seed.
+            let id = Augment {
+                seed: 77,
+                ..Default::default()
+            };
+            assert_eq!(cloud_map(&l, &spec, Some(&id)).frame, conv.pgm);
+            // Given rings are the recovered ones.
+            let (r, _) = rings(&l.scan.points);
+            let given = Cloud {
+                rings: r.as_deref(),
+                labels: Some(&l.labels.points.class),
+                instance: Some(&l.labels.points.instance),
+                ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+            };
+            if !rgb {
+                assert_eq!(project_cloud(&given, &spec, None).unwrap().frame, conv.pgm);
+            }
+        }
+    }
+}
+
+#[test]
+fn rotation_by_one_column_shifts_one_column_and_keeps_rows() {
+    let plan = Plan::build(&raw_root(), FrameSelection::Annotated).unwrap();
+    let (d, f) = plan.jobs[0];
+    let spec = spec360();
+    let l = load(
+        &plan.drives[d],
+        f,
+        &MapParams {
+            spec,
+            ..Default::default()
+        },
+        false,
+    )
+    .unwrap();
+    let base = cloud_map(&l, &spec, None);
+    let step = std::f64::consts::TAU / spec.cols as f64;
+    let rot = cloud_map(
+        &l,
+        &spec,
+        Some(&Augment {
+            rotate: step,
+            ..Default::default()
+        }),
+    );
+    let (h, w, c) = (spec.rows, spec.cols, base.frame.depth());
+    let mut moved = 0;
+    for r in 0..h {
+        for col in 0..w {
+            let a = &base.frame.data[(r * w + (col + 1) % w) * c..][..c];
+            let b = &rot.frame.data[(r * w + col) * c..][..c];
+            // z, intensity, range and label move with the column; x and y turn.
+            assert_eq!(
+                [a[2], a[3], a[4], a[5]],
+                [b[2], b[3], b[4], b[5]],
+                "row {r} col {col}"
+            );
+            moved += (a[4] > 0.0) as usize;
+        }
+    }
+    assert!(moved > 50_000);
+    // Every point keeps its row.
+    for (i, (&p, &q)) in base.point_cell.iter().zip(&rot.point_cell).enumerate() {
+        assert_eq!(p == EMPTY, q == EMPTY, "point {i}");
+        if p != EMPTY {
+            assert_eq!(p as usize / w, q as usize / w, "point {i} changed row");
+        }
+    }
+    // A 90-degree map: the same shift, one column leaves and one comes in.
+    let spec = PgmSpec::default();
+    let base = cloud_map(&l, &spec, None);
+    let step = std::f64::consts::FRAC_PI_2 / spec.cols as f64;
+    let rot = cloud_map(
+        &l,
+        &spec,
+        Some(&Augment {
+            rotate: -step,
+            ..Default::default()
+        }),
+    );
+    let c = base.frame.depth();
+    for r in 0..spec.rows {
+        for col in 1..spec.cols {
+            let a = &base.frame.data[(r * spec.cols + col - 1) * c + 4];
+            let b = &rot.frame.data[(r * spec.cols + col) * c + 4];
+            assert_eq!(a, b);
+        }
+    }
+}
+
+#[test]
+fn augmentation_drops_scales_and_refuses_bad_input() {
+    let plan = Plan::build(&raw_root(), FrameSelection::Annotated).unwrap();
+    let (d, f) = plan.jobs[0];
+    let spec = PgmSpec::default();
+    let l = load(&plan.drives[d], f, &MapParams::default(), false).unwrap();
+    let base = cloud_map(&l, &spec, None);
+    let aug = Augment {
+        drop: 0.5,
+        jitter: 0.02,
+        scale: 1.1,
+        flip: true,
+        rotate: 0.3,
+        seed: 5,
+    };
+    let a = cloud_map(&l, &spec, Some(&aug));
+    assert_eq!(a.frame, cloud_map(&l, &spec, Some(&aug)).frame, "seeded");
+    assert!(a.stats.in_fov < base.stats.in_fov * 7 / 10);
+    assert_eq!(a.stats.ring_fallbacks, 0);
+    let dropped = a.point_cell.iter().filter(|&&c| c == EMPTY).count();
+    assert!(dropped > l.scan.len() / 2);
+    // Bad arrays are named.
+    let mut pts = l.scan.points.clone();
+    pts[7].y = f32::NAN;
+    let bad = Cloud::of_points(&pts, &l.scan.reflectance);
+    let e = project_cloud(&bad, &spec, None).unwrap_err().to_string();
+    assert!(e.contains("point 7 is not finite"), "{e}");
+    let short = Cloud::of_points(&l.scan.points, &l.scan.reflectance[1..]);
+    let e = project_cloud(&short, &spec, None).unwrap_err().to_string();
+    assert!(e.contains("intensity has"), "{e}");
+    let r = vec![64u8; l.scan.len()];
+    let e = project_cloud(
+        &Cloud {
+            rings: Some(&r),
+            ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+        },
+        &spec,
+        None,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("ring 64 of point 0"), "{e}");
+}
