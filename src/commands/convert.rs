@@ -77,11 +77,7 @@ impl ConvertArgs {
                 .with_context(|| format!("reading {}", path.display()))?;
             return Ok(ClassMap::from_semantic_kitti_yaml(&text, path)?);
         }
-        Ok(if plan.layout() == Layout::Sequence {
-            ClassMap::semantic_kitti()
-        } else {
-            ClassMap::kitti_paper()
-        })
+        Ok(ClassMap::default_for(plan.layout()))
     }
 }
 

@@ -55,6 +55,17 @@ impl LabelBox {
         }
     }
 
+    /// A box of `class` and `instance` with the given half extents, its centre and axes placed
+    /// by `pose` (box frame to velodyne frame).
+    pub fn centred(class: ClassId, instance: u16, half_extents: Vector3, pose: Iso3) -> LabelBox {
+        LabelBox {
+            class,
+            instance,
+            cuboid: Cuboid::new(half_extents),
+            pose,
+        }
+    }
+
     /// The box of object line number `index` of a KITTI object frame, of class `class`.
     /// `label_2` gives the bottom-face centre in the rectified camera 0 frame (y down) and a yaw
     /// around that frame's y axis; the box is centred (lifted by h/2 along -y), given its

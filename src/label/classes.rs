@@ -120,6 +120,15 @@ impl ClassMap {
         }
     }
 
+    /// The default classes of a layout: SemanticKITTI's 20 for sequences, the paper's 4 for
+    /// box sources (KITTI raw tracklets, KITTI object labels).
+    pub fn default_for(layout: crate::kitti::Layout) -> ClassMap {
+        match layout {
+            crate::kitti::Layout::Sequence => ClassMap::semantic_kitti(),
+            _ => ClassMap::kitti_paper(),
+        }
+    }
+
     /// SemanticKITTI's 20 training classes, from the dataset's own `semantic-kitti.yaml`
     /// (embedded): class `c` is named after `labels[learning_map_inv[c]]` and coloured with
     /// that label's `color_map` entry (BGR in the file); 0 `unlabeled` is ignored; mIoU over the

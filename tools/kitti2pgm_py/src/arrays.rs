@@ -1,0 +1,126 @@
+//! Numpy arguments: checked for type, dtype and shape, with a `ValueError` that names the
+//! argument and says what it got.
+
+use numpy::{Element, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use kitti2pgm::geom::Point3;
+
+/// "float64 array of shape (3, 4)" or the Python type of a non-array.
+fn describe(obj: &Bound<'_, PyAny>) -> String {
+    match obj.cast::<numpy::PyUntypedArray>() {
+        Ok(a) => {
+            let dims: Vec<String> = a.shape().iter().map(usize::to_string).collect();
+            let comma = if dims.len() == 1 { "," } else { "" };
+            format!(
+                "a {} array of shape ({}{comma})",
+                a.dtype().str().map(|s| s.to_string()).unwrap_or_default(),
+                dims.join(", ")
+            )
+        }
+        Err(_) => format!(
+            "a {}",
+            obj.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default()
+        ),
+    }
+}
+
+/// The values of an array of element type `T`, row-major, with its shape (one copy into Rust
+/// memory; contiguous arrays are copied with memcpy).
+fn values<T: Element + Copy>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    want: &str,
+) -> PyResult<(Vec<T>, Vec<usize>)> {
+    let arr = obj.cast::<PyArrayDyn<T>>().map_err(|_| {
+        PyValueError::new_err(format!("{name} must be {want}, got {}", describe(obj)))
+    })?;
+    let ro = arr.readonly();
+    let shape = ro.shape().to_vec();
+    let v = match ro.as_slice() {
+        Ok(s) => s.to_vec(),
+        Err(_) => ro.as_array().iter().copied().collect(),
+    };
+    Ok((v, shape))
+}
+
+/// Points from an (N, 3) or (N, 4) float32 array; with `intensity`, (N, 4) is required and the
+/// fourth column is returned too.
+pub fn points_arg(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    intensity: bool,
+) -> PyResult<(Vec<Point3>, Option<Vec<f32>>)> {
+    let want = if intensity {
+        "a float32 array of shape (N, 4): x, y, z, intensity"
+    } else {
+        "a float32 array of shape (N, 3) or (N, 4)"
+    };
+    let (v, shape) = values::<f32>(obj, name, want)?;
+    let cols = match shape[..] {
+        [_, 4] => 4,
+        [_, 3] if !intensity => 3,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "{name} must be {want}, got {}",
+                describe(obj)
+            )))
+        }
+    };
+    let pts = v
+        .chunks_exact(cols)
+        .map(|r| Point3::new(r[0], r[1], r[2]))
+        .collect();
+    let inten = intensity.then(|| v.chunks_exact(4).map(|r| r[3]).collect());
+    Ok((pts, inten))
+}
+
+/// A one-dimensional array of `n` entries of type `T` (`dtype` names it in the message).
+pub fn vec_arg<T: Element + Copy + DtypeName>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    n: usize,
+) -> PyResult<Vec<T>> {
+    let want = format!("a {} array of shape ({n},)", T::NAME);
+    let (v, shape) = values::<T>(obj, name, &want)?;
+    if shape != [n] {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be {want} (one per point), got {}",
+            describe(obj)
+        )));
+    }
+    Ok(v)
+}
+
+/// Colours from an (N, 3) float32 array.
+pub fn colours_arg(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<[f32; 3]>> {
+    let want = format!("a float32 array of shape ({n}, 3) (r, g, b in [0, 1])");
+    let (v, shape) = values::<f32>(obj, "colours", &want)?;
+    if shape != [n, 3] {
+        return Err(PyValueError::new_err(format!(
+            "colours must be {want}, got {}",
+            describe(obj)
+        )));
+    }
+    Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+}
+
+/// The numpy name of an element type, for messages.
+pub trait DtypeName {
+    /// e.g. `uint8`.
+    const NAME: &'static str;
+}
+
+impl DtypeName for u8 {
+    const NAME: &'static str = "uint8";
+}
+impl DtypeName for u16 {
+    const NAME: &'static str = "uint16";
+}
+impl DtypeName for bool {
+    const NAME: &'static str = "bool";
+}

@@ -1,0 +1,232 @@
+//! `import kitti2pgm`: the kitti2pgm library from Python (PyO3 + rust-numpy).
+//!
+//! A thin layer: every function here converts arrays and options, calls the Rust library
+//! (`kitti2pgm::project::project_cloud`, `kitti2pgm::convert::frame::load`, the readers) with the
+//! GIL released, and hands the results back as numpy arrays that own the Rust buffers (no copy).
+//! Bad arrays (shape, dtype, non-finite values, lengths) raise `ValueError` naming the argument;
+//! unreadable files raise `OSError`, malformed ones `ValueError`, naming the file.
+
+mod arrays;
+mod dataset;
+mod readers;
+
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use kitti2pgm::geom::Degrees;
+use kitti2pgm::project::{project_cloud, Augment, Cloud, CloudMap, PgmSpec, RowMode, EMPTY};
+
+use arrays::{colours_arg, points_arg, vec_arg};
+
+/// The library's error as a Python exception: files that cannot be read are `OSError`,
+/// everything else (bad contents, bad arguments) `ValueError`.
+pub(crate) fn py_err(e: kitti2pgm::Error) -> PyErr {
+    match e {
+        kitti2pgm::Error::Io { .. } | kitti2pgm::Error::Write { .. } => {
+            PyOSError::new_err(e.to_string())
+        }
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// The map shape and field of view from the keyword arguments.
+pub(crate) fn spec_of(
+    rows: usize,
+    cols: usize,
+    fov_deg: f64,
+    fov_up_deg: f64,
+    fov_down_deg: f64,
+    row_mode: &str,
+) -> PyResult<PgmSpec> {
+    let row_mode = match row_mode {
+        "rings" => RowMode::Rings,
+        "elevation" => RowMode::Elevation,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "row_mode must be 'rings' or 'elevation', not {other:?}"
+            )))
+        }
+    };
+    let spec = PgmSpec {
+        rows,
+        cols,
+        fov: Degrees(fov_deg),
+        fov_up: Degrees(fov_up_deg),
+        fov_down: Degrees(fov_down_deg),
+        row_mode,
+    };
+    spec.validate().map_err(py_err)?;
+    Ok(spec)
+}
+
+/// Ring (laser) index of every point of a scan from its order: an (N,) uint8 array, or None
+/// when the scan does not show exactly 64 rings (the converter then bins by elevation).
+/// `points`: (N, 3+) float32, in the order of the `.bin` file.
+#[pyfunction]
+fn rings<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+) -> PyResult<Option<Bound<'py, PyArray1<u8>>>> {
+    let (pts, _) = points_arg(points, "points", false)?;
+    let (r, _found) = py.detach(|| kitti2pgm::project::rings(&pts));
+    Ok(r.map(|r| PyArray1::from_vec(py, r)))
+}
+
+/// Projects a point cloud onto a Polar Grid Map, exactly as `kitti2pgm convert` does.
+///
+/// points: (N, 4) float32 x, y, z, intensity (velodyne frame, metres), in scan order.
+/// rings: optional (N,) uint8 ring indices (< 64); default: recovered from the scan order.
+/// labels: optional (N,) uint8 class ids; instance: optional (N,) uint16.
+/// colours: optional (N, 3) float32 in [0, 1] (adds r, g, b channels); colour_valid: (N,) bool.
+/// rotate_deg, scale, flip, jitter (metres), drop (probability), seed: 3D augmentation applied
+/// before projecting (rows stay the rings of the original order; a rotation by k column angles
+/// shifts the map by exactly k columns).
+///
+/// Returns a dict: map (H, W, C) float32 with channel names in channels (x y z intensity range
+/// label [r g b]), mask (H, W) bool, label (H, W) uint8, instance (H, W) uint16, rgb_valid
+/// (H, W) bool or None, row and col (N,) int32 of every point (-1 outside the map or dropped),
+/// point_index (H, W) int32 (-1 for empty cells), stats (dict of counts).
+#[pyfunction]
+#[pyo3(signature = (points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9,
+    row_mode="rings", rings=None, labels=None, instance=None, colours=None, colour_valid=None,
+    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0))]
+#[allow(clippy::too_many_arguments)]
+fn project<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    rows: usize,
+    cols: usize,
+    fov_deg: f64,
+    fov_up_deg: f64,
+    fov_down_deg: f64,
+    row_mode: &str,
+    rings: Option<&Bound<'py, PyAny>>,
+    labels: Option<&Bound<'py, PyAny>>,
+    instance: Option<&Bound<'py, PyAny>>,
+    colours: Option<&Bound<'py, PyAny>>,
+    colour_valid: Option<&Bound<'py, PyAny>>,
+    rotate_deg: f64,
+    scale: f32,
+    flip: bool,
+    jitter: f32,
+    drop: f32,
+    seed: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let spec = spec_of(rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode)?;
+    let (pts, intensity) = points_arg(points, "points", true)?;
+    let n = pts.len();
+    let rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
+    let labels = labels.map(|a| vec_arg::<u8>(a, "labels", n)).transpose()?;
+    let instance = instance
+        .map(|a| vec_arg::<u16>(a, "instance", n))
+        .transpose()?;
+    let colours = colours.map(|a| colours_arg(a, n)).transpose()?;
+    let colour_valid = colour_valid
+        .map(|a| vec_arg::<bool>(a, "colour_valid", n))
+        .transpose()?;
+    let augment = Augment {
+        rotate: rotate_deg.to_radians(),
+        scale,
+        flip,
+        jitter,
+        drop,
+        seed,
+    };
+    let intensity = intensity.expect("asked for");
+    let map = py
+        .detach(|| {
+            let cloud = Cloud {
+                points: &pts,
+                intensity: &intensity,
+                rings: rings.as_deref(),
+                labels: labels.as_deref(),
+                instance: instance.as_deref(),
+                colours: colours.as_deref(),
+                colour_valid: colour_valid.as_deref(),
+            };
+            project_cloud(&cloud, &spec, Some(&augment))
+        })
+        .map_err(py_err)?;
+    map_dict(py, map)
+}
+
+/// The dict `project` returns; every array takes over its Rust buffer.
+fn map_dict<'py>(py: Python<'py>, m: CloudMap) -> PyResult<Bound<'py, PyDict>> {
+    let CloudMap {
+        frame,
+        point_cell,
+        cell_point,
+        stats,
+        rings_found,
+    } = m;
+    let (h, w, c) = (frame.rows, frame.cols, frame.depth());
+    let d = PyDict::new(py);
+    d.set_item(
+        "map",
+        PyArray1::from_vec(py, frame.data).reshape([h, w, c])?,
+    )?;
+    d.set_item("channels", frame.channels.names())?;
+    let mask: Vec<bool> = frame.mask.iter().map(|&v| v != 0).collect();
+    d.set_item("mask", PyArray1::from_vec(py, mask).reshape([h, w])?)?;
+    d.set_item(
+        "label",
+        PyArray1::from_vec(py, frame.label).reshape([h, w])?,
+    )?;
+    d.set_item(
+        "instance",
+        PyArray1::from_vec(py, frame.instance).reshape([h, w])?,
+    )?;
+    match frame.rgb_valid {
+        Some(v) => {
+            let v: Vec<bool> = v.iter().map(|&b| b != 0).collect();
+            d.set_item("rgb_valid", PyArray1::from_vec(py, v).reshape([h, w])?)?
+        }
+        None => d.set_item("rgb_valid", py.None())?,
+    }
+    let (row, col): (Vec<i32>, Vec<i32>) = point_cell
+        .iter()
+        .map(|&c| {
+            if c == EMPTY {
+                (-1, -1)
+            } else {
+                ((c as usize / w) as i32, (c as usize % w) as i32)
+            }
+        })
+        .unzip();
+    d.set_item("row", PyArray1::from_vec(py, row))?;
+    d.set_item("col", PyArray1::from_vec(py, col))?;
+    let index: Vec<i32> = cell_point
+        .iter()
+        .map(|&i| if i == EMPTY { -1 } else { i as i32 })
+        .collect();
+    d.set_item(
+        "point_index",
+        PyArray1::from_vec(py, index).reshape([h, w])?,
+    )?;
+    let s = PyDict::new(py);
+    s.set_item("in_fov", stats.in_fov)?;
+    s.set_item("filled_cells", stats.filled_cells)?;
+    s.set_item("collisions", stats.collisions)?;
+    s.set_item("ring_fallback", stats.ring_fallbacks > 0)?;
+    s.set_item("rings_found", rings_found)?;
+    d.set_item("stats", s)?;
+    Ok(d)
+}
+
+/// kitti2pgm's library as a Python module: read KITTI raw, SemanticKITTI and KITTI object
+/// frames, label points in boxes, recover laser rings, and project clouds to Polar Grid Maps
+/// (optionally augmented in 3D) exactly as `kitti2pgm convert` does.
+#[pymodule]
+#[pyo3(name = "kitti2pgm")]
+fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("LASERS", kitti2pgm::project::LASERS)?;
+    m.add("MAX_RANGE_M", kitti2pgm::kitti::velodyne::MAX_RANGE_M)?;
+    m.add_function(wrap_pyfunction!(project, m)?)?;
+    m.add_function(wrap_pyfunction!(rings, m)?)?;
+    readers::register(m)?;
+    m.add_class::<dataset::Dataset>()?;
+    Ok(())
+}

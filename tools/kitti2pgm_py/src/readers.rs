@@ -1,0 +1,279 @@
+//! The readers: scans, per-point labels, calibrations, tracklets, object labels, class maps,
+//! and labelling points in boxes. Structured values (tracklets, class maps) cross as the
+//! library's own serde serialisation, parsed into Python dicts.
+
+use std::path::PathBuf;
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use kitti2pgm::geom::{na, Iso3, Matrix3x4, Real, Vector3};
+use kitti2pgm::kitti::calib::{Calibration, FrameCalib};
+use kitti2pgm::kitti::velodyne::Scan;
+use kitti2pgm::label::{ClassMap, LabelBox, Labeller};
+
+use crate::arrays::points_arg;
+use crate::py_err;
+
+/// A serde value as Python objects (through `json.loads`).
+pub(crate) fn to_py<'py, T: serde::Serialize>(
+    py: Python<'py>,
+    v: &T,
+) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(v).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+/// A 3x4 or 4x4 matrix as a float64 numpy array.
+fn matrix<'py, R: na::Dim, C: na::Dim, S: na::RawStorage<f64, R, C>>(
+    py: Python<'py>,
+    m: &na::Matrix<f64, R, C, S>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let rows: Vec<Vec<f64>> = (0..m.nrows())
+        .map(|r| (0..m.ncols()).map(|c| m[(r, c)]).collect())
+        .collect();
+    Ok(PyArray2::from_vec2(py, &rows)?)
+}
+
+/// Reads a velodyne `.bin`: its points as an (N, 4) float32 array (x, y, z, intensity), without
+/// the non-finite points and those beyond MAX_RANGE_M (as the converter reads them). With
+/// `with_file_index`, also the index in the file of each point ((N,) uint32), to line up
+/// per-point files such as SemanticKITTI `.label`.
+#[pyfunction]
+#[pyo3(signature = (path, *, with_file_index=false))]
+fn read_scan<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    with_file_index: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let scan = py.detach(|| Scan::read(&path)).map_err(py_err)?;
+    let n = scan.len();
+    let index = with_file_index.then(|| scan.file_indices());
+    let flat: Vec<f32> = scan
+        .points
+        .iter()
+        .zip(&scan.reflectance)
+        .flat_map(|(p, &r)| [p.x, p.y, p.z, r])
+        .collect();
+    let pts = PyArray1::from_vec(py, flat).reshape([n, 4])?.into_any();
+    match index {
+        Some(i) => Ok((pts, PyArray1::from_vec(py, i))
+            .into_pyobject(py)?
+            .into_any()),
+        None => Ok(pts),
+    }
+}
+
+/// Reads a per-point `.label` file (SemanticKITTI): one uint32 per point of the `.bin`, the
+/// class in the low 16 bits and the instance in the high 16.
+#[pyfunction]
+fn read_point_labels<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyArray1<u32>>> {
+    let v = py
+        .detach(|| kitti2pgm::format::label_file::read_raw(&path))
+        .map_err(py_err)?;
+    Ok(PyArray1::from_vec(py, v))
+}
+
+/// Reads a KITTI raw date folder's calibration (calib_cam_to_cam.txt, calib_velo_to_cam.txt):
+/// a dict of float64 matrices: velo_to_cam (4x4), R_rect_00 (4x4), P_rect (list of four 3x4),
+/// velo_to_image (list of four 3x4: P_rect_0c * R_rect_00 * velo_to_cam).
+#[pyfunction]
+fn read_calibration<'py>(py: Python<'py>, date_dir: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let c = Calibration::read_dir(&date_dir).map_err(py_err)?;
+    let d = PyDict::new(py);
+    d.set_item(
+        "velo_to_cam",
+        matrix(py, &c.velo_to_cam.velo_to_cam.to_homogeneous())?,
+    )?;
+    d.set_item("R_rect_00", matrix(py, &c.cam_to_cam.rect_00())?)?;
+    let p: Vec<_> = (0..4)
+        .map(|k| matrix(py, &c.cam_to_cam.cameras[k].p_rect))
+        .collect::<PyResult<_>>()?;
+    d.set_item("P_rect", p)?;
+    let v: Vec<_> = (0..4)
+        .map(|k| matrix(py, &c.velo_to_image(k)))
+        .collect::<PyResult<_>>()?;
+    d.set_item("velo_to_image", v)?;
+    Ok(d)
+}
+
+/// Reads a SemanticKITTI / odometry `calib.txt` or a KITTI object `calib/<frame>.txt`: a dict
+/// of float64 matrices: P (four 3x4), R0_rect (3x3), Tr_velo_to_cam (3x4), velo_to_rect (4x4),
+/// velo_to_image (four 3x4).
+#[pyfunction]
+fn read_frame_calibration<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let c = FrameCalib::read(&path).map_err(py_err)?;
+    let d = PyDict::new(py);
+    let p: Vec<_> = c.p.iter().map(|m| matrix(py, m)).collect::<PyResult<_>>()?;
+    d.set_item("P", p)?;
+    d.set_item("R0_rect", matrix(py, &c.r0_rect)?)?;
+    d.set_item("Tr_velo_to_cam", matrix(py, &c.velo_to_cam)?)?;
+    d.set_item("velo_to_rect", matrix(py, &c.velo_to_rect())?)?;
+    let v: Vec<Matrix3x4> = (0..4).map(|k| c.velo_to_image(k)).collect();
+    let v: Vec<_> = v.iter().map(|m| matrix(py, m)).collect::<PyResult<_>>()?;
+    d.set_item("velo_to_image", v)?;
+    Ok(d)
+}
+
+/// Reads a `tracklet_labels.xml`: a list of tracklet dicts (object_type, h, w, l, first_frame,
+/// poses with t, r, state, occlusion, truncation, ...).
+#[pyfunction]
+fn read_tracklets<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let t = py
+        .detach(|| kitti2pgm::kitti::tracklets::Tracklets::read(&path))
+        .map_err(py_err)?;
+    to_py(py, &t.tracklets)
+}
+
+/// Reads a KITTI object `label_2/<frame>.txt`: a list of dicts (type, hwl, location,
+/// rotation_y), in the rectified camera 0 frame as written.
+#[pyfunction]
+fn read_object_labels<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyList>> {
+    let objs = kitti2pgm::kitti::object::read(&path).map_err(py_err)?;
+    let out = PyList::empty(py);
+    for o in objs {
+        let d = PyDict::new(py);
+        d.set_item("type", &o.kind)?;
+        d.set_item("hwl", o.hwl.to_vec())?;
+        d.set_item("location", o.location.coords.as_slice().to_vec())?;
+        d.set_item("rotation_y", o.rotation_y)?;
+        out.append(d)?;
+    }
+    Ok(out)
+}
+
+/// A class map as a dict (name, classes with name and colour, background, ignore, miou,
+/// object_types, learning_map, ...): "kitti-paper" (car, pedestrian, cyclist, background),
+/// "semantic-kitti" (the 20 training classes), or a SemanticKITTI-style yaml file.
+#[pyfunction]
+#[pyo3(signature = (name="kitti-paper"))]
+fn class_map<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+    to_py(py, &class_map_of(name)?)
+}
+
+/// The class map of a name or yaml path.
+pub(crate) fn class_map_of(name: &str) -> PyResult<ClassMap> {
+    match name {
+        "kitti-paper" | "kitti_paper" => Ok(ClassMap::kitti_paper()),
+        "semantic-kitti" | "semantic_kitti" => Ok(ClassMap::semantic_kitti()),
+        path => {
+            let p = std::path::Path::new(path);
+            let text =
+                std::fs::read_to_string(p).map_err(|e| py_err(kitti2pgm::Error::io(p, e)))?;
+            ClassMap::from_semantic_kitti_yaml(&text, p).map_err(py_err)
+        }
+    }
+}
+
+/// A box dict as the library's box: centre (3), size (l, w, h: full extents along the box's
+/// x, y, z), rotation (3x3, box to velodyne) or yaw (radians about z), class, instance.
+fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
+    let get = |k: &str| d.get_item(k);
+    let err = |what: &str| PyValueError::new_err(format!("box {index}: {what}"));
+    let centre: Vec<f64> = get("centre").map_err(|_| err("no 'centre'"))?.extract()?;
+    let size: Vec<f64> = get("size")
+        .map_err(|_| err("no 'size' (l, w, h)"))?
+        .extract()?;
+    if centre.len() != 3 || size.len() != 3 {
+        return Err(err("centre and size need 3 values each"));
+    }
+    if !size.iter().all(|v| v.is_finite() && *v >= 0.0) || !centre.iter().all(|v| v.is_finite()) {
+        return Err(err("centre and size must be finite, sizes >= 0"));
+    }
+    let rot = match get("rotation") {
+        Ok(r) => {
+            let m: Vec<Vec<f64>> = r.extract()?;
+            if m.len() != 3 || m.iter().any(|row| row.len() != 3) {
+                return Err(err("rotation must be 3x3"));
+            }
+            let m = na::Matrix3::from_fn(|r, c| m[r][c] as Real);
+            na::UnitQuaternion::from_rotation_matrix(&na::Rotation3::from_matrix(&m))
+        }
+        Err(_) => {
+            let yaw: f64 = get("yaw")
+                .map_err(|_| err("no 'rotation' or 'yaw'"))?
+                .extract()?;
+            na::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw as Real)
+        }
+    };
+    let class: u8 = get("class").map_err(|_| err("no 'class'"))?.extract()?;
+    let instance: u16 = match get("instance") {
+        Ok(v) => v.extract()?,
+        Err(_) => u16::try_from(index + 1).unwrap_or(u16::MAX),
+    };
+    let t = na::Translation3::new(centre[0] as Real, centre[1] as Real, centre[2] as Real);
+    let half = Vector3::new(
+        size[0] as Real / 2.0,
+        size[1] as Real / 2.0,
+        size[2] as Real / 2.0,
+    );
+    Ok(LabelBox::centred(
+        class,
+        instance,
+        half,
+        Iso3::from_parts(t, rot),
+    ))
+}
+
+/// A box as a dict (the form `label_points` takes).
+pub(crate) fn box_dict<'py>(py: Python<'py>, b: &LabelBox) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let t = b.pose.translation.vector;
+    let h = b.cuboid.half_extents;
+    let r = b.pose.rotation.to_rotation_matrix();
+    let m: Vec<Vec<f64>> = (0..3)
+        .map(|i| (0..3).map(|j| r[(i, j)] as f64).collect())
+        .collect();
+    d.set_item("class", b.class)?;
+    d.set_item("instance", b.instance)?;
+    d.set_item("centre", vec![t.x as f64, t.y as f64, t.z as f64])?;
+    d.set_item(
+        "size",
+        vec![2.0 * h.x as f64, 2.0 * h.y as f64, 2.0 * h.z as f64],
+    )?;
+    d.set_item("rotation", m)?;
+    Ok(d)
+}
+
+/// Class and instance arrays.
+type Labels<'py> = (Bound<'py, PyArray1<u8>>, Bound<'py, PyArray1<u16>>);
+
+/// Labels points by the boxes that hold them (parry containment; a point in several boxes
+/// takes the smallest box's class). `boxes`: dicts with centre, size (l, w, h), rotation (3x3)
+/// or yaw, class, and optionally instance (default: position + 1). Returns (class (N,) uint8,
+/// instance (N,) uint16); points in no box get `background`.
+#[pyfunction]
+#[pyo3(signature = (points, boxes, *, background=0))]
+fn label_points<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    boxes: &Bound<'py, PyAny>,
+    background: u8,
+) -> PyResult<Labels<'py>> {
+    let (pts, _) = points_arg(points, "points", false)?;
+    let boxes: Vec<LabelBox> = boxes
+        .try_iter()?
+        .enumerate()
+        .map(|(i, b)| box_of(&b?, i))
+        .collect::<PyResult<_>>()?;
+    let labels = py.detach(|| Labeller::new(&boxes, background).label(&pts));
+    Ok((
+        PyArray1::from_vec(py, labels.class),
+        PyArray1::from_vec(py, labels.instance),
+    ))
+}
+
+/// Adds the readers to the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(read_scan, m)?)?;
+    m.add_function(wrap_pyfunction!(read_point_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(read_calibration, m)?)?;
+    m.add_function(wrap_pyfunction!(read_frame_calibration, m)?)?;
+    m.add_function(wrap_pyfunction!(read_tracklets, m)?)?;
+    m.add_function(wrap_pyfunction!(read_object_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(class_map, m)?)?;
+    m.add_function(wrap_pyfunction!(label_points, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,210 @@
+"""The native module against the converter: `project` gives the bytes `convert` writes, rings are
+the converter's, augmentation keeps rings and shifts columns exactly, bad arrays are refused."""
+
+import pathlib
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import kitti2pgm as k2
+
+REPO = pathlib.Path(__file__).resolve().parents[3]
+RAW = REPO / "fixtures" / "raw"
+SEMANTICKITTI = REPO / "fixtures" / "semantickitti"
+OBJECT = REPO / "fixtures" / "kitti_object"
+FULL = dict(cols=2048, fov_deg=360.0)
+
+
+@pytest.fixture()
+def converted(kitti2pgm_path):
+    """Runs `kitti2pgm convert ROOT --out TMP --format npy EXTRA`; returns TMP/lidar_2d."""
+    def run(tmp, root, *extra):
+        subprocess.run([kitti2pgm_path, "--no-progress", "convert", str(root), "--out", str(tmp), "--format", "npy",
+                        *extra], check=True, capture_output=True)
+        return tmp / "lidar_2d"
+    return run
+
+
+def args_of(frame, rgb):
+    kw = dict(labels=frame["label"], instance=frame["instance"])
+    if rgb:
+        kw.update(colours=frame["colours"], colour_valid=frame["colour_valid"])
+    return kw
+
+
+@pytest.mark.parametrize("rgb,full", [(False, False), (True, False), (False, True), (True, True)])
+def test_project_is_the_converters_bytes_on_raw(converted, tmp_path, rgb, full):
+    extra = (["--rgb"] if rgb else []) + (["--cols", "2048", "--fov-deg", "360"] if full else [])
+    out = converted(tmp_path, RAW, *extra)
+    ds = k2.Dataset(RAW, rgb_camera=2 if rgb else None)
+    assert len(ds) == 3 and ds.layout == "raw"
+    shape = FULL if full else {}
+    for fid in ds.frames:
+        f = ds.load(fid)
+        m = k2.project(f["points"], **args_of(f, rgb), **shape)
+        want = np.load(out / f"{fid}.npy")
+        assert m["map"].dtype == np.float32 and m["map"].shape == want.shape
+        assert m["map"].tobytes() == want.tobytes(), fid
+        assert m["channels"] == ["x", "y", "z", "intensity", "range", "label"] + (["r", "g", "b"] if rgb else [])
+        assert np.array_equal(m["mask"], want[..., 4] > 0)
+        assert np.array_equal(ds.project(fid, **shape), want)
+        # From the file itself, through the reader.
+        scan = k2.read_scan(pathlib.Path(str(RAW)) / "2011_09_26" / f"2011_09_26_drive_{fid[11:15]}_sync"
+                            / "velodyne_points" / "data" / f"{fid[16:]}.bin")
+        assert np.array_equal(scan, f["points"])
+
+
+def test_project_is_the_converters_bytes_on_semantickitti_and_object(converted, tmp_path):
+    out = converted(tmp_path / "sk", SEMANTICKITTI, *["--cols", "2048", "--fov-deg", "360"])
+    ds = k2.Dataset(SEMANTICKITTI)
+    assert ds.layout == "semantickitti" and len(ds.class_map["classes"]) == 20
+    f = ds.load(0)
+    m = k2.project(f["points"], labels=f["label"], instance=f["instance"], **FULL)
+    assert m["map"].tobytes() == np.load(out / f"{ds.frames[0]}.npy").tobytes()
+    # The labels are the learning-mapped raw labels of the kept points.
+    raw = k2.read_point_labels(SEMANTICKITTI / "sequences" / "00" / "labels" / "000000.label")
+    lut = np.zeros(1 << 16, np.uint8)
+    for k, v in ds.class_map["learning_map"].items():
+        lut[int(k)] = v
+    assert np.array_equal(f["label"], lut[raw[f["file_index"]] & 0xFFFF])
+
+    out = converted(tmp_path / "obj", OBJECT, "--rgb")
+    ds = k2.Dataset(OBJECT, rgb_camera=2)
+    for fid in ds.frames:
+        f = ds.load(fid)
+        m = k2.project(f["points"], **args_of(f, True))
+        assert m["map"].tobytes() == np.load(out / f"{fid}.npy").tobytes()
+
+
+def test_rings_are_the_converters():
+    ds = k2.Dataset(RAW)
+    for fid in ds.frames:
+        f = ds.load(fid)
+        r = k2.rings(f["points"])
+        assert r is not None and r.dtype == np.uint8 and np.array_equal(r, f["ring"])
+        assert r[0] == 0 and r[-1] == k2.LASERS - 1
+        m = k2.project(f["points"])
+        # Every point in view sits in the row of its ring, and the kept point of a cell is one
+        # of them.
+        seen = m["row"] >= 0
+        assert np.array_equal(m["row"][seen], r[seen].astype(np.int32))
+        idx = m["point_index"]
+        rows = np.nonzero(idx >= 0)[0]
+        assert np.array_equal(r[idx[idx >= 0]], rows.astype(np.uint8))
+        assert np.array_equal(m["map"][..., :3][idx >= 0], f["points"][idx[idx >= 0], :3])
+        # Given rings give the same map.
+        assert np.array_equal(k2.project(f["points"], rings=r)["map"], m["map"])
+
+
+def test_identity_augmentation_and_one_column_rotation():
+    ds = k2.Dataset(RAW)
+    f = ds.load(0)
+    kw = dict(labels=f["label"], rings=f["ring"])
+    for shape in ({}, FULL):
+        base = k2.project(f["points"], **kw, **shape)
+        same = k2.project(f["points"], **kw, **shape, rotate_deg=0.0, scale=1.0, seed=1234)
+        assert same["map"].tobytes() == base["map"].tobytes()
+    base = k2.project(f["points"], **kw, **FULL)
+    rot = k2.project(f["points"], **kw, **FULL, rotate_deg=360.0 / 2048)
+    # z, intensity, range, label move one column to the right-to-left; x, y turn.
+    assert np.array_equal(np.roll(base["map"], -1, axis=1)[..., 2:], rot["map"][..., 2:])
+    assert np.array_equal(np.roll(base["mask"], -1, axis=1), rot["mask"])
+    assert np.array_equal(base["row"], rot["row"]), "a rotation never changes a point's row"
+    seen = base["col"] >= 0
+    assert np.array_equal((base["col"][seen] - 1) % 2048, rot["col"][seen])
+    # A real augmentation: seeded, rows kept, points dropped.
+    aug = dict(rotate_deg=37.0, scale=1.05, flip=True, jitter=0.02, drop=0.2, seed=7)
+    a = k2.project(f["points"], **kw, **FULL, **aug)
+    b = k2.project(f["points"], **kw, **FULL, **aug)
+    assert a["map"].tobytes() == b["map"].tobytes()
+    kept = a["row"] >= 0
+    assert 0.75 < kept.mean() < 0.85
+    assert np.array_equal(a["row"][kept], f["ring"][kept].astype(np.int32))
+
+
+def test_label_points_is_the_converters_labelling():
+    ds = k2.Dataset(RAW)
+    for fid in ds.frames:
+        f = ds.load(fid)
+        assert f["boxes"], "fixture frames have cars"
+        cls, inst = k2.label_points(f["points"], f["boxes"], background=0)
+        assert np.array_equal(cls, f["label"]) and np.array_equal(inst, f["instance"])
+    # A box given by yaw: an axis-aligned 2 m cube around (10, 0, 0).
+    pts = np.array([[10, 0, 0, 0], [10, 0.9, 0.9, 0], [10, 1.1, 0, 0]], np.float32)
+    cls, inst = k2.label_points(pts, [{"centre": [10, 0, 0], "size": [2, 2, 2], "yaw": 0.0, "class": 1}])
+    assert cls.tolist() == [1, 1, 0] and inst.tolist() == [1, 1, 0]
+    with pytest.raises(ValueError, match="box 0: no 'size'"):
+        k2.label_points(pts, [{"centre": [0, 0, 0], "class": 1}])
+
+
+def test_readers():
+    c = k2.read_calibration(RAW / "2011_09_26")
+    assert c["velo_to_image"][2].shape == (3, 4) and c["velo_to_cam"].shape == (4, 4)
+    assert np.allclose(c["velo_to_image"][2], c["P_rect"][2] @ c["R_rect_00"] @ c["velo_to_cam"])
+    t = k2.read_tracklets(RAW / "2011_09_26" / "2011_09_26_drive_0001_sync" / "tracklet_labels.xml")
+    assert len(t) > 5 and {"object_type", "h", "w", "l", "first_frame", "poses"} <= set(t[0])
+    fc = k2.read_frame_calibration(OBJECT / "training" / "calib" / "000000.txt")
+    assert fc["velo_to_image"][2].shape == (3, 4)
+    objs = k2.read_object_labels(OBJECT / "training" / "label_2" / "000000.txt")
+    assert objs and {"type", "hwl", "location", "rotation_y"} <= set(objs[0])
+    assert [c["name"] for c in k2.class_map()["classes"]] == ["background", "car", "pedestrian", "cyclist"]
+    pts, index = k2.read_scan(SEMANTICKITTI / "sequences" / "00" / "velodyne" / "000000.bin", with_file_index=True)
+    assert pts.shape[1] == 4 and index.shape == (pts.shape[0],)
+    with pytest.raises(OSError, match="nothing.bin"):
+        k2.read_scan(REPO / "nothing.bin")
+    with pytest.raises(KeyError):
+        k2.Dataset(RAW).load("2011_09_26_0001_9999999999")
+    with pytest.raises(ValueError, match="source must be"):
+        k2.Dataset(RAW, source="lidar")
+
+
+def test_bad_arrays_raise_clear_value_errors():
+    f = k2.Dataset(RAW).load(0)
+    pts = f["points"]
+    n = len(pts)
+    cases = [
+        (pts[:, :3], {}, r"points must be a float32 array of shape \(N, 4\).*shape \(%d, 3\)" % n),
+        (pts.astype(np.float64), {}, "points must be a float32 array.*got a float64 array"),
+        (pts.tolist(), {}, "points must be a float32 array.*list"),
+        (pts, {"labels": f["label"][:-1]}, r"labels must be a uint8 array of shape \(%d,\)" % n),
+        (pts, {"labels": f["label"].astype(np.int64)}, "labels must be a uint8 array"),
+        (pts, {"rings": np.full(n, 64, np.uint8)}, "ring 64 of point 0 is not below 64"),
+        (pts, {"colours": np.zeros((n, 4), np.float32)}, r"colours must be a float32 array of shape \(%d, 3\)" % n),
+        (pts, {"cols": 0}, "map size 64x0 is out of range"),
+        (pts, {"fov_deg": 400.0}, "FOV 400"),
+        (pts, {"drop": 1.0}, r"drop 1 must be in \[0, 1\)"),
+        (pts, {"row_mode": "bins"}, "row_mode must be"),
+    ]
+    for p, kw, msg in cases:
+        with pytest.raises(ValueError, match=msg):
+            k2.project(p, **kw)
+    bad = pts.copy()
+    bad[5, 1] = np.nan
+    with pytest.raises(ValueError, match="point 5 is not finite"):
+        k2.project(bad)
+    bad = pts.copy()
+    bad[9, 3] = np.inf
+    with pytest.raises(ValueError, match="intensity of point 9 is not finite"):
+        k2.project(bad)
+    # A non-contiguous view is read correctly (one copy), not refused.
+    wide = np.zeros((n, 8), np.float32)
+    wide[:, :4] = pts
+    assert np.array_equal(k2.project(wide[:, :4])["map"], k2.project(pts)["map"])
+
+
+def test_threads_get_the_same_maps():
+    f = k2.Dataset(RAW).load(0)
+    want = k2.project(f["points"], **FULL)["map"]
+    got = [None] * 4
+
+    def work(i):
+        got[i] = k2.project(f["points"], **FULL)["map"]
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert all(np.array_equal(g, want) for g in got)
