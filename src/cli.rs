@@ -280,8 +280,11 @@ pub enum SourceArg {
 pub enum FormatArg {
     /// SqueezeSeg .npy maps and per-point .label files.
     Npy,
-    /// MCAP training shards.
+    /// MCAP training shards of the maps (OUT/shards).
     Mcap,
+    /// MCAP point shards: each scan's points with ring, label, instance (and r, g, b with
+    /// --rgb), unprojected, for projection with 3D augmentation while training (OUT/points).
+    Points,
 }
 
 /// Shard chunk compression.

@@ -74,6 +74,27 @@ pub enum ShardCompression {
     None,
 }
 
+/// What a shard holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShardKind {
+    /// Projected maps, one `kitti2pgm.Frame` per frame (`--format mcap`, under `OUT/shards`).
+    #[default]
+    Maps,
+    /// Unprojected points, one `kitti2pgm.Points` per frame (`--format points`, under `OUT/points`).
+    Points,
+}
+
+impl ShardKind {
+    /// Its name in the metadata (`maps`, `points`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ShardKind::Maps => "maps",
+            ShardKind::Points => "points",
+        }
+    }
+}
+
 /// MCAP shard output (`--format mcap`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShardParams {
@@ -101,6 +122,17 @@ impl ShardParams {
     }
 }
 
+impl ShardParams {
+    /// Frames per point shard, with or without colour (about 125,000 points a scan: x, y, z,
+    /// intensity, ring, label, instance, file index, and r, g, b with its flag).
+    pub fn frames_per_point_shard(&self, rgb: bool) -> usize {
+        self.frames_per_shard.unwrap_or_else(|| {
+            let per_point = if rgb { 24 + 13 } else { 24 };
+            (SHARD_TARGET_BYTES / (125_000 * per_point)).max(1)
+        })
+    }
+}
+
 /// Everything a conversion is asked to make.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct ConvertParams {
@@ -110,8 +142,11 @@ pub struct ConvertParams {
     pub npy: bool,
     /// `labels/<drive>/<frame>.label` written.
     pub labels: bool,
-    /// Shards written.
+    /// Map shards written (`OUT/shards`).
     pub shards: Option<ShardParams>,
+    /// Point shards written (`OUT/points`).
+    #[serde(default)]
+    pub point_shards: Option<ShardParams>,
 }
 
 impl ConvertParams {
@@ -122,22 +157,29 @@ impl ConvertParams {
             npy: true,
             labels: true,
             shards: None,
+            point_shards: None,
+        }
+    }
+
+    /// The parameters of the shards of `kind`, if they are written.
+    pub fn shards_of(&self, kind: ShardKind) -> Option<&ShardParams> {
+        match kind {
+            ShardKind::Maps => self.shards.as_ref(),
+            ShardKind::Points => self.point_shards.as_ref(),
         }
     }
 
     /// Checks the parameters.
     pub fn validate(&self) -> Result<()> {
         self.map.validate()?;
-        if !self.npy && !self.labels && self.shards.is_none() {
+        if !self.npy && !self.labels && self.shards.is_none() && self.point_shards.is_none() {
             return Err(Error::Config(
                 "nothing to write: enable .npy, .label or shard output".into(),
             ));
         }
-        if self
-            .shards
-            .as_ref()
-            .is_some_and(|s| s.frames_per_shard == Some(0))
-        {
+        let zero =
+            |s: &Option<ShardParams>| s.as_ref().is_some_and(|s| s.frames_per_shard == Some(0));
+        if zero(&self.shards) || zero(&self.point_shards) {
             return Err(Error::Config("--shard-frames must be at least 1".into()));
         }
         Ok(())

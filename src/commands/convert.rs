@@ -20,6 +20,19 @@ use crate::Outcome;
 impl ConvertArgs {
     /// The library's parameters (validated by the library).
     fn params(&self, class_map: ClassMap, layout: Layout) -> kitti2pgm::Result<ConvertParams> {
+        let shard_params = ShardParams {
+            compression: match self.compression {
+                CompressionArg::Lz4 => ShardCompression::Lz4,
+                CompressionArg::Zstd => ShardCompression::Zstd,
+                CompressionArg::None => ShardCompression::None,
+            },
+            frames_per_shard: self.shard_frames,
+            viz: self.viz,
+            split: self
+                .split
+                .rule()?
+                .unwrap_or_else(|| SplitRule::default_for(layout)),
+        };
         Ok(ConvertParams {
             map: MapParams {
                 spec: PgmSpec {
@@ -49,22 +62,14 @@ impl ConvertArgs {
             },
             npy: self.format.contains(&FormatArg::Npy),
             labels: !self.no_point_labels,
-            shards: match self.format.contains(&FormatArg::Mcap) {
-                true => Some(ShardParams {
-                    compression: match self.compression {
-                        CompressionArg::Lz4 => ShardCompression::Lz4,
-                        CompressionArg::Zstd => ShardCompression::Zstd,
-                        CompressionArg::None => ShardCompression::None,
-                    },
-                    frames_per_shard: self.shard_frames,
-                    viz: self.viz,
-                    split: self
-                        .split
-                        .rule()?
-                        .unwrap_or_else(|| SplitRule::default_for(layout)),
-                }),
-                false => None,
-            },
+            shards: self
+                .format
+                .contains(&FormatArg::Mcap)
+                .then(|| shard_params.clone()),
+            point_shards: self
+                .format
+                .contains(&FormatArg::Points)
+                .then_some(shard_params),
         })
     }
 }

@@ -50,8 +50,17 @@ pub fn run(a: InspectArgs) -> anyhow::Result<Outcome> {
                     .collect::<Vec<_>>()
                     .join(", ")
             );
+            let points = i.metadata.content == kitti2pgm::format::shard::ShardKind::Points;
+            if points {
+                println!("  points          {} (point shard)", i.points);
+            }
             println!(
-                "  class cells     {}",
+                "  {}     {}",
+                if points {
+                    "class points"
+                } else {
+                    "class cells "
+                },
                 i.class_cells
                     .iter()
                     .map(|(c, n)| format!("{c} {n}"))

@@ -203,6 +203,12 @@ pub fn produce(
     opts: &ConvertOptions,
     want_viz: bool,
 ) -> Result<Produced> {
+    let loaded = load(dp, frame, &opts.params.map, want_viz)?;
+    Ok(produce_from(loaded, opts, want_viz))
+}
+
+/// Converts a loaded frame (no output written); `want_viz` as in [`produce`].
+pub fn produce_from(loaded: LoadedFrame, opts: &ConvertOptions, want_viz: bool) -> Produced {
     let map = &opts.params.map;
     let LoadedFrame {
         id,
@@ -210,7 +216,7 @@ pub fn produce(
         labels,
         camera,
         png,
-    } = load(dp, frame, map, want_viz)?;
+    } = loaded;
     let out = process(
         &id,
         &scan,
@@ -237,7 +243,7 @@ pub fn produce(
             colours: map.class_map.classes.iter().map(|c| c.colour).collect(),
         }
     });
-    Ok(Produced { out, viz })
+    Produced { out, viz }
 }
 
 /// Writes a converted frame's `.npy` and `.label` files, as the options ask.

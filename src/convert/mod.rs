@@ -198,8 +198,22 @@ pub fn convert(
         .num_threads(opts.threads)
         .build()
         .map_err(|e| Error::Config(format!("cannot start {} threads: {e}", opts.threads)))?;
-    if let Some(sh) = &params.shards {
-        pool.install(|| shards::convert_to_shards(plan, opts, sh, &run))?;
+    use crate::format::shard::ShardKind;
+    if params.shards.is_some() || params.point_shards.is_some() {
+        let passes = [
+            (ShardKind::Maps, &params.shards, true),
+            (
+                ShardKind::Points,
+                &params.point_shards,
+                params.shards.is_none(),
+            ),
+        ];
+        for (kind, sh, primary) in passes {
+            if let Some(sh) = sh {
+                let pass = shards::Pass { kind, primary };
+                pool.install(|| shards::convert_to_shards(plan, opts, sh, pass, &run))?;
+            }
+        }
     } else {
         let one = |&(d, frame): &(usize, u32)| {
             let dp = &plan.drives[d];

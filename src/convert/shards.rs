@@ -1,20 +1,30 @@
 //! CONVERT into shards: each split's frames cut into shards in frame-id order; a shard's frames
 //! are converted in parallel batches and appended in order while the next batch converts. A
 //! shard that a re-run finds complete and intact is left as it is.
+//!
+//! Two kinds ([`ShardKind`]): map shards (`OUT/shards`, projected frames) and point shards
+//! (`OUT/points`, the labelled points unprojected). When both are asked for, each pass reads
+//! the frames; the map pass writes the `.npy` / `.label` files and counts the frames.
 
 use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::frame::{produce, write_frame_files, Produced};
+use prost::Message as _;
+
+use super::frame::{load, produce, produce_from, write_frame_files, Produced};
 use super::{ConvertOptions, FrameOutcome, Run};
 use crate::error::Result;
 use crate::format::create_dir;
-use crate::format::shard::{shard_is_intact, FrameMsg, ShardMetadata, ShardWriter};
+use crate::format::shard::points::PointsOf;
+use crate::format::shard::{
+    shard_is_intact, FrameMsg, PointsMsg, ShardKind, ShardMetadata, ShardWriter,
+};
 use crate::kitti::FrameId;
 use crate::params::ShardParams;
 use crate::plan::split::assign;
-use crate::plan::Plan;
+use crate::plan::{DrivePlan, Plan};
+use crate::project::rings;
 
 /// The frames of one shard.
 #[derive(Debug, Clone)]
@@ -24,30 +34,55 @@ struct ShardPlan {
     jobs: Vec<(usize, u32)>,
 }
 
-/// Writes every shard of the plan (on the current rayon pool).
+/// What one pass writes: the kind of shards, and whether it also writes the frames' `.npy` /
+/// `.label` files and counts the frames (the map pass, or the point pass alone).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Pass {
+    pub kind: ShardKind,
+    pub primary: bool,
+}
+
+impl Pass {
+    fn path(&self, opts: &ConvertOptions, split: &str, index: usize) -> std::path::PathBuf {
+        match self.kind {
+            ShardKind::Maps => opts.out.shard_path(split, index),
+            ShardKind::Points => opts.out.points_path(split, index),
+        }
+    }
+}
+
+/// Writes every shard of the plan for one pass (on the current rayon pool).
 pub(crate) fn convert_to_shards(
     plan: &Plan,
     opts: &ConvertOptions,
     sh: &ShardParams,
+    pass: Pass,
     run: &Run<'_>,
 ) -> Result<()> {
-    let shards = plan_shards(plan, opts, sh)?;
-    create_dir(&opts.out.shards_dir())?;
+    let shards = plan_shards(plan, opts, sh, pass.kind)?;
+    create_dir(&match pass.kind {
+        ShardKind::Maps => opts.out.shards_dir(),
+        ShardKind::Points => opts.out.points_dir(),
+    })?;
     let drives: Vec<String> = plan.drives.iter().map(|d| d.drive.name()).collect();
     shards.par_iter().for_each(|sp| {
-        let path = opts.out.shard_path(&sp.split, sp.index);
+        let path = pass.path(opts, &sp.split, sp.index);
         let ids: Vec<String> = sp
             .jobs
             .iter()
             .map(|&(d, f)| plan.drives[d].drive.frame_id(f).to_string())
             .collect();
-        let others_present = sp.jobs.iter().all(|&(d, f)| {
-            let id = plan.drives[d].drive.frame_id(f);
-            (!opts.params.npy || opts.out.npy_path(&id).is_file())
-                && (!opts.params.labels || opts.out.label_path(&id).is_file())
-        });
-        if !opts.overwrite && others_present && shard_is_intact(&path, &ids, &opts.params) {
-            run.kept(ids.len() as u64, "already in a complete, intact shard");
+        let others_present = !pass.primary
+            || sp.jobs.iter().all(|&(d, f)| {
+                let id = plan.drives[d].drive.frame_id(f);
+                (!opts.params.npy || opts.out.npy_path(&id).is_file())
+                    && (!opts.params.labels || opts.out.label_path(&id).is_file())
+            });
+        let intact = || shard_is_intact(&path, &ids, &opts.params, pass.kind);
+        if !opts.overwrite && others_present && intact() {
+            if pass.primary {
+                run.kept(ids.len() as u64, "already in a complete, intact shard");
+            }
             run.totals().summary.shards_skipped += 1;
             return;
         }
@@ -58,14 +93,17 @@ pub(crate) fn convert_to_shards(
             frames: ids,
             failed: Vec::new(),
             split: sp.split.clone(),
+            content: pass.kind,
         };
         let frames = sp.jobs.len() as u64;
-        match write_shard(plan, opts, sh, sp, &path, meta, run) {
+        match write_shard(plan, opts, sh, sp, &path, meta, pass, run) {
             // Every frame failed (each reported): no empty shard is left behind.
             Ok(reports) if reports.is_empty() => {}
             Ok(reports) => {
                 let mut t = run.totals();
-                reports.iter().for_each(|r| t.add(r));
+                if pass.primary {
+                    reports.iter().for_each(|r| t.add(r));
+                }
                 t.summary.shards_written += 1;
             }
             // The shard is lost (its temporary file is removed), so are its frames.
@@ -76,7 +114,12 @@ pub(crate) fn convert_to_shards(
 }
 
 /// Assigns each job to a split by its drive, then cuts each split into shards, in frame-id order.
-fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardParams) -> Result<Vec<ShardPlan>> {
+fn plan_shards(
+    plan: &Plan,
+    opts: &ConvertOptions,
+    sh: &ShardParams,
+    kind: ShardKind,
+) -> Result<Vec<ShardPlan>> {
     // Frames without labels (SemanticKITTI test sequences, object testing/) go to `test`.
     let labelled = |&(d, f): &(usize, u32)| plan.drives[d].drive.has_labels(f);
     let ids: Vec<FrameId> = plan
@@ -87,7 +130,10 @@ fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardParams) -> Result<V
         .collect();
     let val = assign(&sh.split, &ids)?;
     let map = &opts.params.map;
-    let per_shard = sh.frames_per_shard(&map.spec, map.rgb.is_some());
+    let per_shard = match kind {
+        ShardKind::Maps => sh.frames_per_shard(&map.spec, map.rgb.is_some()),
+        ShardKind::Points => sh.frames_per_point_shard(map.rgb.is_some()),
+    };
     let mut out = Vec::new();
     for split in ["train", "val", "test"] {
         let jobs: Vec<(usize, u32)> = plan
@@ -116,10 +162,66 @@ fn plan_shards(plan: &Plan, opts: &ConvertOptions, sh: &ShardParams) -> Result<V
     Ok(out)
 }
 
+/// One frame of a shard: converted, its message encoded; `.npy` / `.label` files written in
+/// the primary pass.
+fn shard_frame(
+    dp: &DrivePlan,
+    f: u32,
+    opts: &ConvertOptions,
+    sh: &ShardParams,
+    split: &str,
+    pass: Pass,
+) -> Result<(Produced, Vec<u8>, u64)> {
+    let ts = dp.timestamp(f).map(|t| t.0.max(0) as u64);
+    // Without a timestamp, frames are spaced at the scanner's 10 Hz.
+    let log_time = ts.unwrap_or(f as u64 * 100_000_000);
+    let (p, msg) = match pass.kind {
+        ShardKind::Maps => {
+            let p = produce(dp, f, opts, sh.viz)?;
+            let msg = FrameMsg::from_frame(
+                &p.out.pgm,
+                &p.out.report.id,
+                &dp.drive.name(),
+                f,
+                ts.unwrap_or(0),
+                split,
+            );
+            (p, msg.encode_to_vec())
+        }
+        ShardKind::Points => {
+            let l = load(dp, f, &opts.params.map, sh.viz)?;
+            let (ring, _) = rings(&l.scan.points);
+            let colours = l.point_colours();
+            let msg = PointsMsg::build(
+                PointsOf {
+                    points: &l.scan.points,
+                    intensity: &l.scan.reflectance,
+                    rings: ring.as_deref(),
+                    class: &l.labels.points.class,
+                    instance: &l.labels.points.instance,
+                    colours: colours.as_deref(),
+                    file_index: &l.scan.file_indices(),
+                },
+                &l.id.to_string(),
+                &dp.drive.name(),
+                f,
+                ts.unwrap_or(0),
+                split,
+            );
+            (produce_from(l, opts, sh.viz), msg.encode_to_vec())
+        }
+    };
+    if pass.primary {
+        write_frame_files(dp, f, &p.out, opts)?;
+    }
+    Ok((p, msg, log_time))
+}
+
 /// Converts a shard's frames (in parallel batches) and writes them in order; failed frames are
 /// reported, left out and listed in the shard's metadata. The frames' reports are returned, to
 /// be counted once the shard is in place; a shard none of whose frames converted is not
 /// written.
+#[allow(clippy::too_many_arguments)]
 fn write_shard(
     plan: &Plan,
     opts: &ConvertOptions,
@@ -127,31 +229,16 @@ fn write_shard(
     sp: &ShardPlan,
     path: &Path,
     mut meta: ShardMetadata,
+    pass: Pass,
     run: &Run<'_>,
 ) -> Result<Vec<super::FrameReport>> {
-    let mut writer = ShardWriter::create(path, sh.compression, sh.viz)?;
+    let mut writer = ShardWriter::create(path, sh.compression, sh.viz, pass.kind)?;
     let mut reports = Vec::with_capacity(sp.jobs.len());
     let batch = rayon::current_num_threads().max(1) * 2;
-    type Done = Vec<Result<(Produced, FrameMsg, u64)>>;
+    type Done = Vec<Result<(Produced, Vec<u8>, u64)>>;
     let produce_batch = |jobs: &[(usize, u32)]| -> Done {
         jobs.par_iter()
-            .map(|&(d, f)| {
-                let dp = &plan.drives[d];
-                let p = produce(dp, f, opts, sh.viz)?;
-                write_frame_files(dp, f, &p.out, opts)?;
-                let ts = dp.timestamp(f).map(|t| t.0.max(0) as u64);
-                // Without a timestamp, frames are spaced at the scanner's 10 Hz.
-                let log_time = ts.unwrap_or(f as u64 * 100_000_000);
-                let msg = FrameMsg::from_frame(
-                    &p.out.pgm,
-                    &p.out.report.id,
-                    &dp.drive.name(),
-                    f,
-                    ts.unwrap_or(0),
-                    &sp.split,
-                );
-                Ok((p, msg, log_time))
-            })
+            .map(|&(d, f)| shard_frame(&plan.drives[d], f, opts, sh, &sp.split, pass))
             .collect()
     };
     // Appends a finished batch in frame order (sequential: the writer compresses here).
@@ -161,13 +248,17 @@ fn write_shard(
                 match r {
                     Ok((p, msg, log_time)) => {
                         writer.write(&msg, log_time, p.viz.as_ref())?;
-                        (run.progress)(FrameOutcome::Done(&p.out.report));
+                        if pass.primary {
+                            (run.progress)(FrameOutcome::Done(&p.out.report));
+                        }
                         reports.push(p.out.report);
                     }
                     Err(e) => {
                         let id = plan.drives[d].drive.frame_id(f).to_string();
                         meta.failed.push(id.clone());
-                        run.failed(id, 1, e);
+                        if pass.primary {
+                            run.failed(id, 1, e);
+                        }
                     }
                 }
             }

@@ -5,6 +5,7 @@
 //! OUT/labels/<drive>/<frame>.label                   per-point labels (format::label_file);
 //!     <drive> = <date>_drive_<NNNN>_sync (raw), <NN> (sequences) or object
 //! OUT/shards/<split>-<NNNNN>.mcap                     training shards (format::shard)
+//! OUT/points/<split>-<NNNNN>.mcap                     point shards (format::shard::points)
 //! OUT/convert_summary.json                            what was converted, how (format::summary)
 //! OUT/ImageSet/{all,train,val}.txt                    split lists (format::imageset)
 //! ```
@@ -23,6 +24,8 @@ pub const LIDAR_2D: &str = "lidar_2d";
 pub const LABELS: &str = "labels";
 /// Folder of the shards.
 pub const SHARDS: &str = "shards";
+/// Folder of the point shards.
+pub const POINTS: &str = "points";
 /// Folder of the split lists.
 pub const IMAGESET: &str = "ImageSet";
 /// The conversion summary.
@@ -65,6 +68,16 @@ impl OutputDir {
     /// `OUT/shards`.
     pub fn shards_dir(&self) -> PathBuf {
         self.root.join(SHARDS)
+    }
+
+    /// `OUT/points`.
+    pub fn points_dir(&self) -> PathBuf {
+        self.root.join(POINTS)
+    }
+
+    /// `OUT/points/<split>-<NNNNN>.mcap`.
+    pub fn points_path(&self, split: &str, index: usize) -> PathBuf {
+        self.points_dir().join(shard_name(split, index))
     }
 
     /// `OUT/shards/<split>-<NNNNN>.mcap`.

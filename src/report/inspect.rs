@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::error::Result;
-use crate::format::shard::{Shard, ShardMetadata, FRAME_TOPIC};
+use crate::format::shard::{Shard, ShardKind, ShardMetadata};
 use crate::label::ClassCounts;
 
 /// The inspection of one shard.
@@ -34,8 +34,11 @@ pub struct ShardInfo {
     pub compression: Vec<String>,
     /// uncompressed / compressed chunk bytes.
     pub compression_ratio: f64,
-    /// Valid cells per class (names from the class map in the metadata).
+    /// Valid cells per class (names from the class map in the metadata); for a point shard,
+    /// points per class.
     pub class_cells: BTreeMap<String, u64>,
+    /// Points of all frames (point shards; 0 for map shards).
+    pub points: u64,
     /// The kitti2pgm metadata record.
     pub metadata: ShardMetadata,
 }
@@ -48,6 +51,32 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
     let metadata = shard.metadata()?;
     let map = &metadata.params.map.class_map;
     let mut cells = ClassCounts::zeros(map.len());
+    if metadata.content == ShardKind::Points {
+        let (mut count, mut first, mut last, mut points) = (0u64, None, None, 0u64);
+        for p in shard.points()? {
+            for (i, l) in p.label.iter().enumerate() {
+                map.check(*l as u64, path, || format!("points {}, point {i}", p.id))?;
+                cells.0[*l as usize] += 1;
+            }
+            points += p.count as u64;
+            count += 1;
+            if first.is_none() {
+                first = Some(p.id);
+            } else {
+                last = Some(p.id);
+            }
+        }
+        return Ok(info(
+            &shard,
+            summary,
+            metadata,
+            cells,
+            count,
+            (first, last),
+            None,
+            points,
+        ));
+    }
     let (mut count, mut first, mut last) = (0u64, None, None);
     for f in shard.frame_iter() {
         let f = f?;
@@ -64,6 +93,26 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
             last = Some(f.id);
         }
     }
+    let shape = first
+        .as_ref()
+        .map(|f| ([f.height, f.width], f.channels.clone()));
+    let ids = (first.map(|f| f.id), last);
+    Ok(info(&shard, summary, metadata, cells, count, ids, shape, 0))
+}
+
+/// The counts of a shard, put together.
+#[allow(clippy::too_many_arguments)]
+fn info(
+    shard: &Shard,
+    summary: mcap::read::Summary,
+    metadata: ShardMetadata,
+    cells: ClassCounts,
+    count: u64,
+    (first, last): (Option<String>, Option<String>),
+    shape: Option<([u32; 2], Vec<String>)>,
+    points: u64,
+) -> ShardInfo {
+    let map = &metadata.params.map.class_map;
     let mut topics = BTreeMap::new();
     if let Some(stats) = &summary.stats {
         for (id, n) in &stats.channel_message_counts {
@@ -86,16 +135,16 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
             compression.push(name);
         }
     }
-    Ok(ShardInfo {
-        path: path.display().to_string(),
-        frames: topics.get(FRAME_TOPIC).copied().unwrap_or(count),
-        last_frame: last.or_else(|| first.as_ref().map(|f| f.id.clone())),
-        shape: first.as_ref().map(|f| [f.height, f.width]),
-        channels: first
-            .as_ref()
-            .map(|f| f.channels.clone())
-            .unwrap_or_default(),
-        first_frame: first.map(|f| f.id),
+    ShardInfo {
+        path: shard.path.display().to_string(),
+        frames: topics
+            .get(metadata.content.topic())
+            .copied()
+            .unwrap_or(count),
+        last_frame: last.or_else(|| first.clone()),
+        shape: shape.as_ref().map(|s| s.0),
+        channels: shape.map(|s| s.1).unwrap_or_default(),
+        first_frame: first,
         topics,
         file_bytes: shard.bytes().len() as u64,
         uncompressed_bytes: uncompressed,
@@ -106,6 +155,7 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
             uncompressed as f64 / compressed as f64
         },
         class_cells: map.keyed(&cells.0),
+        points,
         metadata,
-    })
+    }
 }

@@ -9,6 +9,7 @@ mod cloud;
 mod fuzz;
 mod label;
 mod pinned;
+mod points;
 mod project;
 mod readers;
 mod reports;

@@ -15,6 +15,10 @@ mod generated {
 /// `.proto` file).
 pub use generated::Frame as FrameMsg;
 
+/// One scan's points, as stored in point shards (protobuf `kitti2pgm.Points`; see
+/// [`super::points`]).
+pub use generated::Points as PointsMsg;
+
 /// The compiled `FileDescriptorSet` of `kitti2pgm/frame.proto`, stored as the schema of the
 /// frame topic.
 pub fn descriptor_set() -> &'static [u8] {

@@ -24,6 +24,8 @@ pub struct ShardMetadata {
     pub failed: Vec<String>,
     /// Split name.
     pub split: String,
+    /// What the shard holds.
+    pub content: super::ShardKind,
 }
 
 impl ShardMetadata {
@@ -39,9 +41,11 @@ impl ShardMetadata {
             ("frames".into(), self.frames.join("\n")),
             ("failed".into(), self.failed.join("\n")),
             ("split".into(), self.split.clone()),
+            ("content".into(), self.content.name().into()),
             // The topics, so that readers (the Python package) need no copy of them.
             ("frame_topic".into(), super::FRAME_TOPIC.into()),
             ("prediction_topic".into(), super::PREDICTION_TOPIC.into()),
+            ("points_topic".into(), super::POINTS_TOPIC.into()),
         ])
     }
 
@@ -68,6 +72,17 @@ impl ShardMetadata {
             frames: list("frames")?,
             failed: list("failed")?,
             split: get("split")?.clone(),
+            // Shards written before point shards existed hold maps.
+            content: match m.get("content").map(String::as_str) {
+                None | Some("maps") => super::ShardKind::Maps,
+                Some("points") => super::ShardKind::Points,
+                Some(other) => {
+                    return Err(Error::format(
+                        path,
+                        format!("metadata `content` {other:?} is neither maps nor points"),
+                    ))
+                }
+            },
         })
     }
 }

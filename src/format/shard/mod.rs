@@ -16,12 +16,13 @@
 
 pub mod message;
 pub mod metadata;
+pub mod points;
 pub mod read;
 pub mod viz;
 pub mod write;
 
-pub use crate::params::ShardCompression;
-pub use message::FrameMsg;
+pub use crate::params::{ShardCompression, ShardKind};
+pub use message::{FrameMsg, PointsMsg};
 pub use metadata::ShardMetadata;
 pub use read::{shard_is_intact, Shard};
 pub use write::ShardWriter;
@@ -32,6 +33,28 @@ pub const FRAME_TOPIC: &str = "/kitti2pgm/frame";
 pub const PREDICTION_TOPIC: &str = "/kitti2pgm/prediction";
 /// Schema name of the frame messages.
 pub const FRAME_SCHEMA: &str = "kitti2pgm.Frame";
+/// Topic of the point messages in point shards (`convert --format points`).
+pub const POINTS_TOPIC: &str = "/kitti2pgm/points";
+/// Schema name of the point messages.
+pub const POINTS_SCHEMA: &str = "kitti2pgm.Points";
+
+impl ShardKind {
+    /// The topic of its messages.
+    pub fn topic(self) -> &'static str {
+        match self {
+            ShardKind::Maps => FRAME_TOPIC,
+            ShardKind::Points => POINTS_TOPIC,
+        }
+    }
+
+    /// The schema name of its messages.
+    pub fn schema(self) -> &'static str {
+        match self {
+            ShardKind::Maps => FRAME_SCHEMA,
+            ShardKind::Points => POINTS_SCHEMA,
+        }
+    }
+}
 /// Name of the metadata record.
 pub const METADATA_NAME: &str = "kitti2pgm";
 /// MCAP profile string.

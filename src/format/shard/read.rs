@@ -9,15 +9,15 @@ use std::path::{Path, PathBuf};
 
 use prost::Message as _;
 
-use super::message::FrameMsg;
+use super::message::{FrameMsg, PointsMsg};
 use super::metadata::ShardMetadata;
-use super::{FRAME_TOPIC, METADATA_NAME, PREDICTION_TOPIC};
+use super::{ShardKind, METADATA_NAME, POINTS_TOPIC, PREDICTION_TOPIC};
 use crate::error::{Error, Result};
 
 /// The frame of a message on a frame or prediction topic, checked; `None` for other topics.
 pub fn decode(message: &mcap::Message<'_>, path: &Path) -> Option<Result<FrameMsg>> {
     let topic = message.channel.topic.as_str();
-    if topic != FRAME_TOPIC && topic != PREDICTION_TOPIC {
+    if topic != super::FRAME_TOPIC && topic != PREDICTION_TOPIC {
         return None;
     }
     Some(
@@ -271,12 +271,42 @@ struct FrameIter<'a> {
     first_error: Option<Error>,
 }
 
-/// Whether the shard at `path` is finished, intact and holds exactly `frames`, made with the
-/// same map and shard parameters as `params`.
+impl Shard {
+    /// Every point message of a point shard, in file order, each chunk checked against its
+    /// CRC and each message against its sizes; the error names the shard and the frame.
+    pub fn points(&self) -> Result<Vec<PointsMsg>> {
+        let options = mcap::read::Options::ValidateChunkCrcs.into();
+        let stream = mcap::MessageStream::new_with_options(&self.map, options)
+            .map_err(|e| Error::format(&self.path, format!("not an MCAP file: {e}")))?;
+        let mut out: Vec<PointsMsg> = Vec::new();
+        for m in stream {
+            let fail = |what: String| {
+                let after = out
+                    .last()
+                    .map(|p| format!(" after {}", p.id))
+                    .unwrap_or_default();
+                Error::format(&self.path, format!("points #{}{after}: {what}", out.len()))
+            };
+            let m = m.map_err(|e| fail(format!("corrupted or truncated: {e}")))?;
+            if m.channel.topic != POINTS_TOPIC {
+                continue;
+            }
+            let p = PointsMsg::decode(&m.data[..])
+                .map_err(|e| fail(format!("undecodable point message: {e}")))?;
+            p.validate(&self.path)?;
+            out.push(p);
+        }
+        Ok(out)
+    }
+}
+
+/// Whether the shard at `path` is finished, intact, holds `kind` and exactly `frames`, made with
+/// the same map and shard parameters as `params`.
 pub fn shard_is_intact(
     path: &Path,
     frames: &[String],
     params: &crate::params::ConvertParams,
+    kind: ShardKind,
 ) -> bool {
     let Ok(shard) = Shard::open_verified(path) else {
         return false;
@@ -290,7 +320,7 @@ pub fn shard_is_intact(
     let count = summary
         .channels
         .iter()
-        .filter(|(_, c)| c.topic == FRAME_TOPIC)
+        .filter(|(_, c)| c.topic == kind.topic())
         .map(|(id, _)| {
             summary
                 .stats
@@ -303,6 +333,7 @@ pub fn shard_is_intact(
     md.failed.is_empty()
         && md.frames == frames
         && md.params.map == params.map
-        && md.params.shards == params.shards
+        && md.content == kind
+        && params.shards_of(kind) == md.params.shards_of(kind)
         && count == frames.len() as u64
 }

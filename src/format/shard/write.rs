@@ -3,12 +3,10 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use prost::Message as _;
-
-use super::message::{descriptor_set, FrameMsg};
+use super::message::descriptor_set;
 use super::metadata::ShardMetadata;
 use super::viz::{VizChannels, VizFrame};
-use super::{ShardCompression, FRAME_SCHEMA, FRAME_TOPIC, METADATA_NAME, PROFILE};
+use super::{ShardCompression, ShardKind, METADATA_NAME, PROFILE};
 use crate::error::{Error, Result};
 
 impl ShardCompression {
@@ -36,8 +34,13 @@ pub struct ShardWriter {
 }
 
 impl ShardWriter {
-    /// Starts a shard that will be named `path`.
-    pub fn create(path: &Path, compression: ShardCompression, viz: bool) -> Result<ShardWriter> {
+    /// Starts a shard of `kind` that will be named `path`.
+    pub fn create(
+        path: &Path,
+        compression: ShardCompression,
+        viz: bool,
+        kind: ShardKind,
+    ) -> Result<ShardWriter> {
         let dir = path.parent().unwrap_or(Path::new("."));
         let werr = |source| Error::Write {
             path: path.into(),
@@ -57,10 +60,10 @@ impl ShardWriter {
             .create(std::io::BufWriter::with_capacity(1 << 20, file))
             .map_err(merr)?;
         let schema = writer
-            .add_schema(FRAME_SCHEMA, "protobuf", descriptor_set())
+            .add_schema(kind.schema(), "protobuf", descriptor_set())
             .map_err(merr)?;
         let frame_channel = writer
-            .add_channel(schema, FRAME_TOPIC, "protobuf", &BTreeMap::new())
+            .add_channel(schema, kind.topic(), "protobuf", &BTreeMap::new())
             .map_err(merr)?;
         let viz = if viz {
             Some(VizChannels::add(&mut writer).map_err(merr)?)
@@ -81,8 +84,9 @@ impl ShardWriter {
         Error::format(&self.path, format!("MCAP writer: {e}"))
     }
 
-    /// Appends a frame (and its visualisation messages when `viz` is given and enabled).
-    pub fn write(&mut self, msg: &FrameMsg, log_time: u64, viz: Option<&VizFrame>) -> Result<()> {
+    /// Appends a frame's encoded message (and its visualisation messages when `viz` is given
+    /// and enabled).
+    pub fn write(&mut self, msg: &[u8], log_time: u64, viz: Option<&VizFrame>) -> Result<()> {
         let header = mcap::records::MessageHeader {
             channel_id: self.frame_channel,
             sequence: self.sequence,
@@ -90,7 +94,7 @@ impl ShardWriter {
             publish_time: log_time,
         };
         self.writer
-            .write_to_known_channel(&header, &msg.encode_to_vec())
+            .write_to_known_channel(&header, msg)
             .map_err(|e| self.merr(e))?;
         if let (Some(ch), Some(v)) = (&self.viz, viz) {
             let r = ch.write(&mut self.writer, v, self.sequence, log_time);

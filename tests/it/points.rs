@@ -1,0 +1,102 @@
+//! Point shards (`convert --format points`): the scan's points with the converter's rings,
+//! labels and colours, the map shards' integrity and re-run rules.
+
+use kitti2pgm::format::label_file;
+use kitti2pgm::format::shard::{Shard, ShardKind};
+use kitti2pgm::kitti::velodyne::Scan;
+use kitti2pgm::project::rings;
+use kitti2pgm::report::inspect::inspect;
+
+use crate::util::*;
+
+#[test]
+fn point_shards_hold_the_converters_points_and_labels() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let (code, first, err) = convert_json(
+        &fixtures(),
+        &out,
+        &["--format", "points", "--rgb", "--val-drives", "52"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(first["frames_converted"], 3);
+    assert_eq!(first["shards_written"], 2);
+    assert!(!out.join("lidar_2d").exists() && !out.join("shards").exists());
+    let mut seen = 0;
+    for split in ["train", "val"] {
+        let path = out.join(format!("points/{split}-00000.mcap"));
+        let shard = Shard::open_verified(&path).unwrap();
+        let md = shard.metadata().unwrap();
+        assert_eq!(md.content, ShardKind::Points);
+        assert_eq!(md.split, split);
+        for p in shard.points().unwrap() {
+            seen += 1;
+            let (date, drive, frame) = (&p.id[..10], &p.id[11..15], &p.id[16..]);
+            let bin = fixtures().join(format!(
+                "{date}/{date}_drive_{drive}_sync/velodyne_points/data/{frame}.bin"
+            ));
+            let scan = Scan::read(&bin).unwrap();
+            assert_eq!(p.count as usize, scan.len());
+            let pts = p.points_f32();
+            for (k, q) in pts.iter().enumerate() {
+                let s = scan.points[k];
+                assert_eq!(*q, [s.x, s.y, s.z, scan.reflectance[k]]);
+            }
+            assert_eq!(p.ring, rings(&scan.points).0.unwrap());
+            // Labels are the .label file's (written beside), point for point.
+            let lab = label_file::read_raw(
+                &out.join(format!("labels/{date}_drive_{drive}_sync/{frame}.label")),
+            )
+            .unwrap();
+            let idx: Vec<u32> = p
+                .file_index
+                .chunks_exact(4)
+                .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+                .collect();
+            assert_eq!(idx, scan.file_indices());
+            for (k, &i) in idx.iter().enumerate() {
+                assert_eq!(p.label[k] as u32, lab[i as usize] & 0xFFFF);
+            }
+            assert!(p.label.iter().any(|&l| l == 1), "cars are labelled");
+            assert_eq!(p.rgb.len(), 12 * scan.len());
+            let seen_by_camera = p.rgb_valid.iter().filter(|&&v| v == 1).count();
+            assert!(seen_by_camera > scan.len() / 10 && seen_by_camera < scan.len() / 2);
+        }
+        let info = inspect(&path).unwrap();
+        assert_eq!(info.metadata.content, ShardKind::Points);
+        assert!(info.points > 100_000);
+    }
+    assert_eq!(seen, 3);
+
+    // A re-run keeps intact point shards; a damaged one is found and rewritten.
+    let args = ["--format", "points", "--rgb", "--val-drives", "52"];
+    let (_, again, _) = convert_json(&fixtures(), &out, &args);
+    assert_eq!(again["shards_skipped"], 2);
+    assert_eq!(again["shards_written"], 0);
+    let p = out.join("points/train-00000.mcap");
+    let mut bytes = std::fs::read(&p).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x40;
+    std::fs::write(&p, &bytes).unwrap();
+    let e = inspect(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("train-00000.mcap") && e.contains("corrupted"),
+        "{e}"
+    );
+    let (_, third, _) = convert_json(&fixtures(), &out, &args);
+    assert_eq!(third["shards_written"], 1);
+    assert_eq!(third["shards_skipped"], 1);
+    assert!(Shard::open_verified(&p).unwrap().points().is_ok());
+}
+
+#[test]
+fn maps_and_points_together_count_each_frame_once() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let (code, j, err) = convert_json(&fixtures(), &out, &["--format", "npy,mcap,points"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(j["frames_converted"], 3);
+    assert!(out.join("shards/train-00000.mcap").is_file());
+    assert!(out.join("points/train-00000.mcap").is_file());
+    assert_eq!(std::fs::read_dir(out.join("lidar_2d")).unwrap().count(), 3);
+}
