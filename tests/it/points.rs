@@ -57,7 +57,7 @@ fn point_shards_hold_the_converters_points_and_labels() {
             for (k, &i) in idx.iter().enumerate() {
                 assert_eq!(p.label[k] as u32, lab[i as usize] & 0xFFFF);
             }
-            assert!(p.label.iter().any(|&l| l == 1), "cars are labelled");
+            assert!(p.label.contains(&1), "cars are labelled");
             assert_eq!(p.rgb.len(), 12 * scan.len());
             let seen_by_camera = p.rgb_valid.iter().filter(|&&v| v == 1).count();
             assert!(seen_by_camera > scan.len() / 10 && seen_by_camera < scan.len() / 2);
