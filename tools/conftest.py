@@ -80,3 +80,9 @@ def kitti2pgm_path():
 def kitti2pgm():
     """Runs the kitti2pgm binary (checked, output captured as text)."""
     return run_bin
+
+
+@pytest.fixture(scope="session")
+def with_points(tmp_path_factory):
+    """The `converted` maps again, with point shards beside them (OUT/shards and OUT/points)."""
+    return convert(tmp_path_factory.mktemp("points"), "--format", "mcap,points", "--rgb", "--cols", "256")

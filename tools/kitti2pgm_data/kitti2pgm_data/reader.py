@@ -20,7 +20,7 @@ from typing import Dict, Iterable, Iterator, List, Optional, Union
 import numpy as np
 from mcap.reader import NonSeekingReader, make_reader
 
-from .schema import FRAME_SCHEMA, FrameSchema, fields
+from .schema import FRAME_SCHEMA, POINTS_SCHEMA, FrameSchema, fields
 
 _OP_CHUNK = 0x06
 _OP_MESSAGE = 0x05
@@ -81,8 +81,56 @@ def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[st
     return out
 
 
+# The arrays of a point message: dtype and columns per point (None: one value per point).
+_POINT_ARRAYS = {"points": ("<f4", 4), "ring": ("u1", None), "label": ("u1", None), "instance": ("<u2", None),
+                 "rgb": ("<f4", 3), "rgb_valid": ("u1", None), "file_index": ("<u4", None)}
+# Arrays a point message may leave empty: ring (no 64 rings found), rgb and rgb_valid (no colour).
+_POINT_OPTIONAL = {"ring", "rgb", "rgb_valid"}
+
+
+def decode_points(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, object]:
+    """Decodes one ``kitti2pgm.Points`` message (a point shard's frame) into a dict: id, drive,
+    frame_index, timestamp_ns, split, count, and numpy views (no copy): points (N, 4) float32 x, y,
+    z, intensity; ring (N,) uint8 or None; label (N,) uint8; instance (N,) uint16; rgb (N, 3)
+    float32 and rgb_valid (N,) uint8, or None without colour; file_index (N,) uint32."""
+    out: Dict[str, object] = {}
+    raw: Dict[str, memoryview] = {}
+    for number, _wire, value in fields(data):
+        if number not in schema.by_number:
+            continue
+        name, kind, _repeated = schema.by_number[number]
+        if kind == "string":
+            out[name] = bytes(value).decode()
+        elif kind == "bytes":
+            raw[name] = value
+        else:
+            out[name] = value
+    for name, (_num, kind, _rep) in schema.by_name.items():
+        if kind == "string":
+            out.setdefault(name, "")
+        elif kind != "bytes":
+            out.setdefault(name, 0)
+    n = int(out["count"])
+    for name, (dtype, cols) in _POINT_ARRAYS.items():
+        b = raw.get(name, memoryview(b""))
+        shape = (n, cols) if cols else (n,)
+        need = int(np.prod(shape)) * np.dtype(dtype).itemsize
+        if len(b) == 0 and name in _POINT_OPTIONAL and need > 0:
+            out[name] = None
+            continue
+        if len(b) != need:
+            raise ValueError(f"{name} has {len(b)} bytes, expected {need}")
+        out[name] = np.frombuffer(b, dtype=dtype).reshape(shape)
+    return out
+
+
+def _decoder(name: str):
+    return decode_points if name == POINTS_SCHEMA else decode_frame
+
+
 class ShardReader:
-    """Random access to the frames of one shard.
+    """Random access to the frames of one shard (map shards: ``decode_frame`` dicts; point shards,
+    ``convert --format points``: ``decode_points`` dicts; ``kind`` says which).
 
     Opening reads the summary (chunk indexes, channels, statistics) only; ``reader[i]`` then
     reads and decompresses the one chunk that holds frame ``i`` (frames are in frame-id order).
@@ -104,14 +152,17 @@ class ShardReader:
             raise ShardError(f"{self.path}: unreadable summary (truncated or unfinished shard?): {e}") from e
         if summary is None:
             raise ShardError(f"{self.path}: no summary section: the shard was not finished")
-        frame_schemas = {sid: s for sid, s in summary.schemas.items() if s.name == FRAME_SCHEMA}
+        frame_schemas = {sid: s for sid, s in summary.schemas.items() if s.name in (FRAME_SCHEMA, POINTS_SCHEMA)}
         frame_channels = {cid for cid, ch in summary.channels.items() if ch.schema_id in frame_schemas}
         if not frame_channels:
-            raise ShardError(f"{self.path}: no channel of schema {FRAME_SCHEMA}")
+            raise ShardError(f"{self.path}: no channel of schema {FRAME_SCHEMA} or {POINTS_SCHEMA}")
+        stored = next(iter(frame_schemas.values()))
+        self.kind = "points" if stored.name == POINTS_SCHEMA else "maps"
         try:
-            self.schema = FrameSchema(next(iter(frame_schemas.values())).data)
+            self.schema = FrameSchema(stored.data, stored.name)
         except Exception as e:
-            raise ShardError(f"{self.path}: unreadable {FRAME_SCHEMA} schema: {e}") from e
+            raise ShardError(f"{self.path}: unreadable {stored.name} schema: {e}") from e
+        self._decode = _decoder(stored.name)
         self._frame_channels = frame_channels
         chunks = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
         # Every frame message is alone in its chunk (the writer's chunk size is below one frame).
@@ -187,7 +238,7 @@ class ShardReader:
         if not 0 <= i < len(self):
             raise IndexError(f"{self.path}: frame {i} of {len(self)}")
         try:
-            return decode_frame(self._frame_data(self._chunks[i]), self.schema)
+            return self._decode(self._frame_data(self._chunks[i]), self.schema)
         except Exception as e:
             raise ShardError(f"{self.path}: frame #{i}: {e}") from e
 
@@ -232,7 +283,7 @@ def class_map(path: PathLike) -> Dict[str, object]:
 
 
 def iter_frames(paths: Union[PathLike, Iterable[PathLike]]) -> Iterator[Dict[str, object]]:
-    """Yields every frame of the shards, shard by shard, in frame-id order.
+    """Yields every frame of the shards (map or point shards), shard by shard, in frame-id order.
 
     Streams the file from the start, so it also reads a shard whose summary was lost: the frames
     before a corrupted or truncated point are yielded, then ``ShardError`` names the shard and the
@@ -251,11 +302,11 @@ def iter_frames(paths: Union[PathLike, Iterable[PathLike]]) -> Iterator[Dict[str
                 reader = NonSeekingReader(f)
                 schemas: Dict[int, FrameSchema] = {}
                 for schema, _channel, message in reader.iter_messages(log_time_order=False):
-                    if schema is None or schema.name != FRAME_SCHEMA:
+                    if schema is None or schema.name not in (FRAME_SCHEMA, POINTS_SCHEMA):
                         continue
                     if schema.id not in schemas:
-                        schemas[schema.id] = FrameSchema(schema.data)
-                    frame = decode_frame(message.data, schemas[schema.id])
+                        schemas[schema.id] = FrameSchema(schema.data, schema.name)
+                    frame = _decoder(schema.name)(message.data, schemas[schema.id])
                     yield frame
                     n += 1
                     last = str(frame["id"])

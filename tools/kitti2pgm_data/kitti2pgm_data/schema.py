@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Dict, Iterator, Tuple, Union
 
 FRAME_SCHEMA = "kitti2pgm.Frame"
+POINTS_SCHEMA = "kitti2pgm.Points"
 
 Buffer = Union[bytes, memoryview]
 
@@ -112,5 +113,5 @@ class FrameSchema:
 
     def number(self, name: str) -> int:
         if name not in self.by_name:
-            raise ValueError(f"{FRAME_SCHEMA} has no field {name!r} (a shard of another kitti2pgm version?)")
+            raise ValueError(f"the message has no field {name!r} (a shard of another kitti2pgm version?)")
         return self.by_name[name][0]

@@ -208,3 +208,24 @@ def test_threads_get_the_same_maps():
     for t in threads:
         t.join()
     assert all(np.array_equal(g, want) for g in got)
+
+
+def test_point_shards_project_to_the_converters_maps(tmp_path, kitti2pgm_path):
+    from kitti2pgm_data import ShardDataset, ShardReader, iter_frames
+
+    subprocess.run([kitti2pgm_path, "--no-progress", "convert", str(RAW), "--out", str(tmp_path), "--format",
+                    "npy,points", "--rgb", "--val-drives", "52"], check=True, capture_output=True)
+    shards = sorted((tmp_path / "points").glob("*.mcap"))
+    assert [p.name for p in shards] == ["train-00000.mcap", "val-00000.mcap"]
+    with ShardReader(shards[0]) as r:
+        assert r.kind == "points" and len(r) == 2
+    ds = ShardDataset(shards)
+    assert len(ds) == 3
+    for i in range(len(ds)):
+        f = ds[i]
+        assert f["points"].dtype == np.float32 and f["points"].shape == (f["count"], 4)
+        m = k2.project(f["points"], rings=f["ring"], labels=f["label"], instance=f["instance"],
+                       colours=f["rgb"], colour_valid=f["rgb_valid"].astype(bool))
+        want = np.load(tmp_path / "lidar_2d" / f"{f['id']}.npy")
+        assert m["map"].tobytes() == want.tobytes(), f["id"]
+    assert [f["id"] for f in iter_frames(shards)] == [ds[i]["id"] for i in range(3)]

@@ -21,7 +21,9 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="kitti2pgm_train", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
     t = sub.add_parser("train", help="train a model (the paper's schedule by default)")
-    t.add_argument("--shards", required=True, help="shards folder (train-*.mcap, val-*.mcap) or a convert output folder")
+    t.add_argument("--shards", required=True,
+                   help="shards folder (train-*.mcap, val-*.mcap) or a convert output folder; map shards (OUT/shards) "
+                        "or point shards (OUT/points: projected on the fly, see --augment)")
     t.add_argument("--train-shards", help="explicit train shards (glob) instead of <shards>/train-*.mcap")
     t.add_argument("--model", choices=sorted(MODELS), default="squeezeseg")
     t.add_argument("--input", choices=sorted(INPUTS), default="xyzdi",
@@ -40,6 +42,15 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--weight-decay", type=float, default=1e-4)
     t.add_argument("--lr-halve-every", type=int, default=10_000, help="halve the learning rate every N steps")
     t.add_argument("--no-flip", dest="flip", action="store_false", help="no random left-right flip")
+    t.add_argument("--augment", default="",
+                   help="with point shards (convert --format points): 3D augmentation per sample before the "
+                        "ring-exact projection (native module kitti2pgm), any of rotate,scale,jitter,drop,flip "
+                        "(flip: the random mirror, done in 3D); seeded by --seed, the step and the sample")
+    t.add_argument("--rotate-deg", type=float, default=180.0, help="--augment rotate: uniform in [-D, D] about z")
+    t.add_argument("--scale-range", type=float, nargs=2, default=[0.95, 1.05], metavar=("LOW", "HIGH"),
+                   help="--augment scale: uniform factor")
+    t.add_argument("--jitter", type=float, default=0.01, help="--augment jitter: normal noise on x, y, z, metres")
+    t.add_argument("--drop", type=float, default=0.1, help="--augment drop: probability of dropping a point")
     t.add_argument("--dropout", type=float, default=0.5)
     t.add_argument("--crf", action="store_true", help="SqueezeSeg's recurrent CRF on the logits")
     t.add_argument("--width-mult", type=float, default=1.0, help="channel width multiplier (1 = the paper's)")

@@ -33,8 +33,10 @@ def find_shards(spec: str, split: Optional[str] = None) -> List[str]:
     if os.path.isdir(spec):
         pattern = os.path.join(spec, f"{split}-*.mcap" if split else "*.mcap")
         paths = sorted(glob.glob(pattern))
-        if not paths and os.path.isdir(os.path.join(spec, "shards")):
-            paths = sorted(glob.glob(os.path.join(spec, "shards", f"{split}-*.mcap" if split else "*.mcap")))
+        # A convert output folder: its map shards, else its point shards.
+        for sub in ("shards", "points"):
+            if not paths and os.path.isdir(os.path.join(spec, sub)):
+                paths = sorted(glob.glob(os.path.join(spec, sub, f"{split}-*.mcap" if split else "*.mcap")))
     else:
         paths = sorted(glob.glob(spec))
     if not paths:
@@ -110,7 +112,7 @@ class FrameSet:
     def __len__(self) -> int:
         return len(self.ds)
 
-    def item(self, i: int, flip: bool = False) -> dict:
+    def item(self, i: int, flip: bool = False, key=None) -> dict:
         f = self.ds[i]
         t = np.asarray(f["tensor"])
         mask = np.asarray(f["mask"]).astype(bool)
@@ -118,21 +120,27 @@ class FrameSet:
         if flip:
             # Mirror the columns (left <-> right) and negate y, as SqueezeSeg's augmentation.
             t, mask, label = t[:, ::-1], mask[:, ::-1], label[:, ::-1]
-        groups = []
-        for g in self.groups:
-            x = np.stack([t[..., self.index[c]] for c in g], 0).astype(np.float32)
-            for k, c in enumerate(g):
-                v = -x[k] if (flip and c == "y") else x[k]
-                x[k] = (v - self.norm.mean[c]) / self.norm.std[c]
-            groups.append(x * mask[None])
-        xyz = np.stack([t[..., self.index["x"]], t[..., self.index["y"]] * (-1 if flip else 1), t[..., self.index["z"]]], 0)
-        return {
-            "id": f["id"],
-            "inputs": [torch.from_numpy(np.ascontiguousarray(g)) for g in groups],
-            "xyz": torch.from_numpy(np.ascontiguousarray(xyz, dtype=np.float32)),
-            "mask": torch.from_numpy(np.ascontiguousarray(mask)),
-            "label": torch.from_numpy(np.ascontiguousarray(label)),
-        }
+        return make_item(self, f["id"], t, mask, label, -1.0 if flip else 1.0)
+
+
+def make_item(fs, fid: str, t: np.ndarray, mask: np.ndarray, label: np.ndarray, y_sign: float) -> dict:
+    """The model's inputs from an H x W x C map ``t`` whose channels ``fs.index`` names: each
+    input group normalised and masked (y times ``y_sign``), xyz, mask and label as tensors."""
+    groups = []
+    for g in fs.groups:
+        x = np.stack([t[..., fs.index[c]] for c in g], 0).astype(np.float32)
+        for k, c in enumerate(g):
+            v = y_sign * x[k] if (y_sign != 1.0 and c == "y") else x[k]
+            x[k] = (v - fs.norm.mean[c]) / fs.norm.std[c]
+        groups.append(x * mask[None])
+    xyz = np.stack([t[..., fs.index["x"]], t[..., fs.index["y"]] * y_sign, t[..., fs.index["z"]]], 0)
+    return {
+        "id": fid,
+        "inputs": [torch.from_numpy(np.ascontiguousarray(g)) for g in groups],
+        "xyz": torch.from_numpy(np.ascontiguousarray(xyz, dtype=np.float32)),
+        "mask": torch.from_numpy(np.ascontiguousarray(mask)),
+        "label": torch.from_numpy(np.ascontiguousarray(label)),
+    }
 
 
 class DeviceFrames:
@@ -164,8 +172,8 @@ class DeviceFrames:
     def batch(self, keys: Sequence) -> dict:
         """The batch of ``keys`` [(frame index, flip)], as ``collate`` of ``FrameSet.item``."""
         fs = self.frames
-        idx = torch.tensor([i for i, _ in keys], device=self.device)
-        flip = torch.tensor([bool(f) for _, f in keys], device=self.device)
+        idx = torch.tensor([k[0] for k in keys], device=self.device)
+        flip = torch.tensor([bool(k[1]) for k in keys], device=self.device)
         t, mask, label = self.t[idx], self.mask[idx], self.label[idx]
         fl = flip.view(-1, 1, 1)
         t = torch.where(fl.unsqueeze(1), t.flip(-1), t)
@@ -182,7 +190,7 @@ class DeviceFrames:
                 planes.append((v - fs.norm.mean[c]) / fs.norm.std[c])
             groups.append(torch.stack(planes, 1) * mask.unsqueeze(1))
         xyz = torch.stack([t[:, fs.index["x"]], t[:, fs.index["y"]] * sign, t[:, fs.index["z"]]], 1)
-        return {"id": [self.ids[i] for i, _ in keys], "inputs": groups, "xyz": xyz, "mask": mask, "label": label}
+        return {"id": [self.ids[k[0]] for k in keys], "inputs": groups, "xyz": xyz, "mask": mask, "label": label}
 
 
 def collate(items: List[dict]) -> dict:
@@ -213,8 +221,9 @@ def flips(step: int, seed: int, size: int) -> List[bool]:
 
 
 class StepBatches(torch.utils.data.Sampler):
-    """The batches of steps ``start .. steps`` as lists of (frame index, flip), for a DataLoader
-    with ``batch_sampler``: the same batches as the single-process loop, in any number of workers."""
+    """The batches of steps ``start .. steps`` as lists of (frame index, flip, (step, position)),
+    for a DataLoader with ``batch_sampler``: the same batches as the single-process loop, in any
+    number of workers. The (step, position) key seeds a sample's 3D augmentation (point shards)."""
 
     def __init__(self, n: int, batch: int, start: int, steps: int, seed: int, flip: bool, rank: int = 0, world: int = 1):
         self.n, self.batch, self.start, self.steps = n, batch, start, steps
@@ -227,7 +236,7 @@ class StepBatches(torch.utils.data.Sampler):
         for step in range(self.start, self.steps):
             idx = batch_indices(self.n, self.batch, step, self.seed, self.rank, self.world)
             fl = flips(step, self.seed, len(idx))
-            yield [(i, f and self.flip) for i, f in zip(idx, fl)]
+            yield [(i, f and self.flip, (step, k)) for k, (i, f) in enumerate(zip(idx, fl))]
 
 
 class TorchFrames(torch.utils.data.Dataset):
@@ -240,5 +249,5 @@ class TorchFrames(torch.utils.data.Dataset):
         return len(self.frames)
 
     def __getitem__(self, key):
-        i, flip = key
-        return self.frames.item(i, flip=flip)
+        i, flip, sample = key
+        return self.frames.item(i, flip=flip, key=sample)

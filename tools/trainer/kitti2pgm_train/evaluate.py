@@ -15,6 +15,7 @@ from kitti2pgm_data import class_map
 
 from .common import Progress, pick_device
 from .data import FrameSet, Normaliser, collate, find_shards
+from .onthefly import open_frames
 from .metrics import Confusion
 from .models import SegNet
 
@@ -54,7 +55,7 @@ def evaluate(args) -> dict:
     device = pick_device(args.device, 0)
     model, config, norm = load_run(args.run, device)
     paths = find_shards(args.shards, "val") if not args.val_shards else find_shards(args.val_shards)
-    data = FrameSet(paths, config["args"]["input"], norm)
+    data = open_frames(paths, config["args"]["input"], norm)
     out = args.predictions or os.path.join(args.run, "predictions")
     write_npy = args.format in ("npy", "both")
     if write_npy:

@@ -26,6 +26,7 @@ from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames,
 from .evaluate import predict
 from .metrics import Confusion
 from .models import SegNet
+from .onthefly import Augmentation, PointFrameSet, open_frames
 
 
 def resolve_flag(value, device: torch.device) -> bool:
@@ -36,6 +37,8 @@ def resolve_flag(value, device: torch.device) -> bool:
 def use_device_data(mode: str, data: FrameSet, device: torch.device) -> bool:
     """Whether the split is loaded onto the device (``--data-on-gpu``): ``on``, ``off``, or
     ``auto`` = on a CUDA device when it takes at most half of the free memory."""
+    if isinstance(data, PointFrameSet):
+        return False  # projected per sample, in the workers
     if mode in ("on", "off"):
         return mode == "on"
     if device.type != "cuda":
@@ -67,7 +70,8 @@ def train(args) -> dict:
     meta = read_metadata(train_paths[0])
     classes = class_map(train_paths[0])
     weights = class_weights(stats, args.class_weights, classes)
-    data = FrameSet(train_paths, args.input, norm)
+    augment = Augmentation.parse(args.augment, args.rotate_deg, tuple(args.scale_range), args.jitter, args.drop)
+    data = open_frames(train_paths, args.input, norm, augment, args.seed)
     amp = resolve_flag(args.amp, device)
     channels_last = resolve_flag(args.channels_last, device)
     on_device = use_device_data(args.data_on_gpu, data, device)
@@ -92,6 +96,8 @@ def train(args) -> dict:
             "train_shards": train_paths, "frames": len(data), "channels": data.channels,
             "normalisation": {"source": norm.source, "mean": norm.mean, "std": norm.std},
             "class_weights": weights, "world_size": world,
+            "on_the_fly": isinstance(data, PointFrameSet),
+            "augmentation": vars(augment) if isinstance(data, PointFrameSet) else None,
             "speed": {"amp_bf16": amp, "channels_last": channels_last, "compile": args.compile,
                       "data_on_device": on_device},
         }
@@ -133,7 +139,7 @@ def train(args) -> dict:
     val_data, best = None, float("-inf")
     if args.val_every and rank == 0:
         val_paths = find_shards(args.val_shards or args.shards, None if args.val_shards else "val")
-        val_data = FrameSet(val_paths, args.input, norm)
+        val_data = open_frames(val_paths, args.input, norm)
         if args.resume:
             best = ck.get("best_miou", best)
     val_log = None
