@@ -20,7 +20,7 @@ use kitti2pgm::label::{ClassMap, Labeller};
 use kitti2pgm::plan::DrivePlan;
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
-use kitti2pgm::project::{project, PgmSpec};
+use kitti2pgm::project::{project, project_cloud, Augment, Cloud, PgmSpec};
 
 /// The same allocator as the binary, so that stage costs match what `convert` pays.
 #[global_allocator]
@@ -100,6 +100,45 @@ fn stages(c: &mut Criterion) {
     g.bench_function("plain_write_npy_9ch", |b| {
         b.iter(|| std::fs::write(&target, &bytes).unwrap())
     });
+    g.finish();
+
+    // The Python module's projection (project_cloud), plain and augmented.
+    let mut g = c.benchmark_group("cloud");
+    g.throughput(Throughput::Elements(1));
+    let labels = labelled().points;
+    let cloud = Cloud {
+        labels: Some(&labels.class),
+        instance: Some(&labels.instance),
+        ..Cloud::of_points(&scan.points, &scan.reflectance)
+    };
+    let full = PgmSpec {
+        cols: 2048,
+        fov: kitti2pgm::geom::Degrees(360.0),
+        ..PgmSpec::default()
+    };
+    let turn = Augment {
+        rotate: 0.5,
+        scale: 1.02,
+        flip: true,
+        ..Augment::default()
+    };
+    let all = Augment {
+        jitter: 0.01,
+        drop: 0.1,
+        seed: 3,
+        ..turn
+    };
+    for (name, sp, aug) in [
+        ("512_plain", spec, None),
+        ("2048_360_plain", full, None),
+        ("512_rotate_scale_flip", spec, Some(turn)),
+        ("512_all_augmentations", spec, Some(all)),
+        ("2048_360_all_augmentations", full, Some(all)),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter(|| project_cloud(black_box(&cloud), &sp, aug.as_ref()).unwrap())
+        });
+    }
     g.finish();
 
     let mut g = c.benchmark_group("frame");

@@ -7,7 +7,8 @@
 //! so that a rotation by k column angles shifts the map by exactly k columns.
 //!
 //! Order, per point, with one seeded [`SplitMix`] stream: drop (probability `drop`), jitter
-//! (independent normal noise of standard deviation `jitter` metres on x, y, z), mirror
+//! (independent bell-shaped, bounded noise of standard deviation `jitter` metres on x, y, z:
+//! [`SplitMix::bell`], within +-3.46 `jitter`), mirror
 //! (`y -> -y`), then rotate by `rotate` about z and scale by `scale`. The range is
 //! `scale * |p|` of the jittered, mirrored point, so that a rotation leaves it unchanged to the
 //! bit. With no drop, no jitter, no mirror, no rotation and unit scale the map is the
@@ -28,7 +29,8 @@ pub struct Augment {
     pub scale: f32,
     /// Mirror left and right (`y -> -y`), before the rotation.
     pub flip: bool,
-    /// Standard deviation of the noise added to x, y and z, metres (0 = none).
+    /// Standard deviation of the noise added to x, y and z, metres (0 = none); the noise is
+    /// bell-shaped and bounded at 3.46 times this ([`SplitMix::bell`]).
     pub jitter: f32,
     /// Probability that a point is dropped, in [0, 1).
     pub drop: f32,
@@ -87,36 +89,54 @@ impl Augment {
 
     /// Applies the augmentation to `points` (in scan order).
     pub fn apply(&self, points: &[Point3]) -> Augmented {
+        self.apply_in_view(points, None)
+    }
+
+    /// [`Augment::apply`], keeping only the points that can end up in a view narrower than 180
+    /// degrees: `view` is the tangent of its half-angle (with the projection's own margin). A
+    /// point whose unjittered final position lies farther outside that wedge than the jitter can
+    /// move it is left out, and its random draws are skipped over, so that every other point
+    /// gets the same draws as without the view: the map is the same either way (tested).
+    pub fn apply_in_view(&self, points: &[Point3], view: Option<f32>) -> Augmented {
         let rotate = wrap_pi(self.rotate);
-        let (sin, cos) = rotate.sin_cos();
+        let (sin, cos) = (rotate.sin() as f32, rotate.cos() as f32);
         let scale = self.scale;
         let mut rng = SplitMix::new(self.seed);
-        let n = points.len();
-        let cap = if self.drop > 0.0 { n - n / 2 } else { n };
+        let cap = view.map_or(points.len(), |_| points.len() / 2);
         let mut kept = Vec::with_capacity(cap);
         let mut base = Vec::with_capacity(cap);
         let mut out = Vec::with_capacity(cap);
         let drop = self.drop as f64;
-        let sigma = self.jitter as f64;
+        let sigma = self.jitter;
         let sign = if self.flip { -1.0f32 } else { 1.0 };
+        let draws = (drop > 0.0) as u64 + 3 * (sigma > 0.0) as u64;
+        // How far the jitter can move a point across a wedge side (3 bounded draws, each at
+        // most 2 sqrt(3) sigma), plus a millimetre for rounding.
+        let reach = sigma * 2.0 * 3f32.sqrt() * 3f32.sqrt() + 1e-3;
         for (i, p) in points.iter().enumerate() {
-            if drop > 0.0 && rng.uniform() < drop {
+            if let Some(t) = view {
+                let (x, y) = (p.x, p.y * sign);
+                let (xr, yr) = (x * cos - y * sin, x * sin + y * cos);
+                // Distance outside the wedge |y| <= x t (positive outside), per unit of scale.
+                if (yr.abs() - xr * t) / (1.0 + t * t).sqrt() > reach {
+                    rng.skip(draws);
+                    continue;
+                }
+            }
+            if drop > 0.0 && rng.chance(drop) {
+                rng.skip(draws - 1);
                 continue;
             }
             let mut q = *p;
             if sigma > 0.0 {
-                let (a, b) = rng.normal_pair();
-                let (c, _) = rng.normal_pair();
-                q.x = (q.x as f64 + sigma * a) as f32;
-                q.y = (q.y as f64 + sigma * b) as f32;
-                q.z = (q.z as f64 + sigma * c) as f32;
+                q.x += sigma * rng.bell();
+                q.y += sigma * rng.bell();
+                q.z += sigma * rng.bell();
             }
             q.y *= sign;
-            let (x, y) = (q.x as f64, q.y as f64);
-            let s = scale as f64;
             out.push(Point3::new(
-                (s * (x * cos - y * sin)) as f32,
-                (s * (x * sin + y * cos)) as f32,
+                scale * (q.x * cos - q.y * sin),
+                scale * (q.x * sin + q.y * cos),
                 q.z * scale,
             ));
             base.push(q);

@@ -21,11 +21,13 @@ pub mod augment;
 pub mod camera;
 pub mod channels;
 pub mod cloud;
+pub mod columns;
 pub mod frame;
 
 pub use augment::Augment;
 pub use channels::{Channel, Channels};
 pub use cloud::{project_cloud, Cloud, CloudMap};
+pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
 
 use serde::{Deserialize, Serialize};
@@ -104,63 +106,6 @@ impl PgmSpec {
         self.rows * self.cols
     }
 
-    /// Column of a point, if it lies in the field of view: `floor((fov/2 - yaw) / (fov/cols))`
-    /// with `yaw = atan2(y, x)` in double precision (the definition).
-    #[inline]
-    pub fn column(&self, p: &Point3) -> Option<usize> {
-        self.column_rotated(p, 0.0)
-    }
-
-    /// The column `p` takes once the cloud is rotated by `rotate` radians about z (in
-    /// `[-pi, pi]`): the definition with `yaw = atan2(y, x) + rotate`, wrapped into
-    /// `(-pi, pi]`. A rotation by a multiple of the column angle is then an exact shift of the
-    /// columns, which rotating the coordinates in float32 first would not be.
-    #[inline]
-    pub fn column_rotated(&self, p: &Point3, rotate: f64) -> Option<usize> {
-        let half = self.fov.to_radians() / 2.0;
-        let yaw = rotated_yaw((p.y as f64).atan2(p.x as f64), rotate);
-        let c = floor_i64((half - yaw) / (2.0 * half / self.cols as f64));
-        (c >= 0 && c < self.cols as i64).then_some(c as usize)
-    }
-
-    /// [`PgmSpec::column`], computed with a fast single-precision `atan2` ([`atan2_fast`],
-    /// several times cheaper than libm's) and checked: when the point lies within
-    /// [`PgmSpec::border_margin`] of a column border, where the two could disagree, the
-    /// double-precision definition decides. The result is always the definition's (tested on
-    /// random points, on every border, and on every point of the shared scans).
-    #[inline]
-    pub fn column_fast(&self, p: &Point3) -> Option<usize> {
-        self.column_fast_rotated(p, 0.0)
-    }
-
-    /// [`PgmSpec::column_rotated`] with a fast single-precision `atan2` ([`atan2_fast`]),
-    /// checked as [`PgmSpec::column_fast`] is: within [`PgmSpec::border_margin`] of a column
-    /// border, where the approximation could disagree with the definition, the double-precision
-    /// definition decides.
-    #[inline]
-    pub fn column_fast_rotated(&self, p: &Point3, rotate: f64) -> Option<usize> {
-        let half = self.fov.to_radians() / 2.0;
-        let step = 2.0 * half / self.cols as f64;
-        let margin = self.border_margin();
-        // The wrap at +-pi falls on a column border of a full map, where the check decides.
-        let t = (half - rotated_yaw(atan2_fast(p.y, p.x) as f64, rotate)) / step;
-        let c = floor_i64(t);
-        let frac = t - c as f64;
-        if !(margin..=1.0 - margin).contains(&frac) {
-            return self.column_rotated(p, rotate);
-        }
-        (c >= 0 && c < self.cols as i64).then_some(c as usize)
-    }
-
-    /// How close to a column border (in columns) the fast column defers to the definition:
-    /// a thousandth of a column, or four times [`ATAN2_FAST_MAX_ERROR`] where columns are so
-    /// narrow that this is more (above 0.25, every point takes the definition).
-    #[inline]
-    pub fn border_margin(&self) -> f64 {
-        let step = self.fov.to_radians() / self.cols as f64;
-        (4.0 * ATAN2_FAST_MAX_ERROR / step).clamp(1e-3, 0.5)
-    }
-
     /// Row of a point by elevation binning (clamped into the map).
     #[inline]
     pub fn elevation_row(&self, p: &Point3, range: f32) -> usize {
@@ -184,59 +129,17 @@ impl PgmSpec {
     }
 }
 
-/// The largest difference between [`atan2_fast`] and the double-precision `atan2` of the same
-/// (finite) arguments, radians; a bound with a margin over what the test measures (about 4e-7).
-pub const ATAN2_FAST_MAX_ERROR: f64 = 2e-6;
-
-/// `atan2(y, x)` in single precision, several times cheaper than libm's: Cephes' `atanf`
-/// (reduction to |z| <= tan(pi/8), a degree-9 odd polynomial), then the quadrant. Within
-/// [`ATAN2_FAST_MAX_ERROR`] of the true angle (tested on a million points and on the axes);
-/// 0 at the origin, like `atan2(0, 0)`.
-#[inline(always)]
-pub fn atan2_fast(y: f32, x: f32) -> f32 {
-    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-    let (ax, ay) = (x.abs(), y.abs());
-    let (num, den) = if ay > ax { (ax, ay) } else { (ay, ax) };
-    if den == 0.0 {
-        return if x.is_sign_negative() { PI.copysign(y) } else { 0.0f32.copysign(y) };
-    }
-    let mut z = num / den; // in [0, 1]
-    let mut base = 0.0f32;
-    if z > 0.414_213_56 {
-        base = FRAC_PI_4;
-        z = (z - 1.0) / (z + 1.0);
-    }
-    let zz = z * z;
-    let mut a = base
-        + ((((8.053_744_5e-2 * zz - 1.387_768_6e-1) * zz + 1.997_771_1e-1) * zz - 3.333_294_9e-1)
-            * zz
-            * z
-            + z);
-    if ay > ax {
-        a = FRAC_PI_2 - a;
-    }
-    if x < 0.0 {
-        a = PI - a;
-    }
-    a.copysign(y)
-}
-
-/// `yaw + rotate` wrapped into `(-pi, pi]`; `yaw` itself when `rotate` is 0 (so that the
-/// unrotated column is the definition, bit for bit).
-#[inline(always)]
-fn rotated_yaw(yaw: f64, rotate: f64) -> f64 {
-    use std::f64::consts::{PI, TAU};
-    if rotate == 0.0 {
-        return yaw;
-    }
-    let y = yaw + rotate;
-    if y > PI {
-        y - TAU
-    } else if y <= -PI {
-        y + TAU
-    } else {
-        y
-    }
+/// Where the columns and ranges of a projection come from: the points as the map stores them,
+/// or (augmentation) points before a rotation about z and a scale.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Geometry<'a> {
+    /// The points whose azimuth (plus `rotate`) gives the column and whose range (times
+    /// `scale`) is stored, one per projected point.
+    pub base: &'a [Point3],
+    /// Rotation about z, radians, in [-pi, pi].
+    pub rotate: f64,
+    /// Range scale.
+    pub scale: f32,
 }
 
 /// Ring index of every point from the scan order, or `None` when the scan does not show exactly
@@ -347,17 +250,23 @@ pub enum Rows<'a> {
 
 /// Projects a scan's points onto the map.
 pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
-    project_impl(points, spec, false, Rows::FromSpec, |_, p| {
-        spec.column_fast(p).map(|c| (c, norm(p)))
-    })
+    let geometry = Geometry {
+        base: points,
+        rotate: 0.0,
+        scale: 1.0,
+    };
+    project_impl(points, spec, false, Rows::FromSpec, geometry)
 }
 
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
 /// for scoring per point.
 pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection {
-    project_impl(points, spec, true, Rows::FromSpec, |_, p| {
-        spec.column_fast(p).map(|c| (c, norm(p)))
-    })
+    let geometry = Geometry {
+        base: points,
+        rotate: 0.0,
+        scale: 1.0,
+    };
+    project_impl(points, spec, true, Rows::FromSpec, geometry)
 }
 
 /// The range of a point, metres (float32, as every map stores it).
@@ -366,19 +275,20 @@ pub fn norm(p: &Point3) -> f32 {
     (p.x * p.x + p.y * p.y + p.z * p.z).sqrt()
 }
 
-/// The projection of `points` with rows from `rows`; `locate(i, p)` gives the column and range
-/// of point `i` (at `p`), `None` outside the field of view. `p` is what the map stores; the
-/// cheap half-plane reject below is applied to it.
-pub(crate) fn project_impl<F>(
+/// Points per block of the two-pass loop (columns and ranges, then cells).
+const BLOCK: usize = 512;
+
+/// The projection of `points` (as the map stores them) with rows from `rows` and columns and
+/// ranges from `geometry`. Two passes per block of points: the columns and ranges of the whole
+/// block (vectorised), then the cells, one point at a time in scan order.
+pub(crate) fn project_impl(
     points: &[Point3],
     spec: &PgmSpec,
     keep_point_cells: bool,
     rows: Rows<'_>,
-    locate: F,
-) -> Projection
-where
-    F: Fn(usize, &Point3) -> Option<(usize, f32)>,
-{
+    geometry: Geometry<'_>,
+) -> Projection {
+    debug_assert_eq!(points.len(), geometry.base.len());
     let by_rings = spec.row_mode == RowMode::Rings;
     let recovered;
     let (ring_ids, rings_found, fallback): (Option<&[u8]>, usize, bool) = match rows {
@@ -403,25 +313,44 @@ where
     // 90 degrees off the axis (with a margin, so that rounding never rejects a point in view).
     let front_only = spec.fov.0 < 180.0;
     let tan_half = (spec.fov.to_radians() / 2.0).tan() as f32 * 1.001 + 1e-6;
-    for (i, p) in points.iter().enumerate() {
-        if front_only && !(p.x > 0.0 && p.y.abs() <= p.x * tan_half) {
-            continue;
+    let columns = spec.columns();
+    let (rotate, scale) = (geometry.rotate, geometry.scale);
+    let mut code = [0i32; BLOCK];
+    let mut range = [0f32; BLOCK];
+    for start in (0..points.len()).step_by(BLOCK) {
+        let end = (start + BLOCK).min(points.len());
+        let base = &geometry.base[start..end];
+        for ((c, r), b) in code.iter_mut().zip(range.iter_mut()).zip(base) {
+            *c = columns.code(b, rotate as f32);
+            *r = norm(b) * scale;
         }
-        let Some((col, range)) = locate(i, p) else {
-            continue;
-        };
-        let row = match ring_ids {
-            Some(r) => spec.ring_row(r[i]),
-            None => spec.elevation_row(p, range),
-        };
-        in_fov += 1;
-        let c = row * spec.cols + col;
-        if keep_point_cells {
-            point_cell[i] = c as u32;
-        }
-        if cell_point[c] == EMPTY || range < cell_range[c] {
-            cell_point[c] = i as u32;
-            cell_range[c] = range;
+        for (k, p) in points[start..end].iter().enumerate() {
+            let i = start + k;
+            if front_only && !(p.x > 0.0 && p.y.abs() <= p.x * tan_half) {
+                continue;
+            }
+            let col = match code[k] {
+                OUTSIDE => continue,
+                BORDER => match spec.column_rotated(&base[k], rotate) {
+                    Some(c) => c,
+                    None => continue,
+                },
+                c => c as usize,
+            };
+            let range = range[k];
+            let row = match ring_ids {
+                Some(r) => spec.ring_row(r[i]),
+                None => spec.elevation_row(p, range),
+            };
+            in_fov += 1;
+            let c = row * spec.cols + col;
+            if keep_point_cells {
+                point_cell[i] = c as u32;
+            }
+            if cell_point[c] == EMPTY || range < cell_range[c] {
+                cell_point[c] = i as u32;
+                cell_range[c] = range;
+            }
         }
     }
     let filled = cell_point.iter().filter(|&&c| c != EMPTY).count() as u64;
@@ -488,59 +417,6 @@ mod tests {
         let (r, found) = rings(&pts[..pts.len() / 2]);
         assert!(r.is_none());
         assert_eq!(found, 32);
-    }
-
-    #[test]
-    fn fast_column_is_the_definition() {
-        let mut state = 12345u64;
-        for spec in [
-            PgmSpec::default(),
-            PgmSpec {
-                fov: Degrees(360.0),
-                cols: 2048,
-                ..Default::default()
-            },
-        ] {
-            for _ in 0..200_000 {
-                let mut r = || {
-                    (crate::plan::split::splitmix64(&mut state) as f64 / u64::MAX as f64 - 0.5)
-                        as f32
-                };
-                let p = Point3::new(r() * 160.0, r() * 160.0, r());
-                assert_eq!(spec.column_fast(&p), spec.column(&p), "{p:?}");
-            }
-            // Exactly on borders and axes.
-            for k in 0..=spec.cols {
-                let a = spec.fov.to_radians() / 2.0
-                    - k as f64 * spec.fov.to_radians() / spec.cols as f64;
-                let p = Point3::new((10.0 * a.cos()) as f32, (10.0 * a.sin()) as f32, 0.0);
-                assert_eq!(spec.column_fast(&p), spec.column(&p), "border {k}");
-            }
-        }
-    }
-
-    #[test]
-    fn fast_atan2_is_within_its_bound() {
-        let mut state = 99u64;
-        let mut worst = 0.0f64;
-        let mut check = |y: f32, x: f32| {
-            let e = (atan2_fast(y, x) as f64 - (y as f64).atan2(x as f64)).abs();
-            assert!(e <= ATAN2_FAST_MAX_ERROR, "atan2({y}, {x}): error {e}");
-            worst = worst.max(e);
-        };
-        for _ in 0..1_000_000 {
-            let mut r = || {
-                (crate::plan::split::splitmix64(&mut state) as f64 / u64::MAX as f64 - 0.5) as f32
-            };
-            let scale = 10f32.powi((r() * 8.0) as i32);
-            check(r() * scale, r() * scale);
-        }
-        for (y, x) in [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0), (1.0, 1.0), (-1.0, -1.0)] {
-            check(y, x);
-        }
-        assert!(worst < ATAN2_FAST_MAX_ERROR / 2.0, "{worst}");
-        assert_eq!(atan2_fast(0.0, 0.0), 0.0);
-        assert_eq!(atan2_fast(0.0, -2.0), std::f32::consts::PI);
     }
 
     #[test]

@@ -8,7 +8,8 @@
    over 360 degrees with labels, on the SemanticKITTI scans of ``../shared`` (else the fixture's).
 2. Two threads calling ``project`` at once against one (the GIL is released while Rust works).
 3. DataLoader frames/s with one worker: point shards projected on the fly with
-   ``--augment rotate,scale,jitter,drop,flip`` against precomputed map shards of the same frames.
+   ``--augment rotate,scale,jitter,drop,flip`` against precomputed map shards of the same frames,
+   both lz4-compressed (the default), then both uncompressed.
 """
 
 import argparse
@@ -109,28 +110,31 @@ def bench_loader(steps):
     if not exe.exists():
         exe = REPO / "target" / "debug" / "kitti2pgm"
     raw = SHARED / "kitti" / "raw" if (SHARED / "kitti" / "raw").is_dir() else REPO / "fixtures" / "raw"
-    with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([str(exe), "--no-progress", "convert", str(raw), "--out", tmp, "--format", "mcap,points"],
-                       check=True, capture_output=True)
-        norm = Normaliser.from_stats(None)
-        maps = FrameSet(sorted(glob.glob(os.path.join(tmp, "shards", "train-*.mcap"))), "xyzdi", norm)
-        aug = Augmentation.parse("rotate,scale,jitter,drop,flip")
-        points = open_frames(sorted(glob.glob(os.path.join(tmp, "points", "train-*.mcap"))), "xyzdi", norm, aug, 0)
-        print(f"3. DataLoader, 1 worker, batch 8, {len(maps)} frames of {raw} (64 x 512), {steps} batches")
-        rates = {}
-        for name, fs in [("map shards", maps), ("point shards + augmentation", points),
-                         ("map shards (again)", maps), ("point shards + augmentation (again)", points)]:
-            loader = torch.utils.data.DataLoader(TorchFrames(fs), batch_sampler=StepBatches(len(fs), 8, 0, steps + 2, 0, True),
-                                                 collate_fn=collate, num_workers=1, prefetch_factor=2)
-            it = iter(loader)
-            next(it), next(it)  # worker start-up
-            t = time.perf_counter()
-            n = sum(len(b["id"]) for b in it)
-            rates[name] = n / (time.perf_counter() - t)
-            print(f"   {name}: {rates[name]:.1f} frames/s")
-        m = max(rates["map shards"], rates["map shards (again)"])
-        p = max(rates["point shards + augmentation"], rates["point shards + augmentation (again)"])
-        print(f"   on the fly = {p / m:.2f} x the precomputed maps' rate (goal >= 0.5)")
+    for compression in ("lz4", "none"):
+        with tempfile.TemporaryDirectory() as tmp:
+            subprocess.run([str(exe), "--no-progress", "convert", str(raw), "--out", tmp, "--format", "mcap,points",
+                            "--compression", compression], check=True, capture_output=True)
+            norm = Normaliser.from_stats(None)
+            maps = FrameSet(sorted(glob.glob(os.path.join(tmp, "shards", "train-*.mcap"))), "xyzdi", norm)
+            aug = Augmentation.parse("rotate,scale,jitter,drop,flip")
+            points = open_frames(sorted(glob.glob(os.path.join(tmp, "points", "train-*.mcap"))), "xyzdi", norm, aug, 0)
+            print(f"3. DataLoader, 1 worker, batch 8, {len(maps)} frames of {raw} (64 x 512), {steps} batches, "
+                  f"--compression {compression}")
+            rates = {}
+            for name, fs in [("map shards", maps), ("point shards + augmentation", points),
+                             ("map shards (again)", maps), ("point shards + augmentation (again)", points)]:
+                loader = torch.utils.data.DataLoader(TorchFrames(fs),
+                                                     batch_sampler=StepBatches(len(fs), 8, 0, steps + 2, 0, True),
+                                                     collate_fn=collate, num_workers=1, prefetch_factor=2)
+                it = iter(loader)
+                next(it), next(it)  # worker start-up
+                t = time.perf_counter()
+                n = sum(len(b["id"]) for b in it)
+                rates[name] = n / (time.perf_counter() - t)
+                print(f"   {name}: {rates[name]:.1f} frames/s")
+            m = max(rates["map shards"], rates["map shards (again)"])
+            p = max(rates["point shards + augmentation"], rates["point shards + augmentation (again)"])
+            print(f"   on the fly = {p / m:.2f} x the precomputed maps' rate (goal >= 0.5)")
 
 
 def main():

@@ -29,23 +29,54 @@ fn describe(obj: &Bound<'_, PyAny>) -> String {
     }
 }
 
-/// The values of an array of element type `T`, row-major, with its shape (one copy into Rust
-/// memory; contiguous arrays are copied with memcpy).
-fn values<T: Element + Copy>(
+/// `f` of the values of an array of element type `T`, row-major, and its shape: the array's own
+/// memory when it is contiguous, else a row-major copy.
+fn with_values<T: Element + Copy, R>(
     obj: &Bound<'_, PyAny>,
     name: &str,
     want: &str,
-) -> PyResult<(Vec<T>, Vec<usize>)> {
+    f: impl FnOnce(&[T], &[usize]) -> PyResult<R>,
+) -> PyResult<R> {
     let arr = obj.cast::<PyArrayDyn<T>>().map_err(|_| {
         PyValueError::new_err(format!("{name} must be {want}, got {}", describe(obj)))
     })?;
     let ro = arr.readonly();
     let shape = ro.shape().to_vec();
-    let v = match ro.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => ro.as_array().iter().copied().collect(),
-    };
-    Ok((v, shape))
+    if let Ok(s) = ro.as_slice() {
+        return f(s, &shape);
+    }
+    if arr.is_c_contiguous() {
+        // Contiguous but not aligned for T (arrays viewing a shard message's bytes): one byte
+        // copy into aligned memory.
+        let n = arr.len();
+        let mut v: Vec<T> = Vec::with_capacity(n);
+        // SAFETY: a C-contiguous array of n elements of T spans n * size_of::<T>() readable
+        // bytes from its data pointer (numpy's guarantee); `v` has room for n elements; every
+        // bit pattern is a valid T for the plain number and bool types used here (numpy
+        // stores bools as 0 or 1).
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                arr.data() as *const u8,
+                v.as_mut_ptr() as *mut u8,
+                n * std::mem::size_of::<T>(),
+            );
+            v.set_len(n);
+        }
+        return f(&v, &shape);
+    }
+    let v: Vec<T> = ro.as_array().iter().copied().collect();
+    f(&v, &shape)
+}
+
+/// The values of an array of element type `T`, row-major, with its shape (one copy).
+fn values<T: Element + Copy>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    want: &str,
+) -> PyResult<(Vec<T>, Vec<usize>)> {
+    with_values(obj, name, want, |v: &[T], shape| {
+        Ok((v.to_vec(), shape.to_vec()))
+    })
 }
 
 /// Points from an (N, 3) or (N, 4) float32 array; with `intensity`, (N, 4) is required and the
@@ -60,23 +91,24 @@ pub fn points_arg(
     } else {
         "a float32 array of shape (N, 3) or (N, 4)"
     };
-    let (v, shape) = values::<f32>(obj, name, want)?;
-    let cols = match shape[..] {
-        [_, 4] => 4,
-        [_, 3] if !intensity => 3,
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "{name} must be {want}, got {}",
-                describe(obj)
-            )))
-        }
-    };
-    let pts = v
-        .chunks_exact(cols)
-        .map(|r| Point3::new(r[0], r[1], r[2]))
-        .collect();
-    let inten = intensity.then(|| v.chunks_exact(4).map(|r| r[3]).collect());
-    Ok((pts, inten))
+    with_values(obj, name, want, |v: &[f32], shape| {
+        let cols = match shape[..] {
+            [_, 4] => 4,
+            [_, 3] if !intensity => 3,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "{name} must be {want}, got {}",
+                    describe(obj)
+                )))
+            }
+        };
+        let pts = v
+            .chunks_exact(cols)
+            .map(|r| Point3::new(r[0], r[1], r[2]))
+            .collect();
+        let inten = intensity.then(|| v.chunks_exact(4).map(|r| r[3]).collect());
+        Ok((pts, inten))
+    })
 }
 
 /// A one-dimensional array of `n` entries of type `T` (`dtype` names it in the message).

@@ -20,6 +20,9 @@ use kitti2pgm::project::{project_cloud, Augment, Cloud, CloudMap, PgmSpec, RowMo
 
 use arrays::{colours_arg, points_arg, vec_arg};
 
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// The library's error as a Python exception: files that cannot be read are `OSError`,
 /// everything else (bad contents, bad arguments) `ValueError`.
 pub(crate) fn py_err(e: kitti2pgm::Error) -> PyErr {
