@@ -85,6 +85,13 @@ impl Cloud<'_> {
             return Err(Error::Config("colour_valid without colours".into()));
         }
         let finite = |p: &Point3| p.x.is_finite() && p.y.is_finite() && p.z.is_finite();
+        // A branch-free pass first (vectorised), the search for the culprit only on failure.
+        let all = |ok: bool, p: &Point3| ok & p.x.is_finite() & p.y.is_finite() & p.z.is_finite();
+        if self.points.iter().fold(true, all)
+            && self.intensity.iter().fold(true, |ok, v| ok & v.is_finite())
+        {
+            return self.validate_rings_and_colours();
+        }
         if let Some(i) = self.points.iter().position(|p| !finite(p)) {
             return Err(Error::Config(format!(
                 "point {i} is not finite ({:?})",
@@ -97,6 +104,10 @@ impl Cloud<'_> {
                 self.intensity[i]
             )));
         }
+        self.validate_rings_and_colours()
+    }
+
+    fn validate_rings_and_colours(&self) -> Result<()> {
         if let Some(c) = self.colours {
             if let Some(i) = c.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
                 return Err(Error::Config(format!(

@@ -90,11 +90,12 @@ fn rings<'py>(
 /// Returns a dict: map (H, W, C) float32 with channel names in channels (x y z intensity range
 /// label [r g b]), mask (H, W) bool, label (H, W) uint8, instance (H, W) uint16, rgb_valid
 /// (H, W) bool or None, row and col (N,) int32 of every point (-1 outside the map or dropped),
-/// point_index (H, W) int32 (-1 for empty cells), stats (dict of counts).
+/// point_index (H, W) int32 (-1 for empty cells), stats (dict of counts). With
+/// point_cells=False, row, col and point_index are None (a little faster, for training).
 #[pyfunction]
 #[pyo3(signature = (points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9,
     row_mode="rings", rings=None, labels=None, instance=None, colours=None, colour_valid=None,
-    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0))]
+    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0, point_cells=true))]
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
     py: Python<'py>,
@@ -116,6 +117,7 @@ fn project<'py>(
     jitter: f32,
     drop: f32,
     seed: u64,
+    point_cells: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let spec = spec_of(rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode)?;
     let (pts, intensity) = points_arg(points, "points", true)?;
@@ -152,11 +154,11 @@ fn project<'py>(
             project_cloud(&cloud, &spec, Some(&augment))
         })
         .map_err(py_err)?;
-    map_dict(py, map)
+    map_dict(py, map, point_cells)
 }
 
 /// The dict `project` returns; every array takes over its Rust buffer.
-fn map_dict<'py>(py: Python<'py>, m: CloudMap) -> PyResult<Bound<'py, PyDict>> {
+fn map_dict<'py>(py: Python<'py>, m: CloudMap, point_cells: bool) -> PyResult<Bound<'py, PyDict>> {
     let CloudMap {
         frame,
         point_cell,
@@ -188,6 +190,12 @@ fn map_dict<'py>(py: Python<'py>, m: CloudMap) -> PyResult<Bound<'py, PyDict>> {
         }
         None => d.set_item("rgb_valid", py.None())?,
     }
+    if !point_cells {
+        for key in ["row", "col", "point_index"] {
+            d.set_item(key, py.None())?;
+        }
+        return stats_into(py, &d, &stats, rings_found).map(|()| d);
+    }
     let (row, col): (Vec<i32>, Vec<i32>) = point_cell
         .iter()
         .map(|&c| {
@@ -208,14 +216,24 @@ fn map_dict<'py>(py: Python<'py>, m: CloudMap) -> PyResult<Bound<'py, PyDict>> {
         "point_index",
         PyArray1::from_vec(py, index).reshape([h, w])?,
     )?;
+    stats_into(py, &d, &stats, rings_found)?;
+    Ok(d)
+}
+
+/// The projection's counts as `d["stats"]`.
+fn stats_into(
+    py: Python<'_>,
+    d: &Bound<'_, PyDict>,
+    stats: &kitti2pgm::project::ProjectionStats,
+    rings_found: usize,
+) -> PyResult<()> {
     let s = PyDict::new(py);
     s.set_item("in_fov", stats.in_fov)?;
     s.set_item("filled_cells", stats.filled_cells)?;
     s.set_item("collisions", stats.collisions)?;
     s.set_item("ring_fallback", stats.ring_fallbacks > 0)?;
     s.set_item("rings_found", rings_found)?;
-    d.set_item("stats", s)?;
-    Ok(d)
+    d.set_item("stats", s)
 }
 
 /// kitti2pgm's library as a Python module: read KITTI raw, SemanticKITTI and KITTI object

@@ -53,7 +53,16 @@ def test_augmentation_is_seeded_and_keeps_rings(with_points):
     assert c["map"].tobytes() != a["map"].tobytes()
     # Every point in view sits in the row of its ring (64 rows: the row is the ring).
     ring = points.ds[0]["ring"]
-    for m in (a, c, points.sample(0)):
+    import kitti2pgm
+
+    def with_cells(key):
+        f = points.ds[0]
+        kw = dict(points.map_args, **points.augment.draw(4, key, True))
+        kw.update(colours=f["rgb"], colour_valid=f["rgb_valid"].astype(bool))
+        return kitti2pgm.project(f["points"], rings=f["ring"], labels=f["label"], instance=f["instance"], **kw)
+    assert a["row"] is None
+    for m in (with_cells((7, 2)), with_cells((8, 2)), with_cells(None)):
+        assert m["map"].tobytes() in (a["map"].tobytes(), c["map"].tobytes(), points.sample(0)["map"].tobytes())
         seen = m["row"] >= 0
         assert seen.sum() > 10_000 and np.array_equal(m["row"][seen], ring[seen].astype(np.int32))
     with pytest.raises(ValueError, match="unknown"):
