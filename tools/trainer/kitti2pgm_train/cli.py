@@ -49,7 +49,7 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--rotate-deg", type=float, default=180.0, help="--augment rotate: uniform in [-D, D] about z")
     t.add_argument("--scale-range", type=float, nargs=2, default=[0.95, 1.05], metavar=("LOW", "HIGH"),
                    help="--augment scale: uniform factor")
-    t.add_argument("--jitter", type=float, default=0.01, help="--augment jitter: normal noise on x, y, z, metres")
+    t.add_argument("--jitter", type=float, default=0.01, help="--augment jitter: standard deviation of the bell-shaped, bounded (3.46 x) noise on x, y, z, metres")
     t.add_argument("--drop", type=float, default=0.1, help="--augment drop: probability of dropping a point")
     t.add_argument("--dropout", type=float, default=0.5)
     t.add_argument("--crf", action="store_true", help="SqueezeSeg's recurrent CRF on the logits")

@@ -31,7 +31,7 @@ class Augmentation:
 
     rotate_deg: float = 0.0            # uniform in [-rotate_deg, rotate_deg] about z
     scale: Tuple[float, float] = (1.0, 1.0)  # uniform scale factor
-    jitter_m: float = 0.0              # normal noise on x, y, z (standard deviation, metres)
+    jitter_m: float = 0.0              # bell-shaped noise on x, y, z (standard deviation, metres; bounded)
     drop: float = 0.0                  # probability of dropping each point
     flip: bool = False                 # asked for by name; the mirror itself is the sampler's flip
 
