@@ -38,9 +38,9 @@ _ARRAYS = {"tensor": ("<f4", True), "label": ("u1", False), "instance": ("<u2", 
            "mask": ("u1", False), "rgb_valid": ("u1", False)}
 
 
-def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, object]:
-    """Decodes one ``kitti2pgm.Frame`` message, field numbers taken from ``schema`` (the shard's
-    own), into a dict of scalars, strings and numpy arrays (views of ``data``, no copy)."""
+def _fields(data: Union[bytes, memoryview], schema: FrameSchema):
+    """The message's scalars, strings and string lists (absent ones at their protobuf defaults),
+    and its byte fields as memoryviews of ``data``."""
     out: Dict[str, object] = {}
     raw: Dict[str, memoryview] = {}
     lists: Dict[str, List[str]] = {}
@@ -65,6 +65,13 @@ def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[st
             out.setdefault(name, "")
         elif kind != "bytes":
             out.setdefault(name, 0)
+    return out, raw
+
+
+def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, object]:
+    """Decodes one ``kitti2pgm.Frame`` message, field numbers taken from ``schema`` (the shard's
+    own), into a dict of scalars, strings and numpy arrays (views of ``data``, no copy)."""
+    out, raw = _fields(data, schema)
     h, w = int(out["height"]), int(out["width"])
     c = len(out["channels"])
     for name, (dtype, has_channels) in _ARRAYS.items():
@@ -93,23 +100,7 @@ def decode_points(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[s
     frame_index, timestamp_ns, split, count, and numpy views (no copy): points (N, 4) float32 x, y,
     z, intensity; ring (N,) uint8 or None; label (N,) uint8; instance (N,) uint16; rgb (N, 3)
     float32 and rgb_valid (N,) uint8, or None without colour; file_index (N,) uint32."""
-    out: Dict[str, object] = {}
-    raw: Dict[str, memoryview] = {}
-    for number, _wire, value in fields(data):
-        if number not in schema.by_number:
-            continue
-        name, kind, _repeated = schema.by_number[number]
-        if kind == "string":
-            out[name] = bytes(value).decode()
-        elif kind == "bytes":
-            raw[name] = value
-        else:
-            out[name] = value
-    for name, (_num, kind, _rep) in schema.by_name.items():
-        if kind == "string":
-            out.setdefault(name, "")
-        elif kind != "bytes":
-            out.setdefault(name, 0)
+    out, raw = _fields(data, schema)
     n = int(out["count"])
     for name, (dtype, cols) in _POINT_ARRAYS.items():
         b = raw.get(name, memoryview(b""))
