@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::format::layout::{self, OutputDir};
 use crate::format::pgm::{self, PgmFile};
-use crate::format::shard::Shard;
+use crate::format::shard::{Shard, ShardKind};
 use crate::format::summary;
 use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
@@ -168,6 +168,9 @@ impl GroundTruth {
         if let Ok(found) = discover_as(path, Some(Layout::Sequence)) {
             return Self::from_dataset(path, found.drives);
         }
+        if dir.points_dir().is_dir() {
+            return Err(input("holds point shards only (points/: unprojected points); the reports read maps: convert with --format npy or mcap too"));
+        }
         Err(input("neither a convert output folder (lidar_2d/ or shards/), a folder of <frame id>.npy maps, nor shards (*.mcap)"))
     }
 
@@ -213,6 +216,15 @@ impl GroundTruth {
         let mut frames = Vec::new();
         for s in &shards {
             let md = Shard::open_verified(s)?.metadata()?;
+            if md.content == ShardKind::Points {
+                return Err(Error::Input {
+                    path: s.clone(),
+                    message: "a point shard (convert --format points) holds unprojected points; \
+                              the reports read maps: give the map shards (OUT/shards), the .npy \
+                              maps or the convert folder"
+                        .into(),
+                });
+            }
             match &params {
                 None => params = Some(md.params.map.clone()),
                 Some(p) if *p != md.params.map => {

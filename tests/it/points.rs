@@ -100,3 +100,22 @@ fn maps_and_points_together_count_each_frame_once() {
     assert!(out.join("points/train-00000.mcap").is_file());
     assert_eq!(std::fs::read_dir(out.join("lidar_2d")).unwrap().count(), 3);
 }
+
+#[test]
+fn reports_refuse_point_shards_by_name() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let (code, _, err) = convert_json(&fixtures(), &out, &["--format", "points"]);
+    assert_eq!(code, 0, "{err}");
+    let shard = out.join("points/train-00000.mcap");
+    for args in [
+        vec!["stats", s(&out)],
+        vec!["stats", s(&shard)],
+        vec!["preview", s(&shard), "--out", s(t.path())],
+    ] {
+        let (code, _, err) = run_text(&args);
+        assert_ne!(code, 0, "{args:?}");
+        assert!(err.contains("point shard"), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
