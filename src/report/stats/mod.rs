@@ -269,7 +269,10 @@ pub fn stats(
         let mut sorted: Vec<&FrameId> = s.frames.iter().collect();
         sorted.sort();
         for id in sorted {
-            let a = &per_frame[id];
+            let a = per_frame.get(id).ok_or_else(|| Error::Input {
+                path: gt.path.clone(),
+                message: format!("frame {id} is listed, but no map of it was found"),
+            })?;
             if a.sum.len() != acc.sum.len() {
                 return Err(Error::Input {
                     path: gt.path.clone(),
