@@ -200,7 +200,7 @@ fn shard_frame(
                     class: &l.labels.points.class,
                     instance: &l.labels.points.instance,
                     colours: colours.as_deref(),
-                    file_index: &l.scan.file_indices(),
+                    file_index: (!l.scan.dropped.is_empty()).then_some(&l.scan.file_indices()[..]),
                 },
                 &l.id.to_string(),
                 &dp.drive.name(),

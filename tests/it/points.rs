@@ -48,12 +48,10 @@ fn point_shards_hold_the_converters_points_and_labels() {
                 &out.join(format!("labels/{date}_drive_{drive}_sync/{frame}.label")),
             )
             .unwrap();
-            let idx: Vec<u32> = p
-                .file_index
-                .chunks_exact(4)
-                .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
-                .collect();
+            let idx = p.file_indices();
             assert_eq!(idx, scan.file_indices());
+            // Stored only where the scan dropped points (none of the fixture's).
+            assert_eq!(p.file_index.is_empty(), scan.dropped.is_empty());
             for (k, &i) in idx.iter().enumerate() {
                 assert_eq!(p.label[k] as u32, lab[i as usize] & 0xFFFF);
             }
@@ -118,4 +116,32 @@ fn reports_refuse_point_shards_by_name() {
         assert!(err.contains("point shard"), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
+}
+
+#[test]
+fn file_index_is_stored_where_points_were_dropped() {
+    let t = tmp();
+    let root = fixture_copy(t.path());
+    let bin =
+        root.join("2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000000.bin");
+    let mut bytes = std::fs::read(&bin).unwrap();
+    bytes[16 * 5..16 * 5 + 4].copy_from_slice(&f32::NAN.to_le_bytes()); // point 5
+    std::fs::write(&bin, &bytes).unwrap();
+    let out = t.path().join("out");
+    let (code, _, err) = convert_json(&root, &out, &["--format", "points"]);
+    assert_eq!(code, 0, "{err}");
+    let shard = Shard::open_verified(&out.join("points/train-00000.mcap")).unwrap();
+    let pts = shard.points().unwrap();
+    let p = pts
+        .iter()
+        .find(|p| p.id == "2011_09_26_0001_0000000000")
+        .unwrap();
+    let scan = Scan::read(&bin).unwrap();
+    assert_eq!(p.file_index.len(), 4 * scan.len());
+    assert_eq!(p.file_indices(), scan.file_indices());
+    assert_eq!(p.file_indices()[5], 6);
+    assert!(pts
+        .iter()
+        .filter(|q| q.id != p.id)
+        .all(|q| q.file_index.is_empty()));
 }

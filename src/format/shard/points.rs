@@ -23,8 +23,9 @@ pub struct PointsOf<'a> {
     pub instance: &'a [u16],
     /// Colour of each point (`None` where unseen), when colour is on.
     pub colours: Option<&'a [Option<[f32; 3]>]>,
-    /// Index of each point in its `.bin` file.
-    pub file_index: &'a [u32],
+    /// Index of each point in its `.bin` file; `None` when it is the point's position (the
+    /// scan dropped no point), stored as an empty array.
+    pub file_index: Option<&'a [u32]>,
 }
 
 fn le<T: Copy, const N: usize>(v: &[T], f: impl Fn(T) -> [u8; N]) -> Vec<u8> {
@@ -69,7 +70,9 @@ impl PointsMsg {
             instance: le(p.instance, u16::to_le_bytes),
             rgb,
             rgb_valid,
-            file_index: le(p.file_index, u32::to_le_bytes),
+            file_index: p
+                .file_index
+                .map_or_else(Vec::new, |f| le(f, u32::to_le_bytes)),
             split: split.into(),
         }
     }
@@ -90,7 +93,12 @@ impl PointsMsg {
                 if self.rgb.is_empty() { 0 } else { n },
                 false,
             ),
-            ("file_index", self.file_index.len(), n * 4, false),
+            (
+                "file_index",
+                self.file_index.len(),
+                n * 4,
+                optional(self.file_index.len()),
+            ),
         ];
         for (what, got, want, absent) in checks {
             if got != want && !absent {
@@ -114,6 +122,17 @@ impl PointsMsg {
             ));
         }
         Ok(())
+    }
+
+    /// The index in the `.bin` of every point (its position when the message stores none).
+    pub fn file_indices(&self) -> Vec<u32> {
+        if self.file_index.is_empty() {
+            return (0..self.count).collect();
+        }
+        self.file_index
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect()
     }
 
     /// The points as x, y, z, intensity quadruples.

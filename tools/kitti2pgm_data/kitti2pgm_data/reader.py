@@ -91,15 +91,17 @@ def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[st
 # The arrays of a point message: dtype and columns per point (None: one value per point).
 _POINT_ARRAYS = {"points": ("<f4", 4), "ring": ("u1", None), "label": ("u1", None), "instance": ("<u2", None),
                  "rgb": ("<f4", 3), "rgb_valid": ("u1", None), "file_index": ("<u4", None)}
-# Arrays a point message may leave empty: ring (no 64 rings found), rgb and rgb_valid (no colour).
-_POINT_OPTIONAL = {"ring", "rgb", "rgb_valid"}
+# Arrays a point message may leave empty: ring (no 64 rings found), rgb and rgb_valid (no colour),
+# file_index (the scan dropped no point: the index is the position).
+_POINT_OPTIONAL = {"ring", "rgb", "rgb_valid", "file_index"}
 
 
 def decode_points(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, object]:
     """Decodes one ``kitti2pgm.Points`` message (a point shard's frame) into a dict: id, drive,
     frame_index, timestamp_ns, split, count, and numpy views (no copy): points (N, 4) float32 x, y,
     z, intensity; ring (N,) uint8 or None; label (N,) uint8; instance (N,) uint16; rgb (N, 3)
-    float32 and rgb_valid (N,) uint8, or None without colour; file_index (N,) uint32."""
+    float32 and rgb_valid (N,) uint8, or None without colour; file_index (N,) uint32, or None when
+    every point's index in its ``.bin`` is its position (the scan dropped no point)."""
     out, raw = _fields(data, schema)
     n = int(out["count"])
     for name, (dtype, cols) in _POINT_ARRAYS.items():

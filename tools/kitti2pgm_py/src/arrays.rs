@@ -102,12 +102,18 @@ pub fn points_arg(
                 )))
             }
         };
-        let pts = v
-            .chunks_exact(cols)
-            .map(|r| Point3::new(r[0], r[1], r[2]))
-            .collect();
-        let inten = intensity.then(|| v.chunks_exact(4).map(|r| r[3]).collect());
-        Ok((pts, inten))
+        if !intensity {
+            let pts = v.chunks_exact(cols).map(|r| Point3::new(r[0], r[1], r[2]));
+            return Ok((pts.collect(), None));
+        }
+        // One pass for both.
+        let n = v.len() / 4;
+        let (mut pts, mut inten) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for r in v.chunks_exact(4) {
+            pts.push(Point3::new(r[0], r[1], r[2]));
+            inten.push(r[3]);
+        }
+        Ok((pts, Some(inten)))
     })
 }
 
