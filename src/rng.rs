@@ -36,12 +36,6 @@ impl SplitMix {
         self.0 = self.0.wrapping_add(n.wrapping_mul(GAMMA));
     }
 
-    /// Uniform in [0, 1), 53 bits.
-    #[inline]
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
     /// Zero-mean noise of unit variance, bell-shaped and bounded: the sum of the four 16-bit
     /// uniforms of one draw (Irwin-Hall with n = 4), scaled to unit variance. Within
     /// +-2 sqrt(3) (about 3.46), no outliers; one draw per value, several times cheaper than an

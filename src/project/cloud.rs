@@ -173,12 +173,13 @@ pub fn project_cloud(
     };
     let Some(aug) = aug else {
         let rows = cloud.rings.map_or(Rows::FromSpec, Rows::Rings);
-        let geometry = Geometry {
-            base: cloud.points,
-            rotate: 0.0,
-            scale: 1.0,
-        };
-        let proj = project_impl(cloud.points, spec, true, rows, geometry);
+        let proj = project_impl(
+            cloud.points,
+            spec,
+            true,
+            rows,
+            Geometry::plain(cloud.points),
+        );
         let values = PointValues {
             points: cloud.points,
             intensity: cloud.intensity,
@@ -215,14 +216,13 @@ fn augmented(
     let n = cloud.points.len();
     // Rings from the original order, before any point moves or goes.
     let (recovered, rings_found) = match (cloud.rings, spec.row_mode) {
-        (Some(_), _) => (None, LASERS),
+        (_, RowMode::Elevation) => (None, 0),
+        (Some(_), RowMode::Rings) => (None, LASERS),
         (None, RowMode::Rings) => rings(cloud.points),
-        (None, RowMode::Elevation) => (None, 0),
     };
-    // For a view narrower than 180 degrees, points that cannot reach it are left out early
-    // (the same map, a quarter of the work for the default 90 degrees).
-    let view = (cull && spec.fov.0 < 180.0)
-        .then(|| (spec.fov.to_radians() / 2.0).tan() as f32 * 1.001 + 1e-6);
+    // For a view narrower than 180 degrees, points that cannot reach its wedge (the one the
+    // projection rejects by) are left out early: the same map, a quarter of the work at 90.
+    let view = spec.front_wedge().filter(|_| cull);
     let a = aug.apply_in_view(cloud.points, view);
     let all_rings = cloud.rings.or(recovered.as_deref());
     let kept_rings = all_rings.map(|r| pick(&a.kept, r));

@@ -40,13 +40,6 @@ impl PgmSpec {
         self.columns().fast(p, 0.0)
     }
 
-    /// [`PgmSpec::column_rotated`] with a fast single-precision `atan2` ([`atan2_fast`]),
-    /// checked as [`PgmSpec::column_fast`] is (see [`Columns::fast`]).
-    #[inline]
-    pub fn column_fast_rotated(&self, p: &Point3, rotate: f64) -> Option<usize> {
-        self.columns().fast(p, rotate)
-    }
-
     /// The column rule with its constants computed once, for per-point loops.
     #[inline]
     pub fn columns(&self) -> Columns<'_> {

@@ -106,6 +106,14 @@ impl PgmSpec {
         self.rows * self.cols
     }
 
+    /// For a map narrower than 180 degrees, the tangent of its half-angle with a margin
+    /// (`tan(fov/2) * 1.001 + 1e-6`): the wedge `x > 0, |y| <= x t` holds every point in view,
+    /// so rounding never rejects one. `None` for wider maps.
+    #[inline]
+    pub fn front_wedge(&self) -> Option<f32> {
+        (self.fov.0 < 180.0).then(|| (self.fov.to_radians() / 2.0).tan() as f32 * 1.001 + 1e-6)
+    }
+
     /// Row of a point by elevation binning (clamped into the map).
     #[inline]
     pub fn elevation_row(&self, p: &Point3, range: f32) -> usize {
@@ -140,6 +148,17 @@ pub(crate) struct Geometry<'a> {
     pub rotate: f64,
     /// Range scale.
     pub scale: f32,
+}
+
+impl<'a> Geometry<'a> {
+    /// The points themselves: no rotation, unit scale.
+    pub fn plain(points: &'a [Point3]) -> Geometry<'a> {
+        Geometry {
+            base: points,
+            rotate: 0.0,
+            scale: 1.0,
+        }
+    }
 }
 
 /// Ring index of every point from the scan order, or `None` when the scan does not show exactly
@@ -250,23 +269,13 @@ pub enum Rows<'a> {
 
 /// Projects a scan's points onto the map.
 pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
-    let geometry = Geometry {
-        base: points,
-        rotate: 0.0,
-        scale: 1.0,
-    };
-    project_impl(points, spec, false, Rows::FromSpec, geometry)
+    project_impl(points, spec, false, Rows::FromSpec, Geometry::plain(points))
 }
 
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
 /// for scoring per point.
 pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection {
-    let geometry = Geometry {
-        base: points,
-        rotate: 0.0,
-        scale: 1.0,
-    };
-    project_impl(points, spec, true, Rows::FromSpec, geometry)
+    project_impl(points, spec, true, Rows::FromSpec, Geometry::plain(points))
 }
 
 /// The range of a point, metres (float32, as every map stores it).
@@ -309,10 +318,8 @@ pub(crate) fn project_impl(
         Vec::new()
     };
     let mut in_fov = 0u64;
-    // Cheap half-plane reject for maps narrower than 180 degrees: a point with x <= 0 is at least
-    // 90 degrees off the axis (with a margin, so that rounding never rejects a point in view).
-    let front_only = spec.fov.0 < 180.0;
-    let tan_half = (spec.fov.to_radians() / 2.0).tan() as f32 * 1.001 + 1e-6;
+    // Cheap reject for maps narrower than 180 degrees: a point outside the front wedge.
+    let wedge = spec.front_wedge();
     let columns = spec.columns();
     let (rotate, scale) = (geometry.rotate, geometry.scale);
     let mut code = [0i32; BLOCK];
@@ -326,8 +333,10 @@ pub(crate) fn project_impl(
         }
         for (k, p) in points[start..end].iter().enumerate() {
             let i = start + k;
-            if front_only && !(p.x > 0.0 && p.y.abs() <= p.x * tan_half) {
-                continue;
+            if let Some(t) = wedge {
+                if !(p.x > 0.0 && p.y.abs() <= p.x * t) {
+                    continue;
+                }
             }
             let col = match code[k] {
                 OUTSIDE => continue,

@@ -75,17 +75,22 @@ def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[st
     h, w = int(out["height"]), int(out["width"])
     c = len(out["channels"])
     for name, (dtype, has_channels) in _ARRAYS.items():
-        b = raw.get(name, memoryview(b""))
         shape = (h, w, c) if has_channels else (h, w)
-        need = int(np.prod(shape)) * np.dtype(dtype).itemsize
         # Absent arrays (prediction messages carry the label map only; rgb_valid without colour).
-        if len(b) == 0 and (name not in ("label", "tensor") or need == 0):
-            out[name] = None
-            continue
-        if len(b) != need:
-            raise ValueError(f"{name} has {len(b)} bytes, expected {need}")
-        out[name] = np.frombuffer(b, dtype=dtype).reshape(shape)
+        out[name] = _view(raw, name, dtype, shape, lambda need: name not in ("label", "tensor") or need == 0)
     return out
+
+
+def _view(raw: Dict[str, memoryview], name: str, dtype: str, shape, optional) -> Optional[np.ndarray]:
+    """Byte field ``name`` as a numpy view of ``shape``; None when it is empty and
+    ``optional(bytes it would need)``; a ValueError when its size is wrong."""
+    b = raw.get(name, memoryview(b""))
+    need = int(np.prod(shape)) * np.dtype(dtype).itemsize
+    if len(b) == 0 and optional(need):
+        return None
+    if len(b) != need:
+        raise ValueError(f"{name} has {len(b)} bytes, expected {need}")
+    return np.frombuffer(b, dtype=dtype).reshape(shape)
 
 
 # The arrays of a point message: dtype and columns per point (None: one value per point).
@@ -105,15 +110,8 @@ def decode_points(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[s
     out, raw = _fields(data, schema)
     n = int(out["count"])
     for name, (dtype, cols) in _POINT_ARRAYS.items():
-        b = raw.get(name, memoryview(b""))
         shape = (n, cols) if cols else (n,)
-        need = int(np.prod(shape)) * np.dtype(dtype).itemsize
-        if len(b) == 0 and name in _POINT_OPTIONAL and need > 0:
-            out[name] = None
-            continue
-        if len(b) != need:
-            raise ValueError(f"{name} has {len(b)} bytes, expected {need}")
-        out[name] = np.frombuffer(b, dtype=dtype).reshape(shape)
+        out[name] = _view(raw, name, dtype, shape, lambda need: name in _POINT_OPTIONAL and need > 0)
     return out
 
 

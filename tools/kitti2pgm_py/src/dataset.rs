@@ -17,7 +17,7 @@ use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::rings;
 
-use crate::readers::{box_dict, class_map_of, to_py};
+use crate::readers::{box_dict, class_map_of, scan_array, to_py};
 use crate::{py_err, spec_of};
 
 /// The frames of a dataset root, loaded as `kitti2pgm convert` loads them.
@@ -169,14 +169,7 @@ impl Dataset {
         let n = l.scan.len();
         let out = PyDict::new(py);
         out.set_item("id", l.id.to_string())?;
-        let flat: Vec<f32> = l
-            .scan
-            .points
-            .iter()
-            .zip(&l.scan.reflectance)
-            .flat_map(|(p, &r)| [p.x, p.y, p.z, r])
-            .collect();
-        out.set_item("points", PyArray1::from_vec(py, flat).reshape([n, 4])?)?;
+        out.set_item("points", scan_array(py, &l.scan)?)?;
         out.set_item("file_index", PyArray1::from_vec(py, l.scan.file_indices()))?;
         match ring {
             Some(r) => out.set_item("ring", PyArray1::from_vec(py, r))?,

@@ -49,21 +49,25 @@ fn read_scan<'py>(
     with_file_index: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let scan = py.detach(|| Scan::read(&path)).map_err(py_err)?;
-    let n = scan.len();
     let index = with_file_index.then(|| scan.file_indices());
-    let flat: Vec<f32> = scan
-        .points
-        .iter()
-        .zip(&scan.reflectance)
-        .flat_map(|(p, &r)| [p.x, p.y, p.z, r])
-        .collect();
-    let pts = PyArray1::from_vec(py, flat).reshape([n, 4])?.into_any();
+    let pts = scan_array(py, &scan)?.into_any();
     match index {
         Some(i) => Ok((pts, PyArray1::from_vec(py, i))
             .into_pyobject(py)?
             .into_any()),
         None => Ok(pts),
     }
+}
+
+/// A scan's points as an (N, 4) float32 array: x, y, z, intensity.
+pub(crate) fn scan_array<'py>(py: Python<'py>, scan: &Scan) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let flat: Vec<f32> = scan
+        .points
+        .iter()
+        .zip(&scan.reflectance)
+        .flat_map(|(p, &r)| [p.x, p.y, p.z, r])
+        .collect();
+    PyArray1::from_vec(py, flat).reshape([scan.len(), 4])
 }
 
 /// Reads a per-point `.label` file (SemanticKITTI): one uint32 per point of the `.bin`, the
