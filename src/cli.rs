@@ -88,6 +88,10 @@ pub struct ScoreArgs {
     /// file, a folder of them, or a convert folder holding only shards/; cell protocol only).
     #[arg(long, value_name = "PATH")]
     pub gt: PathBuf,
+    /// Read the output of an unfinished (running or killed) or inconsistent conversion anyway;
+    /// the report says it is partial. Without it such ground truth is refused.
+    #[arg(long)]
+    pub partial: bool,
     /// Predictions: a folder (searched recursively) or one file.
     #[arg(long, value_name = "PATH")]
     pub pred: PathBuf,
@@ -150,6 +154,10 @@ pub struct StatsArgs {
     /// A `kitti2pgm convert` output folder (with lidar_2d/).
     #[arg(value_name = "DIR")]
     pub dir: PathBuf,
+    /// Read the output of an unfinished (running or killed) or inconsistent conversion anyway;
+    /// the report says it is partial. Without it such ground truth is refused.
+    #[arg(long)]
+    pub partial: bool,
     /// Split lists: list files (train.txt, val.txt; named by their stem) or an ImageSet folder
     /// (its train.txt and val.txt). Without it, one split `all` over every converted frame.
     #[arg(long, value_name = "PATH")]
@@ -368,6 +376,10 @@ pub struct PreviewArgs {
     /// folder, a lidar_2d folder (SqueezeSeg's too) or shards.
     #[arg(required = true, value_name = "NPY|DIR|SHARD")]
     pub inputs: Vec<PathBuf>,
+    /// Read the output of an unfinished (running or killed) or inconsistent conversion anyway;
+    /// the report says it is partial. Without it such ground truth is refused.
+    #[arg(long)]
+    pub partial: bool,
     /// Output: a .png file for one .npy input, else a folder (one <frame>.png per frame).
     #[arg(long, short, value_name = "PATH")]
     pub out: PathBuf,

@@ -49,9 +49,59 @@ pub fn floor_i64(x: f64) -> i64 {
     t - ((t as f64) > x) as i64
 }
 
+/// How far from orthonormal a rotation matrix may be: the largest entry of `RᵀR - I`. KITTI's
+/// matrices are orthonormal to about 1e-6; 1e-3 still rejects any typo in a digit that matters.
+pub const ROTATION_TOLERANCE: f64 = 1e-3;
+
+/// Checks that `m` is a rotation: finite, orthonormal within [`ROTATION_TOLERANCE`], determinant
+/// +1 (not a reflection). The error says which test failed, with the value.
+pub fn check_rotation(m: &na::Matrix3<f64>) -> Result<(), String> {
+    if let Some(v) = m.iter().find(|v| !v.is_finite()) {
+        return Err(format!("holds a non-finite value {v}"));
+    }
+    let off = (m.transpose() * m - na::Matrix3::identity()).amax();
+    if off.is_nan() || off > ROTATION_TOLERANCE {
+        return Err(format!(
+            "is not a rotation: RᵀR differs from the identity by {off:.3e} (tolerance {ROTATION_TOLERANCE:e})"
+        ));
+    }
+    let det = m.determinant();
+    if det <= 0.0 {
+        return Err(format!(
+            "is a reflection, not a rotation (determinant {det:.6})"
+        ));
+    }
+    Ok(())
+}
+
+/// The rotation nearest to `m`, found in a bounded number of iterations (nalgebra's
+/// `from_matrix` iterates until it converges, which a wild matrix never does).
+pub fn nearest_rotation<T: na::RealField + Copy>(m: &na::Matrix3<T>) -> na::Rotation3<T> {
+    na::Rotation3::from_matrix_eps(m, T::default_epsilon(), 64, na::Rotation3::identity())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rotations_checked_and_bounded() {
+        let r = na::Rotation3::from_euler_angles(0.1, 0.2, 0.3).into_inner();
+        assert!(check_rotation(&r).is_ok());
+        let mut typo = r;
+        typo[(0, 1)] += 0.1;
+        assert!(check_rotation(&typo)
+            .unwrap_err()
+            .contains("not a rotation"));
+        let reflect = -na::Matrix3::<f64>::identity();
+        assert!(check_rotation(&reflect).unwrap_err().contains("reflection"));
+        let wild = na::Matrix3::<f64>::repeat(1e155);
+        assert!(check_rotation(&wild).is_err());
+        // Bounded: returns (something) on matrices nalgebra's from_matrix spins on.
+        let _ = nearest_rotation(&wild);
+        let _ = nearest_rotation(&na::Matrix3::<f64>::repeat(f64::NAN));
+        assert!((nearest_rotation(&r).into_inner() - r).amax() < 1e-9);
+    }
 
     #[test]
     fn floor_matches_std() {

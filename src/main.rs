@@ -36,7 +36,15 @@ fn main() -> ExitCode {
                 }
             }
             eprintln!("kitti2pgm: error: {e:#}");
-            ExitCode::FAILURE
+            // Options out of range or contradicting each other are usage errors, as clap's.
+            let usage = e
+                .chain()
+                .any(|c| matches!(c.downcast_ref(), Some(kitti2pgm::Error::Config(_))));
+            if usage {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

@@ -34,3 +34,13 @@ pub struct Global {
     /// Whether a progress bar may be drawn.
     pub progress: bool,
 }
+
+/// The readers' rule for an unfinished conversion, from `--partial`.
+pub fn completeness(partial: bool) -> kitti2pgm::report::truth::Completeness {
+    use kitti2pgm::report::truth::Completeness;
+    if partial {
+        Completeness::AllowPartial
+    } else {
+        Completeness::Require
+    }
+}

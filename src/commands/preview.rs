@@ -46,8 +46,13 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
             })());
             continue;
         }
-        let gt = match GroundTruth::open(input) {
-            Ok(gt) => gt,
+        let gt = match GroundTruth::open_with(input, super::completeness(a.partial)) {
+            Ok(gt) => {
+                if let Some(p) = &gt.partial {
+                    eprintln!("kitti2pgm: PARTIAL: {p}");
+                }
+                gt
+            }
             Err(e) => {
                 report(Err(e.into()));
                 continue;

@@ -14,14 +14,16 @@ use kitti2pgm::report::score::{
 };
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
+use super::completeness;
+
 use super::{progress, Global};
 use crate::cli::ScoreArgs;
 use crate::Outcome;
 
 pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     let preds = Predictions::index(&a.pred)?;
-    let gt = GroundTruth::open(&a.gt)?;
-    if gt.provenance == Provenance::Assumed {
+    let gt = GroundTruth::open_with(&a.gt, completeness(a.partial))?;
+    if gt.provenance == Provenance::Assumed || gt.partial.is_some() {
         eprintln!("kitti2pgm: {}", gt.provenance_note());
     }
     let only: Option<BTreeSet<FrameId>> = a

@@ -9,6 +9,8 @@ use kitti2pgm::format::{imageset, png};
 use kitti2pgm::report::stats::{stats, SplitFrames, Stats};
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
+use super::completeness;
+
 use super::{progress, Global};
 use crate::cli::StatsArgs;
 use crate::Outcome;
@@ -48,8 +50,8 @@ fn split_lists(paths: &[std::path::PathBuf]) -> anyhow::Result<Vec<SplitFrames>>
 }
 
 pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
-    let gt = GroundTruth::open(&a.dir)?;
-    if gt.provenance == Provenance::Assumed {
+    let gt = GroundTruth::open_with(&a.dir, completeness(a.partial))?;
+    if gt.provenance == Provenance::Assumed || gt.partial.is_some() {
         eprintln!("kitti2pgm: {}", gt.provenance_note());
     }
     let splits = split_lists(&a.imageset)?;

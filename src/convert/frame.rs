@@ -42,6 +42,9 @@ pub struct FrameReport {
     pub rings_found: u64,
     /// Cells with a colour.
     pub rgb_cells: u64,
+    /// Object types of the frame's boxes that KITTI does not define (object set).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub unknown_object_types: Vec<String>,
 }
 
 impl FrameReport {
@@ -98,6 +101,7 @@ pub fn process(
             .rgb_valid
             .as_ref()
             .map_or(0, |v| v.iter().map(|&b| b as u64).sum()),
+        unknown_object_types: frame_labels.unknown_types.clone(),
     };
     Converted {
         point_class: scan.to_file_order(&labels.class, classes.background),

@@ -28,6 +28,9 @@ pub struct FrameLabels {
     pub boxes: Vec<LabelBox>,
     /// Whether the frame has labels at all.
     pub annotated: bool,
+    /// Object types of the frame's boxes that KITTI does not define, as written (labelled as
+    /// the class map says: background unless it lists them).
+    pub unknown_types: Vec<String>,
 }
 
 impl FrameLabels {
@@ -42,6 +45,7 @@ impl FrameLabels {
             points: labeller.label(&scan.points),
             boxes: kept,
             annotated: true,
+            unknown_types: Vec::new(),
         }
     }
 
@@ -53,6 +57,7 @@ impl FrameLabels {
             },
             boxes: Vec::new(),
             annotated: false,
+            unknown_types: Vec::new(),
         }
     }
 }
@@ -87,7 +92,14 @@ pub fn frame_labels(
                     LabelBox::from_object(i, o, &rect_to_velo, map.class_of_object(&o.kind))
                 })
                 .collect();
-            Ok(FrameLabels::from_boxes(boxes, scan, map))
+            Ok(FrameLabels {
+                unknown_types: objects
+                    .iter()
+                    .filter(|o| !o.is_known_type())
+                    .map(|o| o.kind.clone())
+                    .collect(),
+                ..FrameLabels::from_boxes(boxes, scan, map)
+            })
         }
         Layout::Sequence => {
             let path = drive.point_labels_path(frame);
@@ -128,6 +140,7 @@ pub fn frame_labels(
                 points,
                 boxes: Vec::new(),
                 annotated: true,
+                unknown_types: Vec::new(),
             })
         }
     }

@@ -87,6 +87,9 @@ impl Totals {
         }
         s.rgb_cells += r.rgb_cells;
         s.frames_without_labels += !r.annotated as u64;
+        for t in &r.unknown_object_types {
+            *s.unknown_object_types.entry(t.clone()).or_default() += 1;
+        }
         self.points += &r.labelled_points;
         self.cells += &r.labelled_cells;
     }
@@ -110,6 +113,10 @@ impl Totals {
 /// The shared state of a running conversion, handed to the shard writer.
 pub(crate) struct Run<'a> {
     totals: Mutex<Totals>,
+    /// The folder's journal of finished frames.
+    pub(crate) journal: resume::Journal,
+    /// Shards this run wrote or kept.
+    shards: Mutex<std::collections::BTreeSet<std::path::PathBuf>>,
     progress: &'a (dyn Fn(FrameOutcome<'_>) + Sync),
 }
 
@@ -124,6 +131,14 @@ impl Run<'_> {
         let mut t = self.totals();
         t.summary.resumed_frames += n;
         *t.summary.frames_skipped.entry(why.into()).or_default() += n;
+    }
+
+    /// A shard written, or kept as it was, by this run.
+    pub(crate) fn produced(&self, path: &std::path::Path) {
+        self.shards
+            .lock()
+            .expect("no panic while holding the lock")
+            .insert(path.to_path_buf());
     }
 
     /// A frame converted and written.
@@ -153,10 +168,12 @@ pub fn convert(
 ) -> Result<ConvertSummary> {
     let params = &opts.params;
     params.validate()?;
+    plan.check_class_map(&params.map.class_map)?;
     create_dir(&opts.out.root)?;
     let _lock = resume::lock(&opts.out)?;
     let leftovers_removed = resume::remove_leftovers(&opts.out)?;
-    let resuming = !opts.overwrite && resume::same_parameters(opts);
+    let journal = resume::Journal::start(opts)?;
+    let stale_removed = journal.stale_removed;
     if params.npy {
         create_dir(&opts.out.lidar_dir())?;
     }
@@ -172,6 +189,7 @@ pub fn convert(
                 version: env!("CARGO_PKG_VERSION").to_string(),
                 params: params.clone(),
                 drives: (plan.drives.len() + plan.failed.len()) as u64,
+                frames_planned: plan.jobs.len() as u64,
                 frames_skipped: plan.skipped.clone(),
                 not_frames: plan
                     .not_frames
@@ -180,11 +198,14 @@ pub fn convert(
                     .collect(),
                 unknown_object_types: plan.unknown_object_types.clone(),
                 leftovers_removed,
+                stale_removed,
                 ..Default::default()
             },
             points: ClassCounts::zeros(n),
             cells: ClassCounts::zeros(n),
         }),
+        journal,
+        shards: Mutex::default(),
         progress,
     };
     for f in &plan.failed {
@@ -217,12 +238,21 @@ pub fn convert(
     } else {
         let one = |&(d, frame): &(usize, u32)| {
             let dp = &plan.drives[d];
-            if resuming && resume::frame_is_complete(dp, frame, opts) {
+            if run.journal.frame_is_complete(dp, frame, opts) {
                 return run.kept(1, resume::KEPT);
             }
-            match convert_frame(dp, frame, opts) {
+            let id = dp.drive.frame_id(frame);
+            let written =
+                convert_frame(dp, frame, opts).and_then(|r| run.journal.record(&id).map(|()| r));
+            match written {
                 Ok(r) => run.done(&r),
-                Err(e) => run.failed(dp.drive.frame_id(frame).to_string(), 1, e),
+                Err(e) => {
+                    // Whatever is left under the frame's names was not made by this run.
+                    // (A failure to remove them leaves files the journal does not list, which
+                    // the readers refuse.)
+                    let _ = resume::remove_frame_files(&id, opts);
+                    run.failed(id.to_string(), 1, e)
+                }
             }
         };
         if opts.threads == 1 {
@@ -231,6 +261,22 @@ pub fn convert(
             pool.install(|| plan.jobs.par_iter().for_each(one));
         }
     }
+    // Shards this run did not write or keep (another cut of the frames, frames that now fail)
+    // would be read as part of the data: remove them.
+    let produced =
+        std::mem::take(&mut *run.shards.lock().expect("no panic while holding the lock"));
+    for dir in [opts.out.shards_dir(), opts.out.points_dir()] {
+        if !dir.is_dir() {
+            continue;
+        }
+        for p in crate::format::layout::list_shards(&dir)? {
+            if !produced.contains(&p) {
+                std::fs::remove_file(&p).map_err(|source| Error::Write { path: p, source })?;
+                run.totals().summary.stale_removed += 1;
+            }
+        }
+    }
+    run.journal.finish()?;
     let s = run
         .totals
         .into_inner()

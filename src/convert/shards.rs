@@ -72,14 +72,17 @@ pub(crate) fn convert_to_shards(
             .iter()
             .map(|&(d, f)| plan.drives[d].drive.frame_id(f).to_string())
             .collect();
+        // The frames' .npy / .label files, when asked for, must be journalled with these
+        // parameters too.
         let others_present = !pass.primary
-            || sp.jobs.iter().all(|&(d, f)| {
-                let id = plan.drives[d].drive.frame_id(f);
-                (!opts.params.npy || opts.out.npy_path(&id).is_file())
-                    && (!opts.params.labels || opts.out.label_path(&id).is_file())
-            });
+            || !(opts.params.npy || opts.params.labels)
+            || sp
+                .jobs
+                .iter()
+                .all(|&(d, f)| run.journal.frame_is_complete(&plan.drives[d], f, opts));
         let intact = || shard_is_intact(&path, &ids, &opts.params, pass.kind);
         if !opts.overwrite && others_present && intact() {
+            run.produced(&path);
             if pass.primary {
                 run.kept(ids.len() as u64, "already in a complete, intact shard");
             }
@@ -100,6 +103,7 @@ pub(crate) fn convert_to_shards(
             // Every frame failed (each reported): no empty shard is left behind.
             Ok(reports) if reports.is_empty() => {}
             Ok(reports) => {
+                run.produced(&path);
                 let mut t = run.totals();
                 if pass.primary {
                     reports.iter().for_each(|r| t.add(r));
@@ -171,6 +175,7 @@ fn shard_frame(
     sh: &ShardParams,
     split: &str,
     pass: Pass,
+    journal: &super::resume::Journal,
 ) -> Result<(Produced, Vec<u8>, u64)> {
     let ts = dp.timestamp(f).map(|t| t.0.max(0) as u64);
     // Without a timestamp, frames are spaced at the scanner's 10 Hz.
@@ -213,6 +218,7 @@ fn shard_frame(
     };
     if pass.primary {
         write_frame_files(dp, f, &p.out, opts)?;
+        journal.record(&dp.drive.frame_id(f))?;
     }
     Ok((p, msg, log_time))
 }
@@ -238,7 +244,7 @@ fn write_shard(
     type Done = Vec<Result<(Produced, Vec<u8>, u64)>>;
     let produce_batch = |jobs: &[(usize, u32)]| -> Done {
         jobs.par_iter()
-            .map(|&(d, f)| shard_frame(&plan.drives[d], f, opts, sh, &sp.split, pass))
+            .map(|&(d, f)| shard_frame(&plan.drives[d], f, opts, sh, &sp.split, pass, &run.journal))
             .collect()
     };
     // Appends a finished batch in frame order (sequential: the writer compresses here).

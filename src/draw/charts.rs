@@ -132,12 +132,24 @@ pub fn frame_chart(
 pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
     let classes = map.labelled();
     let nc = classes.len().max(1) as u32;
-    let (gap, group_gap, h, left, top, bottom) = (8u32, 48u32, 300u32, 48u32, 56u32, 40u32);
+    let (gap, group_gap, h, left, bottom) = (8u32, 48u32, 300u32, 48u32, 40u32);
     let bar = (168 / nc).max(12);
     let n = s.split_order.len().max(1) as u32;
     let group = nc * bar + (nc - 1) * gap;
     let w = left + n * group + (n - 1) * group_gap + 24;
     let w = w.max(420);
+    // The legend wraps to the picture's width (the 19 classes of SemanticKITTI take lines).
+    let mut legend = Vec::with_capacity(classes.len());
+    let (mut lx, mut ly) = (left, 22u32);
+    for &class in &classes {
+        let item = 16 + text_width(map.name(class), 1) + 20;
+        if lx > left && lx + item > w {
+            (lx, ly) = (left, ly + 16);
+        }
+        legend.push((class, lx, ly));
+        lx += item;
+    }
+    let top = ly + 34;
     let mut img = image::RgbImage::from_pixel(w, top + h + bottom, image::Rgb([255, 255, 255]));
     let black = [0, 0, 0];
     draw_text(
@@ -148,15 +160,13 @@ pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
         black,
         1,
     );
-    let mut lx = left;
-    for &class in &classes {
-        for x in lx..lx + 12 {
-            for y in 22..34 {
+    for &(class, lx, ly) in &legend {
+        for x in lx..(lx + 12).min(w) {
+            for y in ly..ly + 12 {
                 img.put_pixel(x, y, image::Rgb(map.colour(class)));
             }
         }
-        draw_text(&mut img, lx + 16, 24, map.name(class), black, 1);
-        lx += 16 + text_width(map.name(class), 1) + 20;
+        draw_text(&mut img, lx + 16, ly + 2, map.name(class), black, 1);
     }
     for t in 0..=10 {
         let y = top + h - t * h / 10;
@@ -196,6 +206,10 @@ pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
                 }
             }
             let label = format!("{:.1}%", v * 100.0);
+            // Values only where they fit above their bar (the table and JSON have them all).
+            if text_width(&label, 1) > bar + gap {
+                continue;
+            }
             let lx = x0 + bar.saturating_sub(text_width(&label, 1)) / 2;
             draw_text(
                 &mut img,

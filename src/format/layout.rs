@@ -137,11 +137,17 @@ pub fn shard_name(split: &str, index: usize) -> String {
     format!("{split}-{index:05}.mcap")
 }
 
-/// The `.mcap` files of a folder, sorted.
+/// The `.mcap` files of a folder, sorted; hidden files (an unfinished shard's `.tmp-*.mcap`)
+/// are not shards.
 pub fn list_shards(dir: &Path) -> Result<Vec<PathBuf>> {
+    let hidden = |p: &Path| {
+        p.file_name()
+            .and_then(|n| n.to_str())
+            .is_none_or(|n| n.starts_with('.'))
+    };
     Ok(crate::fs::sorted_dir(dir)?
         .into_iter()
-        .filter(|p| p.extension().is_some_and(|e| e == "mcap") && p.is_file())
+        .filter(|p| p.extension().is_some_and(|e| e == "mcap") && !hidden(p) && p.is_file())
         .collect())
 }
 

@@ -29,8 +29,15 @@ pub struct ConvertSummary {
     pub resumed_frames: u64,
     /// Temporary files of an interrupted run removed before converting.
     pub leftovers_removed: u64,
+    /// Converted files of an earlier run with other parameters (or of any earlier run, with
+    /// `--overwrite`) removed before converting, so that the folder holds one conversion.
+    #[serde(default)]
+    pub stale_removed: u64,
     /// Drives found.
     pub drives: u64,
+    /// Frames the run set out to convert (converted, kept, or failed at the end).
+    #[serde(default)]
+    pub frames_planned: u64,
     /// Frames converted and written.
     pub frames_converted: u64,
     /// Frames that failed (a failed drive counts all its scans).

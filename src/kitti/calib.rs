@@ -120,6 +120,18 @@ impl CalibFile {
         Ok(na::Matrix3::from_row_slice(self.values(key, 9)?))
     }
 
+    /// `key` as a rotation, checked ([`crate::geom::check_rotation`]).
+    fn rotation(&self, key: &str) -> Result<na::Matrix3<f64>> {
+        let m = self.mat3(key)?;
+        self.check_rotation(key, &m)?;
+        Ok(m)
+    }
+
+    fn check_rotation(&self, key: &str, m: &na::Matrix3<f64>) -> Result<()> {
+        crate::geom::check_rotation(m)
+            .map_err(|e| Error::format(&self.path, format!("key `{key}` {e}")))
+    }
+
     fn vec3(&self, key: &str) -> Result<na::Vector3<f64>> {
         Ok(na::Vector3::from_row_slice(self.values(key, 3)?))
     }
@@ -130,7 +142,7 @@ impl CalibFile {
 
     /// `R` and `T` as a rigid motion (rotation kept exactly as written).
     fn rigid(&self, r: &str, t: &str) -> Result<RigidF64> {
-        let rot = na::Rotation3::from_matrix_unchecked(self.mat3(r)?);
+        let rot = na::Rotation3::from_matrix_unchecked(self.rotation(r)?);
         Ok(RigidF64::from_parts(
             na::Translation3::from(self.vec3(t)?),
             rot,
@@ -182,7 +194,7 @@ impl CamToCam {
                 r: f.mat3(&format!("R_{i:02}"))?,
                 t: f.vec3(&format!("T_{i:02}"))?,
                 size_rect: f.vec2(&format!("S_rect_{i:02}"))?,
-                r_rect: f.mat3(&format!("R_rect_{i:02}"))?,
+                r_rect: f.rotation(&format!("R_rect_{i:02}"))?,
                 p_rect: Matrix3x4::from_row_slice(f.values(&format!("P_rect_{i:02}"), 12)?),
             })
         };
@@ -305,19 +317,21 @@ impl FrameCalib {
         let p = |i: usize| -> Result<Matrix3x4> {
             Ok(Matrix3x4::from_row_slice(f.values(&format!("P{i}"), 12)?))
         };
-        let tr_key = if f.numeric.contains_key("Tr_velo_to_cam") {
-            "Tr_velo_to_cam"
-        } else {
-            "Tr"
-        };
+        // An object frame's file (`Tr_velo_to_cam`) must give `R0_rect`; an odometry
+        // sequence's `Tr` is already rectified.
+        let object =
+            f.numeric.contains_key("Tr_velo_to_cam") || f.text.contains_key("Tr_velo_to_cam");
+        let tr_key = if object { "Tr_velo_to_cam" } else { "Tr" };
+        let velo_to_cam = Matrix3x4::from_row_slice(f.values(tr_key, 12)?);
+        f.check_rotation(tr_key, &velo_to_cam.fixed_view::<3, 3>(0, 0).into_owned())?;
         Ok(FrameCalib {
             p: [p(0)?, p(1)?, p(2)?, p(3)?],
-            r0_rect: if f.numeric.contains_key("R0_rect") {
-                f.mat3("R0_rect")?
+            r0_rect: if object || f.numeric.contains_key("R0_rect") {
+                f.rotation("R0_rect")?
             } else {
                 na::Matrix3::identity()
             },
-            velo_to_cam: Matrix3x4::from_row_slice(f.values(tr_key, 12)?),
+            velo_to_cam,
         })
     }
 

@@ -30,6 +30,12 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
+
+/// Frame numbers are below this (a million scans: 28 hours at 10 Hz; KITTI's longest drive has
+/// under 5,200, and 6-digit names end at 999,999). A scan named beyond it is not a frame, a
+/// tracklet reaching beyond it is malformed: no allocation or arithmetic can be driven by a
+/// wild frame number.
+pub const MAX_FRAME: u32 = 1_000_000;
 pub use discover::{discover, discover_all, discover_as, Discovery};
 
 /// Which dataset layout a drive, and its frames, come from.
@@ -335,7 +341,10 @@ impl Drive {
                 .and_then(|n| n.to_str())
                 .and_then(|n| n.strip_suffix(".bin"))
                 .filter(|stem| stem.len() == width && stem.bytes().all(|c| c.is_ascii_digit()))
-                .map(|stem| stem.parse().expect("6 or 10 digits fit u32"));
+                // 10 digits beyond u32 (9999999999.bin) or beyond any drive's length: not a
+                // frame, named as such.
+                .and_then(|stem| stem.parse::<u32>().ok())
+                .filter(|&f| f < MAX_FRAME);
             match frame {
                 Some(f) => out.frames.push(f),
                 None => out.not_frames.push(p),

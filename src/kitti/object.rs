@@ -24,8 +24,31 @@ pub struct ObjectLabel {
     pub rotation_y: f64,
 }
 
-/// Parses a `label_2` file's text; `path` names it in errors (with the line).
+/// The object types of KITTI's object benchmark (`DontCare` marks regions left unlabelled).
+pub const KNOWN_TYPES: [&str; 9] = [
+    "Car",
+    "Van",
+    "Truck",
+    "Pedestrian",
+    "Person_sitting",
+    "Cyclist",
+    "Tram",
+    "Misc",
+    "DontCare",
+];
+
+impl ObjectLabel {
+    /// Whether the type is one KITTI defines ([`KNOWN_TYPES`]; spelling and case exact).
+    pub fn is_known_type(&self) -> bool {
+        KNOWN_TYPES.contains(&self.kind.as_str())
+    }
+}
+
+/// Parses a `label_2` file's text; `path` names it in errors (with the line). A UTF-8 byte
+/// order mark is skipped. Every box but a `DontCare` region (whose sizes KITTI writes as -1)
+/// must have positive sizes.
 pub fn parse(text: &str, path: &Path) -> Result<Vec<ObjectLabel>> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let fields: Vec<&str> = line.split_whitespace().collect();
@@ -53,9 +76,16 @@ pub fn parse(text: &str, path: &Path) -> Result<Vec<ObjectLabel>> {
                 Err(bad(format!("field {} is not finite", k + 1)))
             }
         };
+        let hwl = [num(8)?, num(9)?, num(10)?];
+        if fields[0] != "DontCare" && hwl.iter().any(|v| *v <= 0.0) {
+            return Err(bad(format!(
+                "box size must be positive, found h={} w={} l={}",
+                hwl[0], hwl[1], hwl[2]
+            )));
+        }
         out.push(ObjectLabel {
             kind: fields[0].to_string(),
-            hwl: [num(8)?, num(9)?, num(10)?],
+            hwl,
             location: na::Point3::new(num(11)?, num(12)?, num(13)?),
             rotation_y: num(14)?,
         });
@@ -85,5 +115,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("l.txt:1: 7 fields, expected 15"), "{e}");
+        let bom = format!("\u{feff}Truck{}", &text[3..]);
+        let v = parse(&bom, Path::new("l.txt")).unwrap();
+        assert_eq!(v[0].kind, "Truck");
+        assert!(v[0].is_known_type());
+        let neg = text.replace("1.67 1.87 3.69", "1.67 -1.87 3.69");
+        let e = parse(&neg, Path::new("l.txt")).unwrap_err().to_string();
+        assert!(e.contains("l.txt:1: box size must be positive"), "{e}");
+        let dc = "DontCare -1 -1 -10 503.89 169.71 590.61 190.13 -1 -1 -1 -1000 -1000 -1000 -10\n";
+        assert!(!parse(dc, Path::new("l.txt")).unwrap().is_empty());
     }
 }

@@ -368,6 +368,16 @@ impl Parser<'_> {
     }
 
     fn tracklet(&self, n: Node) -> Result<Tracklet> {
+        let first_frame: u32 = self.num(n, "first_frame")?;
+        if first_frame >= super::MAX_FRAME {
+            return Err(self.err(
+                n,
+                format!(
+                    "<first_frame> {first_frame} is beyond any drive (frames are below {})",
+                    super::MAX_FRAME
+                ),
+            ));
+        }
         let (h, w, l) = (self.real(n, "h")?, self.real(n, "w")?, self.real(n, "l")?);
         if h <= 0.0 || w <= 0.0 || l <= 0.0 {
             return Err(self.err(
@@ -384,6 +394,16 @@ impl Parser<'_> {
                     .map_err(|e| self.context(e, &format!("pose {i}")))
             })
             .collect::<Result<Vec<_>>>()?;
+        if first_frame as u64 + poses.len() as u64 > super::MAX_FRAME as u64 {
+            return Err(self.err(
+                n,
+                format!(
+                    "poses reach frame {}, beyond any drive (frames are below {})",
+                    first_frame as u64 + poses.len() as u64,
+                    super::MAX_FRAME
+                ),
+            ));
+        }
         let finished = match n.children().find(|c| c.has_tag_name("finished")) {
             Some(_) => Some(self.num::<i64>(n, "finished")? != 0),
             None => None,
@@ -393,7 +413,7 @@ impl Parser<'_> {
             h,
             w,
             l,
-            first_frame: self.num(n, "first_frame")?,
+            first_frame,
             poses,
             finished,
         })

@@ -4,8 +4,9 @@
 //! velodyne frame (x forward, y left, z up, metres; reflectance in [0, 1]). The order of the
 //! points matters: they are stored laser by laser, which is how [`crate::project`] recovers the
 //! rows. Points that cannot be real returns are dropped here and counted: a non-finite
-//! coordinate or reflectance, or a range beyond [`MAX_RANGE_M`] (the HDL-64E reaches 120 m; a
-//! point at 1e30 m would make an infinite range and poison every statistic). Their original
+//! coordinate or reflectance, a range beyond [`MAX_RANGE_M`] (the HDL-64E reaches 120 m; a
+//! point at 1e30 m would make an infinite range and poison every statistic), or a reflectance
+//! outside [`REFLECTANCE_RANGE`] (0..1, as every KITTI scan stores it). Their original
 //! indices are kept so that per-point outputs (`.label` files) still line up with the `.bin`.
 
 use std::path::Path;
@@ -20,6 +21,10 @@ pub const POINT_BYTES: usize = 16;
 /// 120 m reach).
 pub const MAX_RANGE_M: f32 = 500.0;
 
+/// The reflectance a real return has; a point outside it (1e30, -5) is a corrupt record and is
+/// dropped with the far ones (counted in `dropped_out_of_range`).
+pub const REFLECTANCE_RANGE: std::ops::RangeInclusive<f32> = 0.0..=1.0;
+
 /// One velodyne scan with its non-finite points removed.
 #[derive(Debug, Clone, Default)]
 pub struct Scan {
@@ -31,7 +36,8 @@ pub struct Scan {
     pub file_len: usize,
     /// File indices of the dropped points (non-finite, or beyond [`MAX_RANGE_M`]), ascending.
     pub dropped: Vec<u32>,
-    /// How many of `dropped` were finite but beyond [`MAX_RANGE_M`].
+    /// How many of `dropped` were finite but beyond [`MAX_RANGE_M`] or with a reflectance
+    /// outside [`REFLECTANCE_RANGE`].
     pub dropped_out_of_range: usize,
 }
 
@@ -64,8 +70,9 @@ impl Scan {
             let finite = x.is_finite() && y.is_finite() && z.is_finite() && r.is_finite();
             // In f64, so that a huge coordinate cannot overflow the test itself.
             let far = finite
-                && (x as f64).powi(2) + (y as f64).powi(2) + (z as f64).powi(2)
-                    > (MAX_RANGE_M as f64).powi(2);
+                && ((x as f64).powi(2) + (y as f64).powi(2) + (z as f64).powi(2)
+                    > (MAX_RANGE_M as f64).powi(2)
+                    || !REFLECTANCE_RANGE.contains(&r));
             if finite && !far {
                 points.push(Point3::new(x, y, z));
                 reflectance.push(r);

@@ -84,8 +84,9 @@ impl LabelBox {
             na::UnitQuaternion::from_axis_angle(&na::Vector3::y_axis(), obj.rotation_y),
         );
         let m = rect_to_velo * rect_pose.to_homogeneous();
-        // KITTI's R0_rect is orthonormal to about 1e-6: take the nearest rotation.
-        let rot = na::Rotation3::from_matrix(&m.fixed_view::<3, 3>(0, 0).into_owned());
+        // KITTI's R0_rect is orthonormal to about 1e-6 (checked when read): take the nearest
+        // rotation, in a bounded number of steps.
+        let rot = crate::geom::nearest_rotation(&m.fixed_view::<3, 3>(0, 0).into_owned());
         let t = m.fixed_view::<3, 1>(0, 3);
         LabelBox {
             class,

@@ -285,6 +285,19 @@ impl ClassMap {
             .map(|i| i as ClassId)
     }
 
+    /// Whether the map has a rule for the annotations of `layout`: object types for box
+    /// sources (KITTI raw tracklets, the object set), a `learning_map` for SemanticKITTI's
+    /// per-point labels. Without one, every point would be the background class.
+    pub fn can_label(&self, layout: crate::kitti::Layout) -> bool {
+        use crate::kitti::Layout;
+        match layout {
+            Layout::Raw | Layout::Object => {
+                self.object_types.values().any(|&c| c != self.background)
+            }
+            Layout::Sequence => !self.learning_map.is_empty(),
+        }
+    }
+
     /// The class of a box's object type; types the map does not list are background.
     pub fn class_of_object(&self, object_type: &str) -> ClassId {
         self.object_types

@@ -147,6 +147,29 @@ pub struct Plan {
 }
 
 impl Plan {
+    /// Checks that `map` has a rule for the annotations of every drive of the plan
+    /// ([`ClassMap::can_label`](crate::label::ClassMap::can_label)): a map that cannot label the
+    /// source would make every point background.
+    pub fn check_class_map(&self, map: &crate::label::ClassMap) -> Result<()> {
+        let Some(dp) = self
+            .drives
+            .iter()
+            .find(|dp| !map.can_label(dp.drive.layout))
+        else {
+            return Ok(());
+        };
+        Err(Error::Config(format!(
+            "class map {:?} has no rule for the annotations of {} ({}): every point would be {:?}; use a class map made for this source",
+            map.name,
+            dp.drive.dir.display(),
+            match dp.drive.layout {
+                crate::kitti::Layout::Sequence => "per-point labels need a learning_map",
+                _ => "boxes need object types mapped to classes",
+            },
+            map.name(map.background)
+        )))
+    }
+
     /// Finds the drives under `root` and lists the frames `selection` picks.
     pub fn build(root: &Path, selection: FrameSelection) -> Result<Plan> {
         Plan::build_as(root, selection, None)

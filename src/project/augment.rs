@@ -68,6 +68,13 @@ pub struct Augmented {
     pub scale: f32,
 }
 
+/// The largest scale an augmentation takes (training uses about 0.9 to 1.1; far beyond,
+/// ranges stop being those of a scanner).
+pub const MAX_SCALE: f32 = 10.0;
+
+/// The largest jitter (standard deviation) an augmentation takes, metres.
+pub const MAX_JITTER_M: f32 = 10.0;
+
 impl Augment {
     /// Checks the numbers.
     pub fn validate(&self) -> Result<()> {
@@ -75,11 +82,14 @@ impl Augment {
         if !self.rotate.is_finite() {
             return bad(format!("rotation {} is not finite", self.rotate));
         }
-        if !(self.scale.is_finite() && self.scale > 0.0) {
-            return bad(format!("scale {} must be a positive number", self.scale));
+        if !(self.scale > 0.0 && self.scale <= MAX_SCALE) {
+            return bad(format!("scale {} must be in (0, {MAX_SCALE}]", self.scale));
         }
-        if !(self.jitter.is_finite() && self.jitter >= 0.0) {
-            return bad(format!("jitter {} must be >= 0 metres", self.jitter));
+        if !(self.jitter >= 0.0 && self.jitter <= MAX_JITTER_M) {
+            return bad(format!(
+                "jitter {} must be in [0, {MAX_JITTER_M}] metres",
+                self.jitter
+            ));
         }
         if !(0.0..1.0).contains(&self.drop) {
             return bad(format!("drop {} must be in [0, 1)", self.drop));

@@ -15,6 +15,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::geom::Point3;
+use crate::kitti::velodyne::{MAX_RANGE_M, REFLECTANCE_RANGE};
 use crate::label::ClassId;
 
 /// A cloud to project: one entry per point in every array, in scan order.
@@ -84,24 +85,33 @@ impl Cloud<'_> {
         if self.colour_valid.is_some() && self.colours.is_none() {
             return Err(Error::Config("colour_valid without colours".into()));
         }
-        let finite = |p: &Point3| p.x.is_finite() && p.y.is_finite() && p.z.is_finite();
-        // A branch-free pass first (vectorised), the search for the culprit only on failure.
-        let all = |ok: bool, p: &Point3| ok & p.x.is_finite() & p.y.is_finite() & p.z.is_finite();
-        if self.points.iter().fold(true, all)
-            && self.intensity.iter().fold(true, |ok, v| ok & v.is_finite())
+        // The converter's rules (`kitti::velodyne`): finite, within MAX_RANGE_M, reflectance
+        // in 0..1. A branch-free pass first (vectorised), the search for the culprit only on
+        // failure.
+        let max2 = MAX_RANGE_M * MAX_RANGE_M;
+        let ok_point = |p: &Point3| {
+            p.x.is_finite() & p.y.is_finite() & p.z.is_finite() & (p.coords.norm_squared() <= max2)
+        };
+        let ok_intensity =
+            |v: f32| (v >= *REFLECTANCE_RANGE.start()) & (v <= *REFLECTANCE_RANGE.end());
+        if self.points.iter().fold(true, |ok, p| ok & ok_point(p))
+            && self
+                .intensity
+                .iter()
+                .fold(true, |ok, v| ok & ok_intensity(*v))
         {
             return self.validate_rings_and_colours();
         }
-        if let Some(i) = self.points.iter().position(|p| !finite(p)) {
+        if let Some(i) = self.points.iter().position(|p| !ok_point(p)) {
             return Err(Error::Config(format!(
-                "point {i} is not finite ({:?})",
+                "point {i} is not finite or beyond {MAX_RANGE_M} m ({:?})",
                 self.points[i].coords.as_slice()
             )));
         }
-        if let Some(i) = self.intensity.iter().position(|v| !v.is_finite()) {
+        if let Some(i) = self.intensity.iter().position(|v| !ok_intensity(*v)) {
             return Err(Error::Config(format!(
-                "intensity of point {i} is not finite ({})",
-                self.intensity[i]
+                "intensity of point {i} is {}, outside {:?} (KITTI reflectance)",
+                self.intensity[i], REFLECTANCE_RANGE
             )));
         }
         self.validate_rings_and_colours()

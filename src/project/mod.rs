@@ -92,6 +92,13 @@ impl PgmSpec {
                 self.fov.0
             )));
         }
+        for (name, v) in [("fov-up", self.fov_up.0), ("fov-down", self.fov_down.0)] {
+            if !(-90.0..=90.0).contains(&v) {
+                return Err(Error::Config(format!(
+                    "{name} {v} deg must be an elevation in [-90, 90]"
+                )));
+            }
+        }
         if self.fov_up.0.partial_cmp(&self.fov_down.0) != Some(std::cmp::Ordering::Greater) {
             return Err(Error::Config(format!(
                 "fov-up {} deg must be above fov-down {} deg",

@@ -23,6 +23,8 @@ use crate::params::MapParams;
 use crate::project::camera::{RgbOptions, Sampling};
 use crate::project::{Channel, Channels};
 
+pub use super::completeness::Completeness;
+
 /// Where the frames are.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Source {
@@ -59,6 +61,9 @@ pub struct GroundTruth {
     pub provenance: Provenance,
     /// The frames, sorted.
     pub frames: Vec<FrameId>,
+    /// Set when the frames are an unfinished or inconsistent conversion's, read on purpose
+    /// ([`Completeness::AllowPartial`]): what is missing or wrong. Reports print it.
+    pub partial: Option<String>,
 }
 
 /// One ground-truth frame, from a `.npy` or a shard.
@@ -129,8 +134,33 @@ fn is_npy_folder(dir: &Path) -> bool {
 }
 
 impl GroundTruth {
-    /// Opens the ground truth at `path` (see the module docs for what it may be).
+    /// Opens the ground truth at `path` (see the module docs for what it may be); the output
+    /// of an unfinished conversion is refused.
     pub fn open(path: &Path) -> Result<GroundTruth> {
+        Self::open_with(path, Completeness::Require)
+    }
+
+    /// Opens the ground truth at `path`; `completeness` says whether an unfinished
+    /// conversion's output is refused or read (and marked [`GroundTruth::partial`]).
+    pub fn open_with(path: &Path, completeness: Completeness) -> Result<GroundTruth> {
+        let mut gt = Self::open_any(path)?;
+        if let Some(problem) = super::completeness::problem(&gt)? {
+            match completeness {
+                Completeness::Require => {
+                    return Err(Error::Input {
+                        path: path.into(),
+                        message: format!(
+                            "{problem}; finish the conversion (run it again), or read what is there on purpose (--partial)"
+                        ),
+                    })
+                }
+                Completeness::AllowPartial => gt.partial = Some(problem),
+            }
+        }
+        Ok(gt)
+    }
+
+    fn open_any(path: &Path) -> Result<GroundTruth> {
         let input = |message: &str| Error::Input {
             path: path.into(),
             message: message.into(),
@@ -204,6 +234,7 @@ impl GroundTruth {
             params,
             provenance,
             frames,
+            partial: None,
         })
     }
 
@@ -250,6 +281,7 @@ impl GroundTruth {
             params: params.expect("at least one shard"),
             provenance: Provenance::Recorded(shards[0].clone()),
             frames,
+            partial: None,
         })
     }
 
@@ -281,13 +313,18 @@ impl GroundTruth {
             params,
             provenance: Provenance::Recorded(path.join("semantic-kitti.yaml (embedded)")),
             frames,
+            partial: None,
         })
     }
 
     /// A sentence saying where the map parameters come from (for a report's header).
     pub fn provenance_note(&self) -> String {
         let s = &self.params.spec;
-        match &self.provenance {
+        let partial = match &self.partial {
+            Some(p) => format!("; PARTIAL: {p}"),
+            None => String::new(),
+        };
+        let note = match &self.provenance {
             Provenance::Recorded(p) => format!("map parameters from {}", p.display()),
             Provenance::Assumed => format!(
                 "{} records no conversion parameters: assuming SqueezeSeg's map ({}x{} over {} deg, rows from rings, classes {})",
@@ -297,7 +334,8 @@ impl GroundTruth {
                 s.fov.0,
                 self.params.class_map.names().join("/")
             ),
-        }
+        };
+        note + &partial
     }
 
     /// Reads one frame from a `.npy` source.

@@ -221,7 +221,7 @@ fn unusable_output_folder_and_inputs() {
         "--fov-deg",
         "400",
     ]);
-    assert_eq!(code, 1);
+    assert_eq!(code, 2, "an option out of range is a usage error");
     assert!(stderr.contains("FOV"), "{stderr}");
 }
 

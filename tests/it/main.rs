@@ -3,6 +3,7 @@
 
 mod architecture;
 mod audit;
+mod audit2;
 mod bad_input;
 mod cli;
 mod cloud;

@@ -158,7 +158,7 @@ fn split_options_on_the_fixtures() {
         "--val-drives",
         "zero",
     ]);
-    assert_eq!(code, 1);
+    assert_eq!(code, 2, "an option out of range is a usage error");
     assert!(stderr.contains("\"zero\" is not a drive"), "{stderr}");
 }
 

@@ -517,7 +517,7 @@ fn ground_truth_shards_score_like_the_npy_folder() {
         "--raw",
         s(&fixtures()),
     ]);
-    assert_eq!(code, 1);
+    assert_eq!(code, 2);
     assert!(
         stderr.contains("point protocol needs a convert output folder"),
         "{stderr}"

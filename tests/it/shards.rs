@@ -136,9 +136,9 @@ fn shard_size_compression_and_inspect() {
     assert!(i["compression_ratio"].as_f64().unwrap() > 1.2);
     for topic in [
         "/kitti2pgm/frame",
-        "/kitti2pgm/points",
-        "/kitti2pgm/boxes",
-        "/kitti2pgm/image",
+        "/kitti2pgm/viz/points",
+        "/kitti2pgm/viz/boxes",
+        "/kitti2pgm/viz/image",
     ] {
         assert_eq!(i["topics"][topic], 1, "{topic}");
     }

@@ -14,10 +14,21 @@ use super::metadata::ShardMetadata;
 use super::{ShardKind, METADATA_NAME, POINTS_TOPIC, PREDICTION_TOPIC};
 use crate::error::{Error, Result};
 
-/// The frame of a message on a frame or prediction topic, checked; `None` for other topics.
+/// Whether a message's channel carries `schema` (messages are selected by schema, never by
+/// topic alone: a visualisation topic may share a name's prefix or a user's tool may rename).
+fn has_schema(message: &mcap::Message<'_>, schema: &str) -> bool {
+    message
+        .channel
+        .schema
+        .as_ref()
+        .is_some_and(|s| s.name == schema)
+}
+
+/// The frame of a message on a frame or prediction topic, checked; `None` for other messages.
 pub fn decode(message: &mcap::Message<'_>, path: &Path) -> Option<Result<FrameMsg>> {
     let topic = message.channel.topic.as_str();
-    if topic != super::FRAME_TOPIC && topic != PREDICTION_TOPIC {
+    let frame_topic = topic == super::FRAME_TOPIC || topic == PREDICTION_TOPIC;
+    if !frame_topic || !has_schema(message, super::FRAME_SCHEMA) {
         return None;
     }
     Some(
@@ -288,7 +299,7 @@ impl Shard {
                 Error::format(&self.path, format!("points #{}{after}: {what}", out.len()))
             };
             let m = m.map_err(|e| fail(format!("corrupted or truncated: {e}")))?;
-            if m.channel.topic != POINTS_TOPIC {
+            if m.channel.topic != POINTS_TOPIC || !has_schema(&m, super::POINTS_SCHEMA) {
                 continue;
             }
             let p = PointsMsg::decode(&m.data[..])
@@ -320,7 +331,9 @@ pub fn shard_is_intact(
     let count = summary
         .channels
         .iter()
-        .filter(|(_, c)| c.topic == kind.topic())
+        .filter(|(_, c)| {
+            c.topic == kind.topic() && c.schema.as_ref().is_some_and(|s| s.name == kind.schema())
+        })
         .map(|(id, _)| {
             summary
                 .stats

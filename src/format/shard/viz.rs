@@ -12,12 +12,12 @@ use serde_json::json;
 use crate::geom::Point3;
 use crate::label::{ClassId, LabelBox};
 
-/// Topic of the point cloud.
-pub const POINTS_TOPIC: &str = "/kitti2pgm/points";
+/// Topic of the point cloud (under `viz/`: the point shards' data topic is `/kitti2pgm/points`).
+pub const POINTS_TOPIC: &str = "/kitti2pgm/viz/points";
 /// Topic of the boxes.
-pub const BOXES_TOPIC: &str = "/kitti2pgm/boxes";
+pub const BOXES_TOPIC: &str = "/kitti2pgm/viz/boxes";
 /// Topic of the camera image.
-pub const IMAGE_TOPIC: &str = "/kitti2pgm/image";
+pub const IMAGE_TOPIC: &str = "/kitti2pgm/viz/image";
 /// Coordinate frame of the points and boxes.
 pub const FRAME_ID: &str = "velodyne";
 

@@ -14,6 +14,7 @@ import json
 import mmap
 import os
 import struct
+import warnings
 import zlib
 from typing import Dict, Iterable, Iterator, List, Optional, Union
 
@@ -126,10 +127,12 @@ class ShardReader:
     Opening reads the summary (chunk indexes, channels, statistics) only; ``reader[i]`` then
     reads and decompresses the one chunk that holds frame ``i`` (frames are in frame-id order).
     An uncompressed shard is read without any copy: the arrays are views of the mapped file.
-    ``validate_crc`` checks each chunk's CRC (costs a pass over the data).
+    Each chunk's CRC is checked (``validate_crc``, on by default as in the Rust reader: a
+    flipped bit is a ``ShardError``, never a corrupted frame; ``False`` skips the pass over the
+    data for shards already verified, e.g. by ``kitti2pgm inspect``).
     """
 
-    def __init__(self, path: PathLike, validate_crc: bool = False):
+    def __init__(self, path: PathLike, validate_crc: bool = True):
         self.path = os.fspath(path)
         self.validate_crc = validate_crc
         try:
@@ -273,15 +276,52 @@ def class_map(path: PathLike) -> Dict[str, object]:
         raise ShardError(f"{os.fspath(path)}: no class map in the metadata: {e!r}") from e
 
 
-def iter_frames(paths: Union[PathLike, Iterable[PathLike]]) -> Iterator[Dict[str, object]]:
+def shard_paths(paths: Union[PathLike, Iterable[PathLike]]) -> List[str]:
+    """One path (``str`` or ``Path``) or several, as a list of strings."""
+    if isinstance(paths, (str, bytes, os.PathLike)):
+        return [os.fspath(paths)]
+    return [os.fspath(p) for p in paths]
+
+
+def check_complete(paths: Iterable[PathLike], partial: bool = False) -> List[str]:
+    """Checks that the shards come from finished conversions: the ``convert_summary.json`` of
+    each shard's convert folder (``OUT`` of ``OUT/shards/x.mcap``), where there is one, must say
+    ``"complete": true``. Raises ``ShardError`` naming the folder otherwise; with ``partial``,
+    returns the problems instead (and warns), for reading an unfinished conversion on purpose.
+    """
+    problems = []
+    folders = sorted({os.path.dirname(os.path.dirname(os.path.abspath(os.fspath(p)))) for p in paths})
+    for folder in folders:
+        summary = os.path.join(folder, "convert_summary.json")
+        if not os.path.isfile(summary):
+            continue
+        try:
+            with open(summary, encoding="utf-8") as f:
+                s = json.load(f)
+        except (OSError, ValueError) as e:
+            raise ShardError(f"{summary}: unreadable conversion summary: {e}") from e
+        if not s.get("complete", False):
+            problems.append(f"the conversion into {folder} did not finish ({summary}: complete false): "
+                            f"{s.get('frames_planned', '?')} frames were planned")
+    if problems and not partial:
+        raise ShardError(problems[0] + "; finish the conversion (run it again), or read what is there "
+                         "on purpose (partial=True)")
+    for p in problems:
+        warnings.warn("PARTIAL: " + p, stacklevel=3)
+    return problems
+
+
+def iter_frames(paths: Union[PathLike, Iterable[PathLike]], validate_crc: bool = True,
+                partial: bool = False) -> Iterator[Dict[str, object]]:
     """Yields every frame of the shards (map or point shards), shard by shard, in frame-id order.
 
     Streams the file from the start, so it also reads a shard whose summary was lost: the frames
     before a corrupted or truncated point are yielded, then ``ShardError`` names the shard and the
-    frame that could not be read.
+    frame that could not be read. Chunk CRCs are checked (``validate_crc``). Shards of an
+    unfinished conversion are refused unless ``partial`` (see ``check_complete``).
     """
-    if isinstance(paths, (str, os.PathLike)):
-        paths = [paths]
+    paths = shard_paths(paths)
+    check_complete(paths, partial)
     for path in paths:
         path = os.fspath(path)
         n = 0
@@ -290,7 +330,7 @@ def iter_frames(paths: Union[PathLike, Iterable[PathLike]]) -> Iterator[Dict[str
             with open(path, "rb") as f:
                 # Stream from the start (never from the summary), so that a shard whose end is
                 # lost still gives its first frames.
-                reader = NonSeekingReader(f)
+                reader = NonSeekingReader(f, validate_crcs=validate_crc)
                 schemas: Dict[int, FrameSchema] = {}
                 for schema, _channel, message in reader.iter_messages(log_time_order=False):
                     if schema is None or schema.name not in (FRAME_SCHEMA, POINTS_SCHEMA):

@@ -70,21 +70,27 @@ def write_predictions(path: PathLike, predictions: Iterable[Dict], schema_from: 
     if not topic:
         raise ShardError(f"{os.fspath(schema_from)}: its metadata names no prediction_topic (written by an older kitti2pgm?)")
     classes = len(class_map(schema_from)["classes"])
-    tmp = os.path.join(os.path.dirname(path) or ".", f".tmp-{os.path.basename(path)}")
+    tmp = os.path.join(os.path.dirname(path) or ".", f".tmp-{os.getpid()}-{os.path.basename(path)}")
     n = 0
-    with open(tmp, "wb") as f:
-        w = Writer(f, chunk_size=1 << 16, compression=CompressionType.ZSTD)
-        w.start(profile="kitti2pgm", library="kitti2pgm_data")
-        sid = w.register_schema(name=FRAME_SCHEMA, encoding="protobuf", data=schema_data)
-        cid = w.register_channel(topic=topic, message_encoding="protobuf", schema_id=sid)
-        for p in predictions:
-            label = np.asarray(p["label"])
-            if label.size and int(label.max()) >= classes:
-                raise ValueError(f"prediction for {p['id']}: class id {int(label.max())}, the map has {classes} classes")
-            data = encode_prediction(schema, p["id"], label, p.get("drive", ""), p.get("frame_index", 0), p.get("split", ""))
-            w.add_message(channel_id=cid, log_time=n, publish_time=n, data=data, sequence=n)
-            n += 1
-        w.add_metadata("kitti2pgm_predictions", dict(metadata or {}))
-        w.finish()
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as f:
+            w = Writer(f, chunk_size=1 << 16, compression=CompressionType.ZSTD)
+            w.start(profile="kitti2pgm", library="kitti2pgm_data")
+            sid = w.register_schema(name=FRAME_SCHEMA, encoding="protobuf", data=schema_data)
+            cid = w.register_channel(topic=topic, message_encoding="protobuf", schema_id=sid)
+            for p in predictions:
+                label = np.asarray(p["label"])
+                if label.size and int(label.max()) >= classes:
+                    raise ValueError(f"prediction for {p['id']}: class id {int(label.max())}, the map has {classes} classes")
+                data = encode_prediction(schema, p["id"], label, p.get("drive", ""), p.get("frame_index", 0),
+                                         p.get("split", ""))
+                w.add_message(channel_id=cid, log_time=n, publish_time=n, data=data, sequence=n)
+                n += 1
+            w.add_metadata("kitti2pgm_predictions", dict(metadata or {}))
+            w.finish()
+        os.replace(tmp, path)
+    finally:
+        # Nothing half-written is left behind, under the final name or the temporary one.
+        if os.path.exists(tmp):
+            os.remove(tmp)
     return n

@@ -30,7 +30,8 @@ fn describe(obj: &Bound<'_, PyAny>) -> String {
 }
 
 /// `f` of the values of an array of element type `T`, row-major, and its shape: the array's own
-/// memory when it is contiguous, else a row-major copy.
+/// memory when it is C-contiguous, else a row-major copy (Fortran-ordered and strided arrays
+/// are read in their logical order, never as their memory lies).
 fn with_values<T: Element + Copy, R>(
     obj: &Bound<'_, PyAny>,
     name: &str,
@@ -42,10 +43,12 @@ fn with_values<T: Element + Copy, R>(
     })?;
     let ro = arr.readonly();
     let shape = ro.shape().to_vec();
-    if let Ok(s) = ro.as_slice() {
-        return f(s, &shape);
-    }
     if arr.is_c_contiguous() {
+        // (`as_slice` also accepts Fortran-contiguous arrays, whose memory is column-major:
+        // only a C-contiguous array's memory is its row-major values.)
+        if let Ok(s) = ro.as_slice() {
+            return f(s, &shape);
+        }
         // Contiguous but not aligned for T (arrays viewing a shard message's bytes): one byte
         // copy into aligned memory.
         let n = arr.len();

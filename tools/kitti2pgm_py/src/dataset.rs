@@ -83,6 +83,7 @@ impl Dataset {
             Some(name) => class_map_of(name)?,
             None => ClassMap::default_for(plan.layout()),
         };
+        plan.check_class_map(&class_map).map_err(py_err)?;
         let map = MapParams {
             rgb: rgb_camera.map(|camera| RgbOptions { camera, sampling }),
             selection,

@@ -183,8 +183,12 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
     if centre.len() != 3 || size.len() != 3 {
         return Err(err("centre and size need 3 values each"));
     }
-    if !size.iter().all(|v| v.is_finite() && *v >= 0.0) || !centre.iter().all(|v| v.is_finite()) {
-        return Err(err("centre and size must be finite, sizes >= 0"));
+    // Finite in single precision, the labeller's (1e39 overflows f32 to inf).
+    let f32_finite = |v: &f64| (*v as Real).is_finite();
+    if !size.iter().all(|v| f32_finite(v) && *v >= 0.0) || !centre.iter().all(f32_finite) {
+        return Err(err(
+            "centre and size must be finite (in float32), sizes >= 0",
+        ));
     }
     let rot = match get("rotation") {
         Ok(r) => {
@@ -192,13 +196,18 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
             if m.len() != 3 || m.iter().any(|row| row.len() != 3) {
                 return Err(err("rotation must be 3x3"));
             }
-            let m = na::Matrix3::from_fn(|r, c| m[r][c] as Real);
-            na::UnitQuaternion::from_rotation_matrix(&na::Rotation3::from_matrix(&m))
+            let m = na::Matrix3::from_fn(|r, c| m[r][c]);
+            kitti2pgm::geom::check_rotation(&m).map_err(|e| err(&format!("rotation {e}")))?;
+            na::UnitQuaternion::from_rotation_matrix(&kitti2pgm::geom::nearest_rotation(&m))
+                .cast::<Real>()
         }
         Err(_) => {
             let yaw: f64 = get("yaw")
                 .map_err(|_| err("no 'rotation' or 'yaw'"))?
                 .extract()?;
+            if !yaw.is_finite() {
+                return Err(err(&format!("yaw must be finite, not {yaw}")));
+            }
             na::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw as Real)
         }
     };

@@ -9,6 +9,7 @@ returns the predicted class of every cell (1 x H x W int64) and the logits (1 x 
 
 from __future__ import annotations
 
+import contextlib
 import os
 from typing import List
 
@@ -58,20 +59,34 @@ def deployable(run: str) -> tuple:
     return net, example
 
 
+@contextlib.contextmanager
+def _atomic(path: str):
+    """A temporary name beside ``path``, renamed to ``path`` when the block succeeds and removed
+    (with any side file an exporter wrote beside it) when it fails."""
+    tmp = f"{path}.tmp-{os.getpid()}"
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        for leftover in (tmp, tmp + ".data"):
+            if os.path.exists(leftover):
+                os.remove(leftover)
+
+
 def export(run: str, onnx_path: str = None, torchscript_path: str = None) -> dict:
     """Writes the ONNX and/or TorchScript file (atomically); returns their paths."""
     net, example = deployable(run)
     out = {}
     with torch.no_grad():
         if onnx_path:
-            tmp = onnx_path + ".tmp"
-            torch.onnx.export(net, (example,), tmp, input_names=["tensor"], output_names=["labels", "logits"],
-                              dynamo=True, verbose=False)
-            os.replace(tmp, onnx_path)
+            # One self-contained file: the weights inside the graph (external_data=False), so
+            # that the file loads wherever it is copied (the models are far below ONNX's 2 GB).
+            with _atomic(onnx_path) as tmp:
+                torch.onnx.export(net, (example,), tmp, input_names=["tensor"], output_names=["labels", "logits"],
+                                  dynamo=True, external_data=False, verbose=False)
             out["onnx"] = onnx_path
         if torchscript_path:
-            tmp = torchscript_path + ".tmp"
-            torch.jit.save(torch.jit.trace(net, (example,)), tmp)
-            os.replace(tmp, torchscript_path)
+            with _atomic(torchscript_path) as tmp:
+                torch.jit.save(torch.jit.trace(net, (example,)), tmp)
             out["torchscript"] = torchscript_path
     return out

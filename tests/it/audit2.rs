@@ -1,0 +1,454 @@
+//! Nothing lost silently, round two: one regression test per defect of the second hostile
+//! audit (issue 18), each named after its defect, on the real fixtures.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::util::*;
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+/// A writable copy of `fixtures/<name>` under `dir`.
+fn copy_of(name: &str, dir: &Path) -> PathBuf {
+    let to = dir.join(name);
+    copy_tree(&fixture(name), &to);
+    to
+}
+
+/// The `.npy` files of a convert folder as (name, bytes).
+fn maps(out: &Path) -> Vec<(String, Vec<u8>)> {
+    tree_bytes(&out.join("lidar_2d"))
+}
+
+/// Runs the binary, killing it after `limit`; `None` when it had to be killed (a hang).
+fn run_limited(args: &[&str], limit: Duration) -> Option<(i32, String)> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_kitti2pgm"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut e = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut e).unwrap();
+            return Some((status.code().unwrap_or(-1), e));
+        }
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn resume_never_mixes_parameters() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let fresh = t.path().join("fresh");
+    convert_fixtures(&fresh, &["--fov-deg", "360"]);
+    // 90 degrees everywhere, then 360 on one drive only (as an interrupted run leaves it),
+    // then 360 on all: every map must be a 360-degree one.
+    convert_fixtures(&out, &[]);
+    let (code, j, e) = convert_json(&fixture_drive(1), &out, &["--fov-deg", "360"]);
+    assert_eq!(code, 0, "{e}");
+    assert!(j["stale_removed"].as_u64().unwrap() > 0, "{j}");
+    let drive_frames = j["frames_converted"].clone();
+    let (code, j, e) = convert_json(&fixtures(), &out, &["--fov-deg", "360"]);
+    assert_eq!(code, 0, "{e}");
+    assert_eq!(
+        j["resumed_frames"], drive_frames,
+        "drive 0001's frames kept: {j}"
+    );
+    assert_eq!(maps(&out), maps(&fresh), "every map is a 360-degree map");
+    // An interrupted run (the summary says so) that changed parameters: the same.
+    convert_fixtures(&out, &[]);
+    let summary = out.join("convert_summary.json");
+    let text = std::fs::read_to_string(&summary).unwrap();
+    std::fs::write(
+        &summary,
+        text.replace("\"complete\": true", "\"complete\": false"),
+    )
+    .unwrap();
+    let (code, j, e) = convert_json(&fixtures(), &out, &["--fov-deg", "360"]);
+    assert_eq!(code, 0, "{e}");
+    assert_eq!(j["resumed_frames"], 0, "{j}");
+    assert_eq!(maps(&out), maps(&fresh));
+    // Same parameters: every frame kept.
+    let (_, j, _) = convert_json(&fixtures(), &out, &["--fov-deg", "360"]);
+    assert_eq!(j["resumed_frames"], 3, "{j}");
+    assert_eq!(maps(&out), maps(&fresh));
+}
+
+#[test]
+fn resume_refuses_a_folder_of_unknown_maps() {
+    let t = tmp();
+    let out = t.path().join("out");
+    std::fs::create_dir_all(out.join("lidar_2d")).unwrap();
+    let stray = out.join("lidar_2d/2011_09_26_0001_0000000000.npy");
+    std::fs::write(&stray, b"somebody's map").unwrap();
+    let (code, _, e) = convert_json(&fixtures(), &out, &[]);
+    assert_eq!(code, 1, "{e}");
+    assert!(e.contains("no record of how they were made"), "{e}");
+    assert_eq!(std::fs::read(&stray).unwrap(), b"somebody's map");
+    let (code, _, e) = convert_json(&fixtures(), &out, &["--overwrite"]);
+    assert_eq!(code, 0, "{e}");
+}
+
+#[test]
+fn stale_shards_are_removed() {
+    let t = tmp();
+    let out = t.path().join("out");
+    for format in ["mcap", "points"] {
+        convert_fixtures(&out, &["--format", format, "--shard-frames", "1"]);
+        let dir = out.join(if format == "mcap" { "shards" } else { "points" });
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 3);
+        convert_fixtures(&out, &["--format", format, "--shard-frames", "3"]);
+        let names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["train-00000.mcap"], "{format}");
+    }
+    convert_fixtures(&out, &["--format", "mcap", "--shard-frames", "3"]);
+    let (code, stdout, e) = run_text(&["stats", s(&out), "--json"]);
+    assert_eq!(code, 0, "{e}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["splits"]["all"]["frames"], 3, "{j}");
+    // A shard of another conversion copied in: refused, both shards named.
+    let other = t.path().join("other");
+    convert_fixtures(&other, &["--format", "mcap", "--shard-frames", "1"]);
+    let copied = out.join("shards/train-00007.mcap");
+    std::fs::copy(other.join("shards/train-00001.mcap"), &copied).unwrap();
+    let (code, _, e) = run_text(&["stats", s(&out)]);
+    assert_ne!(code, 0);
+    assert!(
+        e.contains("is in two shards") && e.contains("train-00007.mcap"),
+        "{e}"
+    );
+    let (code, _, e) = run_text(&["score", "--gt", s(&out), "--pred", s(&out)]);
+    assert_ne!(code, 0, "{e}");
+}
+
+#[test]
+fn incomplete_conversions_are_refused_unless_partial() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--format", "npy,mcap"]);
+    let summary = out.join("convert_summary.json");
+    let text = std::fs::read_to_string(&summary).unwrap();
+    std::fs::write(
+        &summary,
+        text.replace("\"complete\": true", "\"complete\": false"),
+    )
+    .unwrap();
+    for gt in [out.clone(), out.join("lidar_2d"), out.join("shards")] {
+        let (code, _, e) = run_text(&["stats", s(&gt)]);
+        assert_eq!(code, 1, "{e}");
+        assert!(
+            e.contains("did not finish") && e.contains("--partial"),
+            "{e}"
+        );
+        let pred = out.join("lidar_2d");
+        let (code, _, e) = run_text(&["score", "--gt", s(&gt), "--pred", s(&pred)]);
+        assert_eq!(code, 1, "{e}");
+        assert!(e.contains("did not finish"), "{e}");
+    }
+    let png = t.path().join("p");
+    let (code, _, e) = run_text(&["preview", s(&out), "--out", s(&png)]);
+    assert_ne!(code, 0, "{e}");
+    assert!(e.contains("did not finish"), "{e}");
+    let (code, stdout, e) = run_text(&["stats", s(&out), "--partial", "--json"]);
+    assert_eq!(code, 0, "{e}");
+    assert!(e.contains("PARTIAL"), "{e}");
+    assert!(stdout.contains("PARTIAL"), "the JSON says so too");
+    let (code, _, e) = run_text(&["preview", s(&out), "--out", s(&png), "--partial"]);
+    assert_eq!(code, 0, "{e}");
+    // A map the journal does not list (copied in): refused.
+    std::fs::write(&summary, text).unwrap();
+    let from = out.join("lidar_2d/2011_09_26_0001_0000000000.npy");
+    let to = out.join("lidar_2d/2011_09_26_0001_0000000099.npy");
+    std::fs::copy(from, to).unwrap();
+    let (code, _, e) = run_text(&["stats", s(&out)]);
+    assert_eq!(code, 1, "{e}");
+    assert!(e.contains("were not made by the conversion"), "{e}");
+}
+
+#[test]
+fn a_wild_object_calibration_is_an_error_not_a_hang() {
+    let t = tmp();
+    let ko = copy_of("kitti_object", t.path());
+    let calib = ko.join("training/calib/000000.txt");
+    let text = std::fs::read_to_string(&calib).unwrap();
+    let wild: String = text
+        .lines()
+        .map(|l| match l.split_once(':') {
+            Some(("Tr_velo_to_cam", v)) => {
+                let n = v.split_whitespace().count();
+                format!("Tr_velo_to_cam:{}", " 1e155".repeat(n))
+            }
+            _ => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&calib, wild).unwrap();
+    let out = t.path().join("out");
+    let (code, e) = run_limited(
+        &["convert", s(&ko), "--out", s(&out), "--no-progress"],
+        Duration::from_secs(120),
+    )
+    .expect("convert must not hang on a wild calibration");
+    assert_eq!(code, 3, "{e}");
+    assert!(
+        e.contains("000000.txt") && e.contains("`Tr_velo_to_cam` is not a rotation"),
+        "{e}"
+    );
+}
+
+#[test]
+fn object_calibration_without_r0_rect_is_an_error() {
+    let t = tmp();
+    let ko = copy_of("kitti_object", t.path());
+    let calib = ko.join("training/calib/000001.txt");
+    let text = std::fs::read_to_string(&calib).unwrap();
+    let without: String = text
+        .lines()
+        .filter(|l| !l.starts_with("R0_rect"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&calib, without).unwrap();
+    let (code, _, e) = convert_json(&ko, &t.path().join("out"), &[]);
+    assert_eq!(code, 3, "{e}");
+    assert!(
+        e.contains("000001.txt") && e.contains("missing key `R0_rect`"),
+        "{e}"
+    );
+}
+
+/// Points labelled per class in a conversion's summary.
+fn labelled(j: &serde_json::Value, class: &str) -> u64 {
+    j["labelled_points"][class].as_u64().unwrap_or(0)
+}
+
+#[test]
+fn unknown_object_types_are_named_and_a_bom_loses_nothing() {
+    let t = tmp();
+    // Frame 000001: Truck, Car, Cyclist, DontCare; frame 000000: Pedestrian, DontCare.
+    let rename = |dir: &str, bom: bool| {
+        let ko = copy_of("kitti_object", &t.path().join(dir));
+        let labels = ko.join("training/label_2");
+        let edit = |name: &str, f: &dyn Fn(String) -> String| {
+            let p = labels.join(name);
+            std::fs::write(&p, f(std::fs::read_to_string(&p).unwrap())).unwrap();
+        };
+        edit("000001.txt", &|l| {
+            let l = l.replacen("Car ", "Spaceship ", 1);
+            if bom {
+                format!("\u{feff}{l}")
+            } else {
+                l
+            }
+        });
+        edit("000000.txt", &|l| l.replacen("Pedestrian ", "car ", 1));
+        let (code, j, e) = convert_json(&ko, &t.path().join(dir).join("out"), &[]);
+        assert_eq!(code, 0, "{e}");
+        (j, e)
+    };
+    let (plain, e) = rename("plain", false);
+    let unknown = &plain["unknown_object_types"];
+    assert_eq!(unknown["Spaceship"], 1, "{plain}");
+    assert_eq!(unknown["car"], 1, "{plain}");
+    assert!(
+        e.contains("Spaceship") && e.contains("car"),
+        "named on stderr: {e}"
+    );
+    assert_eq!(labelled(&plain, "pedestrian"), 0, "\"car\" is not Car");
+    // A byte order mark before "Truck" loses nothing: the truck still labels its points.
+    let (bom, _) = rename("bom", true);
+    assert!(labelled(&bom, "car") > 0, "{bom}");
+    assert_eq!(bom["labelled_points"], plain["labelled_points"]);
+    assert_eq!(bom["unknown_object_types"], plain["unknown_object_types"]);
+}
+
+#[test]
+fn object_boxes_with_negative_sizes_are_refused() {
+    let t = tmp();
+    let ko = copy_of("kitti_object", t.path());
+    let labels = ko.join("training/label_2/000000.txt");
+    let text = std::fs::read_to_string(&labels).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let i = lines
+        .iter()
+        .position(|l| !l.starts_with("DontCare"))
+        .unwrap();
+    let mut f: Vec<String> = lines[i].split(' ').map(str::to_string).collect();
+    f[9] = format!("-{}", f[9]);
+    lines[i] = f.join(" ");
+    std::fs::write(&labels, lines.join("\n") + "\n").unwrap();
+    let (code, _, e) = convert_json(&ko, &t.path().join("out"), &[]);
+    assert_eq!(code, 3, "{e}");
+    assert!(
+        e.contains(&format!("000000.txt:{}: box size must be positive", i + 1)),
+        "{e}"
+    );
+}
+
+#[test]
+fn tmp_leftovers_in_points_are_removed_and_never_shards() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--format", "points"]);
+    let leftover = out.join("points/.tmp-abc123.mcap");
+    std::fs::write(&leftover, b"half a shard").unwrap();
+    let listed = kitti2pgm::format::layout::list_shards(&out.join("points")).unwrap();
+    assert!(!listed.contains(&leftover), "{listed:?}");
+    let (code, j, e) = convert_json(&fixtures(), &out, &["--format", "points"]);
+    assert_eq!(code, 0, "{e}");
+    assert!(!leftover.exists());
+    assert_eq!(j["leftovers_removed"], 1, "{j}");
+}
+
+#[test]
+fn reflectance_out_of_range_never_reaches_the_maps() {
+    let t = tmp();
+    let raw = fixture_copy(t.path());
+    let scan =
+        raw.join("2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000000.bin");
+    let mut bytes = std::fs::read(&scan).unwrap();
+    bytes[12..16].copy_from_slice(&1e30f32.to_le_bytes());
+    bytes[28..32].copy_from_slice(&(-3.0f32).to_le_bytes());
+    std::fs::write(&scan, bytes).unwrap();
+    let out = t.path().join("out");
+    let (code, j, e) = convert_json(&raw, &out, &[]);
+    assert_eq!(code, 0, "{e}");
+    assert_eq!(j["dropped_out_of_range"], 2, "{j}");
+    let (code, stdout, e) = run_text(&["stats", s(&out), "--json"]);
+    assert_eq!(code, 0, "{e}");
+    let st: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let mean = st["normalisation"]["mean"][3].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&mean), "intensity mean {mean}");
+    // The two points are dropped: their .label entries are 0 and the rest line up.
+    let labels =
+        std::fs::read(out.join("labels/2011_09_26_drive_0001_sync/0000000000.label")).unwrap();
+    assert_eq!(&labels[..8], &[0; 8]);
+}
+
+#[test]
+fn a_class_map_that_cannot_label_the_source_is_refused() {
+    let t = tmp();
+    let yaml = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/label/semantic-kitti.yaml");
+    let (code, _, e) = convert_json(
+        &fixtures(),
+        &t.path().join("out"),
+        &["--class-map", s(&yaml)],
+    );
+    assert_eq!(code, 2, "{e}");
+    assert!(e.contains("has no rule for the annotations"), "{e}");
+    assert!(!t.path().join("out/lidar_2d").exists() || maps(&t.path().join("out")).is_empty());
+}
+
+#[test]
+fn absurd_map_options_are_refused() {
+    let t = tmp();
+    for (flag, value) in [
+        ("--fov-up-deg", "inf"),
+        ("--fov-down-deg", "-inf"),
+        ("--fov-up-deg", "NaN"),
+        ("--fov-up-deg", "1e300"),
+        ("--fov-deg", "inf"),
+    ] {
+        let arg = format!("{flag}={value}");
+        let (code, _, e) = convert_json(&fixtures(), &t.path().join("out"), &[&arg]);
+        assert_eq!(code, 2, "{flag} {value}: {e}");
+        assert!(e.to_lowercase().contains("fov"), "{flag} {value}: {e}");
+    }
+}
+
+#[test]
+fn a_scan_named_beyond_u32_is_not_a_frame_and_no_panic() {
+    let t = tmp();
+    let raw = fixture_copy(t.path());
+    let data = raw.join("2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data");
+    std::fs::copy(data.join("0000000000.bin"), data.join("9999999999.bin")).unwrap();
+    let (code, j, e) = convert_json(&raw, &t.path().join("out"), &[]);
+    assert_eq!(code, 0, "{e}");
+    assert!(
+        j["not_frames"].to_string().contains("9999999999.bin"),
+        "{j}"
+    );
+    let (code, _, e) = run_text(&["split", s(&raw), "--out", s(&t.path().join("split"))]);
+    assert_eq!(code, 0, "{e}");
+}
+
+#[test]
+fn a_tracklet_far_beyond_any_drive_is_an_error_not_an_abort() {
+    let t = tmp();
+    let raw = fixture_copy(t.path());
+    let xml = raw.join("2011_09_26/2011_09_26_drive_0001_sync/tracklet_labels.xml");
+    let text = std::fs::read_to_string(&xml).unwrap();
+    let start = text.find("<first_frame>").unwrap();
+    let end = text[start..].find("</first_frame>").unwrap() + start;
+    let wild = format!("{}<first_frame>400000000{}", &text[..start], &text[end..]);
+    std::fs::write(&xml, wild).unwrap();
+    let (code, _, e) = convert_json(&raw, &t.path().join("out"), &[]);
+    assert_eq!(code, 3, "{e}");
+    assert!(
+        e.contains("tracklet_labels.xml") && e.contains("beyond any drive"),
+        "{e}"
+    );
+}
+
+#[test]
+fn stats_chart_takes_the_twenty_classes() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let (code, _, e) = convert_json(
+        &fixture("semantickitti"),
+        &out,
+        &["--fov-deg", "360", "--cols", "2048"],
+    );
+    assert_eq!(code, 0, "{e}");
+    let png = t.path().join("balance.png");
+    let (code, _, e) = run_text(&["stats", s(&out), "--chart", s(&png)]);
+    assert_eq!(code, 0, "{e}");
+    let img = image::open(&png).unwrap().to_rgb8();
+    // Every labelled class's colour is in the legend.
+    let map = kitti2pgm::label::ClassMap::semantic_kitti();
+    for c in map.labelled() {
+        let colour = map.colour(c);
+        assert!(
+            img.pixels().any(|p| p.0 == colour),
+            "{} missing",
+            map.name(c)
+        );
+    }
+}
+
+#[test]
+fn point_shards_with_viz_are_readable_and_kept() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--format", "points", "--viz"]);
+    let shard = out.join("points/train-00000.mcap");
+    let (code, stdout, e) = run_text(&["inspect", s(&shard)]);
+    assert_eq!(code, 0, "{e}");
+    assert!(stdout.contains("/kitti2pgm/viz/points"), "{stdout}");
+    let before = std::fs::read(&shard).unwrap();
+    let (code, j, e) = convert_json(&fixtures(), &out, &["--format", "points", "--viz"]);
+    assert_eq!(code, 0, "{e}");
+    assert_eq!(j["shards_skipped"], 1, "the intact shard is kept: {j}");
+    assert_eq!(std::fs::read(&shard).unwrap(), before);
+    let frames: Vec<_> = kitti2pgm::format::shard::Shard::open_verified(&shard)
+        .unwrap()
+        .points()
+        .unwrap();
+    assert_eq!(frames.len(), 3);
+}
