@@ -10,8 +10,9 @@ use clap::{Args as ClapArgs, Parser, Subcommand, ValueEnum};
 #[derive(Debug, Parser)]
 #[command(name = "kitti2pgm", version, about, long_about = None, propagate_version = true)]
 pub struct Args {
-    /// Worker threads (0 = one per core; 1 = sequential, for debugging).
-    #[arg(long, global = true, default_value_t = 0)]
+    /// Worker threads (0 = one per core; 1 = sequential, for debugging; at most 1024).
+    #[arg(long, global = true, default_value_t = 0,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(0..=1024))]
     pub threads: usize,
     /// Never draw a progress bar (it is only drawn on a terminal anyway).
     #[arg(long, global = true)]

@@ -13,3 +13,10 @@ pub fn sorted_dir(dir: &Path) -> Result<Vec<PathBuf>> {
     out.sort();
     Ok(out)
 }
+
+/// Whether something is at `path`: a file, or a link even when it leads nowhere (a dangling
+/// link to a label file is then read, and its error names it, instead of the frame passing as
+/// unlabelled).
+pub fn present(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok()
+}

@@ -103,6 +103,12 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         overwrite: a.overwrite,
     };
     opts.params.validate()?;
+    // A split the user named must name frames that are there.
+    if let Some(rule) = a.split.rule()? {
+        let mut ids: Vec<_> = plan.frame_ids().collect();
+        ids.sort();
+        rule.check_against(&ids)?;
+    }
     let pb = progress::bar(plan.jobs.len() as u64, g.progress, "converting");
     let summary = convert(&plan, &opts, &|o| match o {
         FrameOutcome::Done(_) => pb.inc(1),
@@ -121,6 +127,9 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
     }
     for p in &summary.not_frames {
         eprintln!("kitti2pgm: {p}: not a <frame10>.bin scan, skipped");
+    }
+    for p in &summary.labels_without_scan {
+        eprintln!("kitti2pgm: {p}: labels of no scan (is the scan missing?), not read");
     }
     for (t, n) in &summary.unknown_object_types {
         let map = &summary.params.map.class_map;

@@ -20,12 +20,12 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
     if !single_file {
         std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     }
-    let (mut written, mut failed) = (0, 0);
-    let mut report = |r: anyhow::Result<()>| match r {
-        Ok(()) => written += 1,
+    let (written, failed) = (std::cell::Cell::new(0usize), std::cell::Cell::new(0usize));
+    let report = |r: anyhow::Result<()>| match r {
+        Ok(()) => written.set(written.get() + 1),
         Err(e) => {
             eprintln!("kitti2pgm: {e:#}");
-            failed += 1;
+            failed.set(failed.get() + 1);
         }
     };
     for input in &a.inputs {
@@ -59,18 +59,37 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
             }
         };
         let map = &gt.params.class_map;
+        let drawn = std::sync::atomic::AtomicUsize::new(0);
         let results = gt.map_frames(
             None,
             &|f| {
                 let img = render(&f, map)?;
-                png::write(&a.out.join(format!("{}.png", f.id)), &img)
+                png::write(&a.out.join(format!("{}.png", f.id)), &img)?;
+                drawn.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                Ok(())
             },
             &|_| {},
         );
-        report(results.map(|_| ()).map_err(Into::into));
+        // Each picture written counts, also when a later frame of the folder failed.
+        let drawn = drawn.into_inner();
+        if let Err(e) = results {
+            eprintln!(
+                "kitti2pgm: {e:#} ({drawn} previews of {} written)",
+                input.display()
+            );
+            failed.set(failed.get() + 1);
+        }
+        written.set(written.get() + drawn);
     }
+    let (written, failed) = (written.get(), failed.get());
     if written == 0 {
         bail!("no preview written");
+    }
+    if failed > 0 {
+        eprintln!(
+            "kitti2pgm: {written} previews written into {}, {failed} inputs failed",
+            a.out.display()
+        );
     }
     Ok(if failed > 0 {
         Outcome::Partial

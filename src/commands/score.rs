@@ -33,7 +33,8 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         .transpose()?
         .map(|l| l.into_iter().collect());
     let opts = ScoreOptions {
-        protocol: if a.points {
+        // A SemanticKITTI root is scored per point (the benchmark's protocol).
+        protocol: if a.points || matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_)) {
             Protocol::Points
         } else {
             Protocol::Cells

@@ -74,7 +74,7 @@ pub fn frame_labels(
         Layout::Raw => Ok(FrameLabels::from_boxes(dp.boxes(frame, map), scan, map)),
         Layout::Object => {
             let path = drive.object_labels_path(frame);
-            if !path.exists() {
+            if !crate::fs::present(&path) {
                 return Ok(FrameLabels::unlabelled(scan, map));
             }
             let objects = object::read(&path)?;
@@ -103,7 +103,7 @@ pub fn frame_labels(
         }
         Layout::Sequence => {
             let path = drive.point_labels_path(frame);
-            if !path.exists() {
+            if !crate::fs::present(&path) {
                 return Ok(FrameLabels::unlabelled(scan, map));
             }
             if map.learning_map.is_empty() {

@@ -196,6 +196,11 @@ pub fn convert(
                     .iter()
                     .map(|p| p.to_string_lossy().into_owned())
                     .collect(),
+                labels_without_scan: plan
+                    .labels_without_scan
+                    .iter()
+                    .map(|p| p.to_string_lossy().into_owned())
+                    .collect(),
                 unknown_object_types: plan.unknown_object_types.clone(),
                 leftovers_removed,
                 stale_removed,

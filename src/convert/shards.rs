@@ -99,7 +99,18 @@ pub(crate) fn convert_to_shards(
             content: pass.kind,
         };
         let frames = sp.jobs.len() as u64;
-        match write_shard(plan, opts, sh, sp, &path, meta, pass, run) {
+        let mut failed_alone = 0u64;
+        match write_shard(
+            plan,
+            opts,
+            sh,
+            sp,
+            &path,
+            meta,
+            pass,
+            run,
+            &mut failed_alone,
+        ) {
             // Every frame failed (each reported): no empty shard is left behind.
             Ok(reports) if reports.is_empty() => {}
             Ok(reports) => {
@@ -110,8 +121,13 @@ pub(crate) fn convert_to_shards(
                 }
                 t.summary.shards_written += 1;
             }
-            // The shard is lost (its temporary file is removed), so are its frames.
-            Err(e) => run.failed(format!("shard {}", path.display()), frames, e),
+            // The shard is lost (its temporary file is removed), so are its frames; those that
+            // failed on their own were counted already.
+            Err(e) => run.failed(
+                format!("shard {}", path.display()),
+                frames - failed_alone,
+                e,
+            ),
         }
     });
     Ok(())
@@ -237,6 +253,7 @@ fn write_shard(
     mut meta: ShardMetadata,
     pass: Pass,
     run: &Run<'_>,
+    failed_alone: &mut u64,
 ) -> Result<Vec<super::FrameReport>> {
     let mut writer = ShardWriter::create(path, sh.compression, sh.viz, pass.kind)?;
     let mut reports = Vec::with_capacity(sp.jobs.len());
@@ -263,6 +280,7 @@ fn write_shard(
                         let id = plan.drives[d].drive.frame_id(f).to_string();
                         meta.failed.push(id.clone());
                         if pass.primary {
+                            *failed_alone += 1;
                             run.failed(id, 1, e);
                         }
                     }

@@ -48,6 +48,10 @@ pub struct ConvertSummary {
     pub failures: Vec<FrameFailure>,
     /// Files in velodyne folders that are not scans (skipped).
     pub not_frames: Vec<String>,
+    /// Label files that belong to no scan (SemanticKITTI `labels/`, object `label_2/`): not
+    /// read; a scan may be missing.
+    #[serde(default)]
+    pub labels_without_scan: Vec<String>,
     /// Tracklets of an object type KITTI does not define, by type (labelled as the class map
     /// says: background unless it lists the type).
     pub unknown_object_types: BTreeMap<String, u64>,

@@ -22,8 +22,17 @@ pub fn decode_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
                 source,
             }
         })?;
-    Ok(match img {
-        image::DynamicImage::ImageRgb8(rgb) => rgb,
-        other => other.to_rgb8(),
-    })
+    // KITTI's colour cameras (2 and 3) store 8-bit RGB. A grey image (camera 0 or 1's, or a
+    // wrong folder) or a 16-bit one would colour every point wrongly: refused, named.
+    match img {
+        image::DynamicImage::ImageRgb8(rgb) => Ok(rgb),
+        image::DynamicImage::ImageRgba8(_) => Ok(img.to_rgb8()),
+        other => Err(Error::format(
+            path,
+            format!(
+                "a {:?} image; colour needs 8-bit RGB (the colour cameras' PNGs; a grey image is camera 0 or 1's)",
+                other.color()
+            ),
+        )),
+    }
 }

@@ -305,9 +305,36 @@ impl Drive {
     pub fn has_labels(&self, frame: u32) -> bool {
         match self.layout {
             Layout::Raw => true,
-            Layout::Sequence => self.point_labels_path(frame).is_file(),
-            Layout::Object => self.object_labels_path(frame).is_file(),
+            Layout::Sequence => crate::fs::present(&self.point_labels_path(frame)),
+            Layout::Object => crate::fs::present(&self.object_labels_path(frame)),
         }
+    }
+
+    /// The label files (SemanticKITTI `labels/*.label`, object `label_2/*.txt`) that belong to
+    /// no scan of `scans` (sorted): extra files that no conversion reads, named so that a
+    /// missing scan does not go unnoticed. Raw drives have none.
+    pub fn labels_without_scan(&self, scans: &[u32]) -> Result<Vec<PathBuf>> {
+        let (dir, ext) = match self.layout {
+            Layout::Raw => return Ok(Vec::new()),
+            Layout::Sequence => (self.dir.join("labels"), "label"),
+            Layout::Object => (self.dir.join("label_2"), "txt"),
+        };
+        if !dir.is_dir() {
+            return Ok(Vec::new());
+        }
+        let width = self.frame_id(0).frame_name().len();
+        Ok(crate::fs::sorted_dir(&dir)?
+            .into_iter()
+            .filter(|p| p.extension().is_some_and(|e| e == ext))
+            .filter(|p| {
+                let frame = p
+                    .file_stem()
+                    .and_then(|n| n.to_str())
+                    .filter(|n| n.len() == width)
+                    .and_then(|n| n.parse::<u32>().ok());
+                frame.is_none_or(|f| scans.binary_search(&f).is_err())
+            })
+            .collect())
     }
 
     /// Path of the drive's tracklets (raw).

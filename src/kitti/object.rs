@@ -76,6 +76,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Vec<ObjectLabel>> {
                 Err(bad(format!("field {} is not finite", k + 1)))
             }
         };
+        // Every numeric field is checked, those the labels use and the others alike.
+        for k in 1..15 {
+            num(k)?;
+        }
         let hwl = [num(8)?, num(9)?, num(10)?];
         if fields[0] != "DontCare" && hwl.iter().any(|v| *v <= 0.0) {
             return Err(bad(format!(
@@ -124,5 +128,9 @@ mod tests {
         assert!(e.contains("l.txt:1: box size must be positive"), "{e}");
         let dc = "DontCare -1 -1 -10 503.89 169.71 590.61 190.13 -1 -1 -1 -1000 -1000 -1000 -10\n";
         assert!(!parse(dc, Path::new("l.txt")).unwrap().is_empty());
+        // An unused field (alpha) is checked as the used ones are.
+        let nan = text.replace("1.85", "nan");
+        let e = parse(&nan, Path::new("l.txt")).unwrap_err().to_string();
+        assert!(e.contains("field 4 is not finite"), "{e}");
     }
 }

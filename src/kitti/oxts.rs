@@ -81,6 +81,13 @@ impl Oxts {
             .map(|s| s.parse::<f64>())
             .collect::<std::result::Result<_, _>>()
             .map_err(|e| Error::format(path, format!("oxts record: {e}")))?;
+        // Every field refused alike when not finite, used by the conversion or not.
+        if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+            return Err(Error::format(
+                path,
+                format!("oxts record: value {} is not finite ({})", k + 1, v[k]),
+            ));
+        }
         if v.len() != 30 {
             return Err(Error::format(
                 path,
@@ -126,5 +133,24 @@ impl Oxts {
     pub fn read(path: &Path) -> Result<Oxts> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         Oxts::parse(&text, path)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_field_must_be_finite() {
+        let mut fields = vec!["1.0"; 30];
+        assert!(Oxts::parse(&fields.join(" "), Path::new("o.txt")).is_ok());
+        fields[20] = "nan";
+        let e = Oxts::parse(&fields.join(" "), Path::new("o.txt"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("o.txt") && e.contains("value 21 is not finite"),
+            "{e}"
+        );
     }
 }

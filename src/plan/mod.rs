@@ -141,6 +141,8 @@ pub struct Plan {
     pub failed: Vec<FrameFailure>,
     /// Files in velodyne folders that are not `<frame10>.bin` scans: skipped, and named.
     pub not_frames: Vec<PathBuf>,
+    /// Label files that belong to no scan (SemanticKITTI, object set), named.
+    pub labels_without_scan: Vec<PathBuf>,
     /// Tracklets whose object type KITTI does not define, by type: the class map decides what
     /// they become (background, unless it lists the type), and the summary names them.
     pub unknown_object_types: BTreeMap<String, u64>,
@@ -189,6 +191,7 @@ impl Plan {
             skipped: BTreeMap::new(),
             failed: Vec::new(),
             not_frames: Vec::new(),
+            labels_without_scan: Vec::new(),
             unknown_object_types: BTreeMap::new(),
         };
         let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> =
@@ -205,6 +208,14 @@ impl Plan {
             let frames = match drive.scan_listing() {
                 Ok(listing) => {
                     plan.not_frames.extend(listing.not_frames);
+                    match drive.labels_without_scan(&listing.frames) {
+                        Ok(extra) => plan.labels_without_scan.extend(extra),
+                        Err(e) => plan.failed.push(FrameFailure {
+                            what: drive.name(),
+                            frames: 0,
+                            error: e.to_string(),
+                        }),
+                    }
                     listing.frames
                 }
                 // The drive cannot be listed: a failure (its frames are unknown, counted as 0).

@@ -112,6 +112,52 @@ impl SplitRule {
     }
 }
 
+impl SplitRule {
+    /// Checks a rule the user gave against the frames it splits: every drive, sequence or frame
+    /// it names must be among them (a typo, `--val-drives 9999`, or sequences named for a raw
+    /// root would otherwise leave val silently empty).
+    pub fn check_against(&self, frames: &[FrameId]) -> Result<()> {
+        let missing: Vec<String> = match self {
+            SplitRule::Drives(set) => set
+                .iter()
+                .filter(|k| {
+                    !frames
+                        .iter()
+                        .any(|id| id.layout == Layout::Raw && unit(id) == **k)
+                })
+                .map(|(date, n)| format!("drive {date}_{n:04}"))
+                .collect(),
+            SplitRule::Sequences(set) => set
+                .iter()
+                .filter(|&&n| {
+                    !frames
+                        .iter()
+                        .any(|id| id.layout == Layout::Sequence && id.drive == n)
+                })
+                .map(|n| format!("sequence {n:02}"))
+                .collect(),
+            SplitRule::Frames(set) => set
+                .iter()
+                .filter(|id| frames.binary_search(id).is_err())
+                .map(|id| format!("frame {id}"))
+                .collect(),
+            SplitRule::Random { .. } => Vec::new(),
+        };
+        match missing.first() {
+            None => Ok(()),
+            Some(first) => Err(Error::Config(format!(
+                "the val split names {first}{}, not among the {} frames found: nothing would go to val for {}",
+                match missing.len() {
+                    1 => String::new(),
+                    n => format!(" and {} more", n - 1),
+                },
+                frames.len(),
+                if missing.len() == 1 { "it" } else { "them" },
+            ))),
+        }
+    }
+}
+
 /// The three lists.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct SplitLists {
@@ -226,6 +272,9 @@ pub fn split(
         }
     }
     labelled.sort();
+    if rule != &default {
+        rule.check_against(&labelled)?;
+    }
     let val = assign(rule, &labelled)?;
     for id in labelled {
         if val.contains(&id) {

@@ -452,3 +452,133 @@ fn point_shards_with_viz_are_readable_and_kept() {
         .unwrap();
     assert_eq!(frames.len(), 3);
 }
+
+// The smaller points ("also fix") of the same audit.
+
+#[cfg(unix)]
+#[test]
+fn a_dangling_label_link_is_an_error_not_unlabelled() {
+    let t = tmp();
+    let sk = copy_of("semantickitti", t.path());
+    let label = sk.join("sequences/00/labels/000000.label");
+    std::fs::remove_file(&label).unwrap();
+    std::os::unix::fs::symlink(t.path().join("nowhere.label"), &label).unwrap();
+    let (code, j, e) = convert_json(&sk, &t.path().join("out"), &[]);
+    assert_eq!(code, 1, "the only frame failed: {e}");
+    assert!(e.contains("000000.label"), "{e}");
+    assert_ne!(j["frames_without_labels"], 1, "{j}");
+}
+
+#[test]
+fn extra_label_files_are_named() {
+    let t = tmp();
+    let sk = copy_of("semantickitti", t.path());
+    let labels = sk.join("sequences/00/labels");
+    std::fs::copy(labels.join("000000.label"), labels.join("000007.label")).unwrap();
+    let (code, j, e) = convert_json(&sk, &t.path().join("out"), &[]);
+    assert_eq!(code, 0, "{e}");
+    assert!(
+        j["labels_without_scan"]
+            .to_string()
+            .contains("000007.label"),
+        "{j}"
+    );
+    assert!(
+        e.contains("000007.label") && e.contains("labels of no scan"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unmatched_split_options_are_refused() {
+    let t = tmp();
+    let out = t.path().join("out");
+    for args in [vec!["--val-drives", "9999"], vec!["--val-sequences", "8"]] {
+        let root = fixtures();
+        let mut split = vec!["split", s(&root), "--out", s(&out)];
+        split.extend(&args);
+        let (code, _, e) = run_text(&split);
+        assert_eq!(code, 2, "{args:?}: {e}");
+        assert!(e.contains("not among the 3 frames found"), "{e}");
+        let mut convert = vec!["--format", "mcap"];
+        convert.extend(&args);
+        let (code, _, e) = convert_json(&fixtures(), &out, &convert);
+        assert_eq!(code, 2, "{args:?}: {e}");
+    }
+    let (code, _, e) = run_text(&[
+        "split",
+        s(&fixtures()),
+        "--out",
+        s(&out),
+        "--val-drives",
+        "0052",
+    ]);
+    assert_eq!(code, 0, "{e}");
+}
+
+#[test]
+fn absurd_thread_counts_are_refused() {
+    let (code, _, e) = run_text(&["--threads", "100000", "split", s(&fixtures()), "--out", "x"]);
+    assert_eq!(code, 2, "{e}");
+    assert!(e.contains("0..=1024"), "{e}");
+}
+
+#[test]
+fn grey_and_16_bit_camera_images_are_refused() {
+    let t = tmp();
+    let raw = fixture_copy(t.path());
+    let png = raw.join("2011_09_26/2011_09_26_drive_0001_sync/image_02/data/0000000000.png");
+    let img = image::open(&png).unwrap();
+    img.to_luma8().save(&png).unwrap();
+    let png16 = raw.join("2011_09_26/2011_09_26_drive_0001_sync/image_02/data/0000000045.png");
+    image::DynamicImage::ImageRgb16(image::open(&png16).unwrap().to_rgb16())
+        .save(&png16)
+        .unwrap();
+    let (code, j, e) = convert_json(&raw, &t.path().join("out"), &["--rgb"]);
+    assert_eq!(code, 3, "{e}");
+    assert!(
+        e.contains("0000000000.png") && e.contains("8-bit RGB"),
+        "{e}"
+    );
+    assert!(e.contains("0000000045.png") && e.contains("Rgb16"), "{e}");
+    assert_eq!(j["frames_failed"], 2, "{j}");
+}
+
+#[test]
+fn preview_counts_what_it_wrote_before_a_bad_frame() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &[]);
+    let bad = out.join("lidar_2d/2011_09_26_0052_0000000000.npy");
+    let bytes = std::fs::read(&bad).unwrap();
+    std::fs::write(&bad, &bytes[..bytes.len() / 2]).unwrap();
+    let pics = t.path().join("pics");
+    let (code, _, e) = run_text(&["preview", s(&out), "--out", s(&pics), "--threads", "1"]);
+    assert_eq!(code, 3, "{e}");
+    assert!(!e.contains("no preview written"), "{e}");
+    assert!(e.contains("previews written"), "{e}");
+    assert!(std::fs::read_dir(&pics).unwrap().count() >= 1);
+}
+
+#[test]
+fn semantickitti_scores_say_points_and_blame_a_truncated_truth() {
+    let t = tmp();
+    let sk = copy_of("semantickitti", t.path());
+    let truth = sk.join("sequences/00/labels/000000.label");
+    let pred_dir = t.path().join("pred/sequences/00/predictions");
+    std::fs::create_dir_all(&pred_dir).unwrap();
+    std::fs::copy(&truth, pred_dir.join("000000.label")).unwrap();
+    let pred = t.path().join("pred");
+    let (code, stdout, e) = run_text(&["score", "--gt", s(&sk), "--pred", s(&pred), "--json"]);
+    assert_eq!(code, 0, "{e}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["protocol"], "Points", "{stdout}");
+    let bytes = std::fs::read(&truth).unwrap();
+    std::fs::write(&truth, &bytes[..bytes.len() - 40]).unwrap();
+    let (code, _, e) = run_text(&["score", "--gt", s(&sk), "--pred", s(&pred)]);
+    assert_eq!(code, 1, "{e}");
+    assert!(
+        e.contains("labels/000000.label") && e.contains("truncated ground truth"),
+        "{e}"
+    );
+}

@@ -39,6 +39,23 @@ fn score_one(
 ) -> Result<FrameScore> {
     let truth_path = drive.point_labels_path(id.frame);
     let truth = classes(&truth_path, true, map)?;
+    // The truth is checked against its scan first, so that a truncated truth file is blamed,
+    // not the prediction.
+    let scan_path = drive.scan_path(id.frame);
+    let scan_points = std::fs::metadata(&scan_path)
+        .map_err(|e| Error::io(&scan_path, e))?
+        .len()
+        / crate::kitti::velodyne::POINT_BYTES as u64;
+    if truth.len() as u64 != scan_points {
+        return Err(Error::format(
+            &truth_path,
+            format!(
+                "{} labels, but the scan {} has {scan_points} points (truncated ground truth?)",
+                truth.len(),
+                scan_path.display()
+            ),
+        ));
+    }
     let pred = match preds.files.get(id) {
         Some(p) if preds.points => {
             let raw = p.parent().and_then(|d| d.file_name()).is_some_and(|n| n == "predictions");
