@@ -6,7 +6,8 @@
 //! ```
 //!
 //! Each round mutates one real fixture file (calibration text, tracklet XML, velodyne scan,
-//! camera PNG, `.npy` map, `.label` file, shard) and hands it to its parser. A parser may refuse
+//! camera PNG, `.npy` map, `.label` file, shard; KITTI object labels and calibration,
+//! SemanticKITTI labels and `calib.txt`, point shard) and hands it to its parser. A parser may refuse
 //! the input with an error; it must never panic. A panicking input is saved as
 //! `fuzz-crash-<kind>-<seed>-<round>` and the run ends with exit status 1.
 
@@ -37,7 +38,8 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let seconds: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(60);
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/raw/2011_09_26");
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let root = fixtures.join("raw/2011_09_26");
     let drive = root.join("2011_09_26_drive_0052_sync");
     let work = tempfile::tempdir().expect("temp dir");
     // Real outputs to mutate as well: a map, a .label file and a shard of the fixtures.
@@ -54,7 +56,7 @@ fn main() {
         .arg(&drive)
         .arg("--out")
         .arg(&out)
-        .args(["--format", "npy,mcap", "--rgb"])
+        .args(["--format", "npy,mcap,points", "--rgb"])
         .status()
         .expect("run kitti2pgm convert");
     assert!(status.success(), "convert failed");
@@ -64,6 +66,7 @@ fn main() {
         .map(|e| e.expect("entry").path())
         .find(|p| p.extension().is_some_and(|e| e == "mcap"))
         .expect("a shard");
+    let point_shard = out.join("points/train-00000.mcap");
     let inputs: Vec<(&str, Vec<u8>, Parser)> = vec![
         ("calib", read(root.join("calib_cam_to_cam.txt")), |b, p| {
             let _ = CalibFile::parse(&String::from_utf8_lossy(b), p)
@@ -115,6 +118,48 @@ fn main() {
                 let _ = s.verify();
                 let _ = s.metadata();
                 let _ = s.frame_iter().count();
+            }
+        }),
+        (
+            "object-labels",
+            read(fixtures.join("kitti_object/training/label_2/000001.txt")),
+            |b, p| {
+                let _ = kitti2pgm::kitti::object::parse(&String::from_utf8_lossy(b), p);
+            },
+        ),
+        (
+            "object-calib",
+            read(fixtures.join("kitti_object/training/calib/000001.txt")),
+            |b, p| {
+                if let Ok(c) = kitti2pgm::kitti::calib::FrameCalib::read(&via_file(b, p, "c.txt")) {
+                    if let Some(m) = c.velo_to_rect().try_inverse() {
+                        let _ = kitti2pgm::geom::nearest_rotation(
+                            &m.fixed_view::<3, 3>(0, 0).into_owned(),
+                        );
+                    }
+                }
+            },
+        ),
+        (
+            "semantickitti-labels",
+            read(fixtures.join("semantickitti/sequences/00/labels/000000.label")),
+            |b, p| {
+                if let Ok(raw) = label_file::read_raw(&via_file(b, p, "s.label")) {
+                    let _ = ClassMap::semantic_kitti().classes_of_raw(&raw, p);
+                }
+            },
+        ),
+        (
+            "semantickitti-calib",
+            read(fixtures.join("semantickitti/sequences/00/calib.txt")),
+            |b, p| {
+                let _ = kitti2pgm::kitti::calib::FrameCalib::read(&via_file(b, p, "calib.txt"));
+            },
+        ),
+        ("point-shard", read(point_shard), |b, p| {
+            if let Ok(s) = Shard::open(&via_file(b, p, "p.mcap")) {
+                let _ = s.verify();
+                let _ = s.points();
             }
         }),
     ];

@@ -83,11 +83,14 @@ impl Augment {
             return bad(format!("rotation {} is not finite", self.rotate));
         }
         if !(self.scale > 0.0 && self.scale <= MAX_SCALE) {
-            return bad(format!("scale {} must be in (0, {MAX_SCALE}]", self.scale));
+            return bad(format!(
+                "scale {:?} must be in (0, {MAX_SCALE}]",
+                self.scale
+            ));
         }
         if !(self.jitter >= 0.0 && self.jitter <= MAX_JITTER_M) {
             return bad(format!(
-                "jitter {} must be in [0, {MAX_JITTER_M}] metres",
+                "jitter {:?} must be in [0, {MAX_JITTER_M}] metres",
                 self.jitter
             ));
         }

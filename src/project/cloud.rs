@@ -110,7 +110,7 @@ impl Cloud<'_> {
         }
         if let Some(i) = self.intensity.iter().position(|v| !ok_intensity(*v)) {
             return Err(Error::Config(format!(
-                "intensity of point {i} is {}, outside {:?} (KITTI reflectance)",
+                "intensity of point {i} is {:?}, outside {:?} (KITTI reflectance)",
                 self.intensity[i], REFLECTANCE_RANGE
             )));
         }

@@ -95,7 +95,7 @@ impl PgmSpec {
         for (name, v) in [("fov-up", self.fov_up.0), ("fov-down", self.fov_down.0)] {
             if !(-90.0..=90.0).contains(&v) {
                 return Err(Error::Config(format!(
-                    "{name} {v} deg must be an elevation in [-90, 90]"
+                    "{name} {v:?} deg must be an elevation in [-90, 90]"
                 )));
             }
         }

@@ -142,3 +142,131 @@ fn mutated_shards_are_refused() {
         assert_ne!(code, 0, "a mutated shard was scored");
     }
 }
+
+/// A writable copy of `fixtures/<name>` under `dir`.
+fn fixture_copy_of(name: &str, dir: &Path) -> std::path::PathBuf {
+    let to = dir.join(name);
+    copy_tree(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fixtures")
+            .join(name),
+        &to,
+    );
+    to
+}
+
+#[test]
+fn mutated_object_and_semantickitti_inputs_never_panic_hang_or_pass_wrong() {
+    let t = tmp();
+    let mut rng = Rng(2027);
+    let kinds = [
+        ("kitti_object", "training/label_2/000001.txt", "000001"),
+        ("kitti_object", "training/calib/000001.txt", "000001"),
+        ("kitti_object", "training/velodyne/000001.bin", "000001"),
+        (
+            "semantickitti",
+            "sequences/00/labels/000000.label",
+            "000000",
+        ),
+        ("semantickitti", "sequences/00/calib.txt", "000000"),
+    ];
+    let mut run = 0;
+    for (source, file, frame) in kinds {
+        let original =
+            std::fs::read(fixture_copy_of(source, &t.path().join("orig")).join(file)).unwrap();
+        for _ in 0..8 {
+            run += 1;
+            let dir = t.path().join(format!("run{run}"));
+            let root = fixture_copy_of(source, &dir);
+            std::fs::write(root.join(file), mutate(&original, &mut rng)).unwrap();
+            let out = dir.join("out");
+            let (code, err) = run_bounded(&[
+                "--no-progress",
+                "convert",
+                s(&root),
+                "--out",
+                s(&out),
+                "--rgb",
+            ]);
+            assert!([0, 1, 3].contains(&code), "{file}: exit {code}: {err}");
+            if code == 0 {
+                // One label per point of the (possibly mutated) scan.
+                let (bin, labels) = if source == "kitti_object" {
+                    (
+                        root.join(format!("training/velodyne/{frame}.bin")),
+                        out.join(format!("labels/object/{frame}.label")),
+                    )
+                } else {
+                    (
+                        root.join(format!("sequences/00/velodyne/{frame}.bin")),
+                        out.join(format!("labels/00/{frame}.label")),
+                    )
+                };
+                let points = std::fs::metadata(&bin).unwrap().len() / 16;
+                let n = std::fs::metadata(&labels).unwrap().len();
+                assert_eq!(n, points * 4, "{file}: one label per point");
+            }
+        }
+    }
+}
+
+#[test]
+fn mutated_predictions_and_point_shards_never_panic_or_pass() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--format", "npy,points"]);
+    let mut rng = Rng(31);
+    // Point shards: every mutation refused by inspect.
+    let shard = out.join("points/train-00000.mcap");
+    let original = std::fs::read(&shard).unwrap();
+    for k in 0..10 {
+        let path = t.path().join(format!("p{k}.mcap"));
+        std::fs::write(&path, mutate(&original, &mut rng)).unwrap();
+        let (code, err) = run_bounded(&["inspect", s(&path)]);
+        assert_ne!(code, 0, "a mutated point shard passed inspect");
+        assert!(err.contains(&format!("p{k}.mcap")), "{err}");
+    }
+    // Map predictions (.npy) and per-point .label predictions: refused or scored, never a
+    // panic or a hang.
+    let npy = out.join("lidar_2d/2011_09_26_0052_0000000000.npy");
+    let label = out.join("labels/2011_09_26_drive_0052_sync/0000000000.label");
+    for (k, (src, ext)) in [(npy, "npy"), (label, "label")]
+        .into_iter()
+        .cycle()
+        .take(16)
+        .enumerate()
+    {
+        let pred = t.path().join(format!("pred{k}"));
+        let bytes = mutate(&std::fs::read(&src).unwrap(), &mut rng);
+        let args: Vec<String> = if ext == "npy" {
+            std::fs::create_dir_all(&pred).unwrap();
+            std::fs::write(pred.join(src.file_name().unwrap()), bytes).unwrap();
+            vec![
+                "score".into(),
+                "--gt".into(),
+                s(&out).into(),
+                "--pred".into(),
+                s(&pred).into(),
+                "--missing-as-background".into(),
+            ]
+        } else {
+            let d = pred.join("2011_09_26_drive_0052_sync");
+            std::fs::create_dir_all(&d).unwrap();
+            std::fs::write(d.join(src.file_name().unwrap()), bytes).unwrap();
+            vec![
+                "score".into(),
+                "--gt".into(),
+                s(&out).into(),
+                "--pred".into(),
+                s(&pred).into(),
+                "--points".into(),
+                "--raw".into(),
+                s(&fixtures()).into(),
+                "--missing-as-background".into(),
+            ]
+        };
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, err) = run_bounded(&args);
+        assert!([0, 1].contains(&code), "{ext}: exit {code}: {err}");
+    }
+}

@@ -167,7 +167,12 @@ class ShardReader:
         return len(self._chunks)
 
     def close(self) -> None:
-        self._map.close()
+        try:
+            self._map.close()
+        except BufferError:
+            # Frames (zero-copy views) or a pending exception's traceback still reference the
+            # mapping: it is unmapped when the last of them goes.
+            pass
         self._file.close()
 
     def __enter__(self):

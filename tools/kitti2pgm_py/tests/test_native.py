@@ -186,12 +186,78 @@ def test_bad_arrays_raise_clear_value_errors():
         k2.project(bad)
     bad = pts.copy()
     bad[9, 3] = np.inf
-    with pytest.raises(ValueError, match="intensity of point 9 is not finite"):
+    with pytest.raises(ValueError, match="intensity of point 9 is inf, outside"):
         k2.project(bad)
     # A non-contiguous view is read correctly (one copy), not refused.
     wide = np.zeros((n, 8), np.float32)
     wide[:, :4] = pts
     assert np.array_equal(k2.project(wide[:, :4])["map"], k2.project(pts)["map"])
+
+
+def test_fortran_ordered_and_transposed_arrays_read_in_their_logical_order():
+    """(Issue 18) Fortran-ordered points, (4, N).T and strided colours give exactly what the
+    C-ordered arrays give, in project, label_points and rings."""
+    ds = k2.Dataset(RAW, rgb_camera=2)
+    f = ds.load(0)
+    pts = f["points"]
+    want = k2.project(pts, **args_of(f, True))
+    want_cls, want_inst = k2.label_points(pts, f["boxes"], background=0)
+    want_rings = k2.rings(pts)
+    assert want_rings is not None
+    for p in (np.asfortranarray(pts), np.ascontiguousarray(pts.T).T):
+        assert not p.flags.c_contiguous
+        got = k2.project(p, labels=np.asfortranarray(f["label"]), instance=f["instance"],
+                         colours=np.asfortranarray(f["colours"]), colour_valid=f["colour_valid"])
+        assert got["map"].tobytes() == want["map"].tobytes()
+        assert np.array_equal(got["row"], want["row"]) and np.array_equal(got["col"], want["col"])
+        cls, inst = k2.label_points(p, f["boxes"], background=0)
+        assert np.array_equal(cls, want_cls) and np.array_equal(inst, want_inst)
+        assert np.array_equal(k2.rings(p), want_rings)
+
+
+def test_maps_stay_finite_and_bad_options_are_refused():
+    """(Issue 18) The converter's range rules apply to project(): points beyond 500 m, intensity
+    outside 0..1 and absurd augmentation options are refused, never written as inf."""
+    f = k2.Dataset(RAW).load(0)
+    pts = f["points"]
+    far = pts.copy()
+    far[3, 0] = 1e20
+    with pytest.raises(ValueError, match="point 3 is not finite or beyond 500 m"):
+        k2.project(far)
+    bright = pts.copy()
+    bright[4, 3] = 1e30
+    with pytest.raises(ValueError, match="intensity of point 4 is 1e30, outside"):
+        k2.project(bright)
+    for kw, msg in [({"scale": 1e38}, "scale 1e38 must be in"), ({"jitter": 1e30}, "jitter 1e30 must be in"),
+                    ({"scale": float("nan")}, "scale NaN must be in"), ({"fov_up_deg": float("inf")}, "fov-up inf"),
+                    ({"fov_down_deg": -1e300}, "fov-down -1e300"), ({"rotate_deg": float("inf")}, "not finite")]:
+        with pytest.raises(ValueError, match=msg):
+            k2.project(pts, **kw)
+    m = k2.project(pts, scale=1.1, jitter=0.05, seed=1)["map"]
+    assert np.isfinite(m).all()
+
+
+def test_wild_boxes_are_refused_not_hung():
+    """(Issue 18) A NaN, inf or 1e200 rotation (nalgebra's nearest-rotation search never
+    converged on them, with the GIL released) and NaN yaws or sizes beyond float32 are refused."""
+    pts = np.array([[10, 0, 0, 0]], np.float32)
+    box = {"centre": [10, 0, 0], "size": [2, 2, 2], "class": 1}
+    for rot, msg in [([[np.nan] * 3] * 3, "holds a non-finite"),
+                     ([[np.inf, 0, 0], [0, 1, 0], [0, 0, 1]], "holds a non-finite"),
+                     ([[1e200] * 3] * 3, "is not a rotation"), ([[1, 0, 0], [0, 1, 0], [0, 0, -1]], "is a reflection")]:
+        with pytest.raises(ValueError, match="box 0: rotation " + msg):
+            k2.label_points(pts, [dict(box, rotation=rot)])
+    with pytest.raises(ValueError, match="yaw must be finite"):
+        k2.label_points(pts, [dict(box, yaw=float("nan"))])
+    with pytest.raises(ValueError, match="finite \\(in float32\\)"):
+        k2.label_points(pts, [dict(box, size=[1e39, 1, 1], yaw=0.0)])
+    cls, _ = k2.label_points(pts, [dict(box, rotation=np.eye(3).tolist())])
+    assert cls.tolist() == [1]
+
+
+def test_a_class_map_that_cannot_label_the_source_is_refused():
+    with pytest.raises(ValueError, match="has no rule for the annotations"):
+        k2.Dataset(RAW, class_map="semantic-kitti")
 
 
 def test_threads_get_the_same_maps():
@@ -229,3 +295,53 @@ def test_point_shards_project_to_the_converters_maps(tmp_path, kitti2pgm_path):
         want = np.load(tmp_path / "lidar_2d" / f"{f['id']}.npy")
         assert m["map"].tobytes() == want.tobytes(), f["id"]
     assert [f["id"] for f in iter_frames(shards)] == [ds[i]["id"] for i in range(3)]
+
+
+def test_fuzzed_array_inputs_raise_value_errors_or_give_finite_maps():
+    """A seeded mutation run over the module's array inputs (dtype, shape, memory order, wild
+    values): every call either raises ValueError naming an argument or returns a finite map.
+    KITTI2PGM_FUZZ_ROUNDS runs it longer."""
+    import os
+
+    rng = np.random.default_rng(2026)
+    f = k2.Dataset(RAW).load(0)
+    base = f["points"][:5000]
+    n = len(base)
+    wild = [np.nan, np.inf, -np.inf, 1e30, -1e30, 1e20, 600.0, -1.0, 2.0, 0.0]
+    for _ in range(int(os.environ.get("KITTI2PGM_FUZZ_ROUNDS", "60"))):
+        p = base.copy()
+        for _ in range(int(rng.integers(0, 4))):
+            p[rng.integers(0, n), rng.integers(0, 4)] = wild[rng.integers(0, len(wild))]
+        choice = rng.integers(0, 6)
+        if choice == 0:
+            p = np.asfortranarray(p)
+        elif choice == 1:
+            with np.errstate(all="ignore"):
+                p = p.astype([np.float64, np.float16, np.int32][rng.integers(0, 3)])
+        elif choice == 2:
+            p = p[:, : int(rng.integers(1, 5))]
+        elif choice == 3:
+            p = p[:: int(rng.integers(1, 4))]
+        elif choice == 4:
+            p = np.ascontiguousarray(p.T).T
+        kw = {}
+        if rng.random() < 0.5:
+            kw["labels"] = rng.integers(0, 4, len(p)).astype([np.uint8, np.int64][rng.integers(0, 2)])
+        if rng.random() < 0.3:
+            kw["rings"] = rng.integers(0, 70, len(p)).astype(np.uint8)
+        if rng.random() < 0.3:
+            kw["scale"] = float([1.05, 0.0, -1.0, 1e38, np.nan][rng.integers(0, 5)])
+        if rng.random() < 0.3:
+            kw["jitter"] = float([0.01, -0.1, 1e30, np.inf][rng.integers(0, 4)])
+        try:
+            m = k2.project(p, **kw)
+        except ValueError as e:
+            assert str(e), "a ValueError says what is wrong"
+            continue
+        assert np.isfinite(m["map"]).all()
+        assert m["map"].shape[:2] == (64, 512)
+        try:
+            cls, _ = k2.label_points(p, f["boxes"], background=0)
+        except ValueError:
+            continue
+        assert len(cls) == len(p)

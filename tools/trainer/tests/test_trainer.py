@@ -3,6 +3,8 @@
 import json
 import os
 
+import shutil
+
 import numpy as np
 import pytest
 import torch
@@ -212,11 +214,19 @@ def test_exported_models_label_like_pytorch(converted, tmp_path):
     run = tmp_path / "exp"
     shards = converted / "shards"
     _train(run, shards, 2, ["--input", "xyzdi"])
-    paths = export(str(run), str(tmp_path / "m.onnx"), str(tmp_path / "m.pt"))
+    out = tmp_path / "export"
+    out.mkdir()
+    paths = export(str(run), str(out / "m.onnx"), str(out / "m.pt"))
+    # One self-contained file each (no side .data file, no temporary left): the ONNX model
+    # copied alone into another folder loads there.
+    assert sorted(p.name for p in out.iterdir()) == ["m.onnx", "m.pt"]
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    shutil.copy(out / "m.onnx", elsewhere / "model.onnx")
     model, config, norm = load_run(str(run), torch.device("cpu"))
     fs = FrameSet(sorted(shards.glob("*.mcap")), "xyzdi", norm)
     want = dict(predict(model, fs, torch.device("cpu"), 1))
-    session = onnxruntime.InferenceSession(paths["onnx"], providers=["CPUExecutionProvider"])
+    session = onnxruntime.InferenceSession(str(elsewhere / "model.onnx"), providers=["CPUExecutionProvider"])
     scripted = torch.jit.load(paths["torchscript"])
     for i in range(len(fs)):
         f = fs.ds[i]
