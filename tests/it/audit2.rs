@@ -582,3 +582,41 @@ fn semantickitti_scores_say_points_and_blame_a_truncated_truth() {
         "{e}"
     );
 }
+
+#[test]
+fn a_damaged_chunk_names_its_own_frame_whatever_the_compression() {
+    let t = tmp();
+    for compression in ["none", "lz4", "zstd"] {
+        let out = t.path().join(compression);
+        convert_fixtures(
+            &out,
+            &[
+                "--format",
+                "mcap",
+                "--shard-frames",
+                "3",
+                "--compression",
+                compression,
+            ],
+        );
+        let shard = out.join("shards/train-00000.mcap");
+        let opened = kitti2pgm::format::shard::Shard::open(&shard).unwrap();
+        let summary = opened.summary().unwrap();
+        let md = opened.metadata().unwrap();
+        let good = std::fs::read(&shard).unwrap();
+        // Chunks in file order: frame k's chunk is the k-th (one frame a chunk).
+        let mut chunks: Vec<_> = summary.chunk_indexes.iter().collect();
+        chunks.sort_by_key(|c| c.chunk_start_offset);
+        for (k, c) in chunks.iter().enumerate() {
+            let mut bad = good.clone();
+            let at = (c.chunk_start_offset + c.chunk_length * 2 / 3) as usize;
+            bad[at] ^= 0x08;
+            let path = t.path().join(format!("{compression}{k}.mcap"));
+            std::fs::write(&path, &bad).unwrap();
+            let (code, _, e) = run_text(&["inspect", s(&path)]);
+            assert_ne!(code, 0);
+            let want = format!("frame #{k} ({})", md.frames[k]);
+            assert!(e.contains(&want), "{compression}: {want} in {e}");
+        }
+    }
+}

@@ -193,21 +193,24 @@ impl Shard {
     /// against its CRC. After an error (naming the shard and the frame after the last good one)
     /// the iterator ends. A shard whose end is lost still gives its first frames.
     pub fn frame_iter(&self) -> impl Iterator<Item = Result<FrameMsg>> + '_ {
+        // The frame ids in shard order (from the metadata, when it is readable), to name the
+        // frame a damaged chunk holds.
+        let ids: Vec<String> = self
+            .metadata()
+            .map(|md| {
+                md.frames
+                    .into_iter()
+                    .filter(|f| !md.failed.contains(f))
+                    .collect()
+            })
+            .unwrap_or_default();
         let mut state = FrameIter {
-            stream: None,
+            stream: Some(self.messages()),
             count: 0,
             last: None,
             done: false,
             first_error: None,
         };
-        let options = mcap::read::Options::ValidateChunkCrcs.into();
-        match mcap::MessageStream::new_with_options(&self.map, options) {
-            Ok(s) => state.stream = Some(s),
-            Err(e) => {
-                state.first_error =
-                    Some(Error::format(&self.path, format!("not an MCAP file: {e}")))
-            }
-        }
         let path = self.path.clone();
         std::iter::from_fn(move || {
             if state.done {
@@ -223,7 +226,11 @@ impl Shard {
                     .as_ref()
                     .map(|id| format!(" after frame {id}"))
                     .unwrap_or_default();
-                Error::format(&path, format!("frame #{}{after}: {what}", st.count))
+                let which = ids
+                    .get(st.count)
+                    .map(|id| format!(" ({id})"))
+                    .unwrap_or_default();
+                Error::format(&path, format!("frame #{}{which}{after}: {what}", st.count))
             };
             loop {
                 let next = state.stream.as_mut().and_then(Iterator::next);
@@ -274,8 +281,22 @@ impl Shard {
     }
 }
 
+/// The messages of a shard in file order, each chunk checked against its CRC *before* any of
+/// its messages is handed out (so a damaged chunk is never half read, and an error names the
+/// frame of the damaged chunk whatever the compression).
+type Messages<'a> = mcap::io::MessageReader<std::io::Cursor<&'a [u8]>>;
+
+impl Shard {
+    fn messages(&self) -> Messages<'_> {
+        let options = mcap::sans_io::linear_reader::LinearReaderOptions::default()
+            .with_validate_chunk_crcs(true)
+            .with_prevalidate_chunk_crcs(true);
+        mcap::io::MessageReader::new_with_options(std::io::Cursor::new(self.bytes()), options)
+    }
+}
+
 struct FrameIter<'a> {
-    stream: Option<mcap::MessageStream<'a>>,
+    stream: Option<Messages<'a>>,
     count: usize,
     last: Option<String>,
     done: bool,
@@ -286,11 +307,8 @@ impl Shard {
     /// Every point message of a point shard, in file order, each chunk checked against its
     /// CRC and each message against its sizes; the error names the shard and the frame.
     pub fn points(&self) -> Result<Vec<PointsMsg>> {
-        let options = mcap::read::Options::ValidateChunkCrcs.into();
-        let stream = mcap::MessageStream::new_with_options(&self.map, options)
-            .map_err(|e| Error::format(&self.path, format!("not an MCAP file: {e}")))?;
         let mut out: Vec<PointsMsg> = Vec::new();
-        for m in stream {
+        for m in self.messages() {
             let fail = |what: String| {
                 let after = out
                     .last()
