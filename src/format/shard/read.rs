@@ -288,9 +288,13 @@ type Messages<'a> = mcap::io::MessageReader<std::io::Cursor<&'a [u8]>>;
 
 impl Shard {
     fn messages(&self) -> Messages<'_> {
+        // No record, compressed or not, can be longer than this (lz4 and zstd shrink a frame a
+        // few times at most): a damaged length field is then an error, not a huge allocation.
+        let limit = (self.bytes().len().saturating_mul(256)).max(256 << 20);
         let options = mcap::sans_io::linear_reader::LinearReaderOptions::default()
             .with_validate_chunk_crcs(true)
-            .with_prevalidate_chunk_crcs(true);
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(limit);
         mcap::io::MessageReader::new_with_options(std::io::Cursor::new(self.bytes()), options)
     }
 }
