@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use clap::{Args as ClapArgs, Parser, Subcommand, ValueEnum};
+use kitti2pgm::project::MapPreset;
 
 /// KITTI raw -> labelled Polar Grid Maps for LiDAR(+camera) semantic segmentation
 /// (SqueezeSeg / PointSeg training data).
@@ -96,8 +97,9 @@ pub struct ScoreArgs {
     /// Predictions: a folder (searched recursively) or one file.
     #[arg(long, value_name = "PATH")]
     pub pred: PathBuf,
-    /// Only the frames of this ImageSet list (e.g. val.txt); default: every ground-truth frame.
-    #[arg(long, value_name = "LIST")]
+    /// Only the frames of this ImageSet list (e.g. OUT/ImageSet/val.txt), or of an ImageSet
+    /// folder's val.txt; default: every ground-truth frame.
+    #[arg(long, value_name = "LIST|DIR")]
     pub imageset: Option<PathBuf>,
     /// Point protocol: score every scan point in the field of view (needs --raw).
     #[arg(long, requires = "raw")]
@@ -203,10 +205,11 @@ pub struct ConvertArgs {
     /// Force the input layout instead of detecting it.
     #[arg(long, value_enum)]
     pub source: Option<SourceArg>,
-    /// Class map: a semantic-kitti.yaml-style file (labels, color_map, learning_map,
-    /// learning_map_inv, learning_ignore). Default: SemanticKITTI's own 20 classes for
-    /// sequences, the paper's 4 classes (background, car, pedestrian, cyclist) for boxes.
-    #[arg(long, value_name = "FILE")]
+    /// Class map: a built-in one by the name outputs record (kitti-paper-4: background, car,
+    /// pedestrian, cyclist; semantic-kitti: SemanticKITTI's 20 classes), or a
+    /// semantic-kitti.yaml-style file (labels, color_map, learning_map, learning_map_inv,
+    /// learning_ignore). Default: semantic-kitti for sequences, kitti-paper-4 for boxes.
+    #[arg(long, value_name = "NAME|FILE")]
     pub class_map: Option<PathBuf>,
     /// Output folder (created if needed).
     #[arg(long, short, value_name = "DIR")]
@@ -223,24 +226,33 @@ pub struct ConvertArgs {
     /// Convert every scan, not only SqueezeSeg's (scans with at least one tracklet pose).
     #[arg(long)]
     pub all_frames: bool,
-    /// Rows of the map.
-    #[arg(long, default_value_t = 64)]
-    pub rows: usize,
-    /// Columns of the map.
-    #[arg(long, default_value_t = 512)]
-    pub cols: usize,
-    /// Horizontal field of view in degrees, centred on the x axis (360 for a full map).
-    #[arg(long, default_value_t = 90.0)]
-    pub fov_deg: f64,
-    /// Top of the elevation range for elevation binning, degrees.
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    pub fov_up_deg: f64,
-    /// Bottom of the elevation range for elevation binning, degrees.
-    #[arg(long, default_value_t = -24.9, allow_negative_numbers = true)]
-    pub fov_down_deg: f64,
-    /// How rows are assigned.
-    #[arg(long, value_enum, default_value_t = RowModeArg::Rings)]
-    pub row_mode: RowModeArg,
+    /// Map layout: squeezeseg (64 x 512 over the front 90 degrees, rows from the laser rings;
+    /// SqueezeSeg, PointSeg, El Madawi et al.), rangenet (64 x 2048 over 360 degrees, rows by
+    /// elevation between +3 and -25 degrees; RangeNet++), full (64 x 2048 over 360 degrees, rows
+    /// from the rings). Default: full for SemanticKITTI, squeezeseg for KITTI raw and the object
+    /// set. The options below override single values of it; the summary says which map was made.
+    #[arg(long, value_name = "NAME", value_parser = parse_preset)]
+    pub preset: Option<MapPreset>,
+    /// Rows of the map (preset: 64).
+    #[arg(long)]
+    pub rows: Option<usize>,
+    /// Columns of the map (preset: 512 for squeezeseg, 2048 for rangenet and full).
+    #[arg(long)]
+    pub cols: Option<usize>,
+    /// Horizontal field of view in degrees, centred on the x axis (360 for a full map; preset:
+    /// 90 for squeezeseg, 360 for rangenet and full).
+    #[arg(long)]
+    pub fov_deg: Option<f64>,
+    /// Top of the elevation range for elevation binning, degrees (preset: 2.0; 3.0 for rangenet).
+    #[arg(long, allow_negative_numbers = true)]
+    pub fov_up_deg: Option<f64>,
+    /// Bottom of the elevation range for elevation binning, degrees (preset: -24.9; -25.0 for
+    /// rangenet).
+    #[arg(long, allow_negative_numbers = true)]
+    pub fov_down_deg: Option<f64>,
+    /// How rows are assigned (preset: rings; elevation for rangenet).
+    #[arg(long, value_enum)]
+    pub row_mode: Option<RowModeArg>,
     /// Do not write the per-point .label files.
     #[arg(long)]
     pub no_point_labels: bool,
@@ -252,8 +264,9 @@ pub struct ConvertArgs {
     /// parameters keeps the frames (and shards) an earlier run finished and converts the rest.
     #[arg(long)]
     pub overwrite: bool,
-    /// Outputs: npy (lidar_2d/*.npy and labels/), mcap (shards/<split>-<NNNNN>.mcap), or both
-    /// (`--format npy,mcap`).
+    /// Outputs: npy (lidar_2d/*.npy and the per-point labels/), mcap
+    /// (shards/<split>-<NNNNN>.mcap), points (points/<split>-<NNNNN>.mcap), labels (labels/
+    /// alone); several comma separated (`--format npy,mcap`).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "npy")]
     pub format: Vec<FormatArg>,
     /// Frames per shard (default: about 256 MB of uncompressed data per shard).
@@ -291,6 +304,9 @@ pub enum FormatArg {
     Npy,
     /// MCAP training shards of the maps (OUT/shards).
     Mcap,
+    /// Per-point .label files alone (OUT/labels/; written with npy anyway): for point-wise
+    /// scoring and statistics beside shards (`--format mcap,labels`).
+    Labels,
     /// MCAP point shards: each scan's points with ring, label, instance (and r, g, b with
     /// --rgb), unprojected, for projection with 3D augmentation while training (OUT/points).
     Points,
@@ -386,6 +402,10 @@ pub struct PreviewArgs {
     pub out: PathBuf,
 }
 
+fn parse_preset(s: &str) -> Result<MapPreset, String> {
+    s.parse()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -416,7 +436,7 @@ mod tests {
         };
         assert!(c.rgb);
         assert_eq!(c.camera, 3);
-        assert_eq!(c.fov_down_deg, -20.0);
+        assert_eq!(c.fov_down_deg, Some(-20.0));
         assert!(Args::try_parse_from([
             "kitti2pgm",
             "convert",

@@ -11,7 +11,7 @@ use kitti2pgm::params::{ConvertParams, MapParams, ShardCompression, ShardParams}
 use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
-use kitti2pgm::project::{PgmSpec, RowMode};
+use kitti2pgm::project::{MapPreset, PgmSpec, RowMode};
 
 use super::{progress, Global};
 use crate::cli::{CompressionArg, ConvertArgs, FormatArg, RowModeArg, SamplingArg, SourceArg};
@@ -35,17 +35,7 @@ impl ConvertArgs {
         };
         Ok(ConvertParams {
             map: MapParams {
-                spec: PgmSpec {
-                    rows: self.rows,
-                    cols: self.cols,
-                    fov: Degrees(self.fov_deg),
-                    fov_up: Degrees(self.fov_up_deg),
-                    fov_down: Degrees(self.fov_down_deg),
-                    row_mode: match self.row_mode {
-                        RowModeArg::Rings => RowMode::Rings,
-                        RowModeArg::Elevation => RowMode::Elevation,
-                    },
-                },
+                spec: self.spec(layout),
                 rgb: self.rgb.then_some(RgbOptions {
                     camera: self.camera,
                     sampling: match self.rgb_sampling {
@@ -61,7 +51,11 @@ impl ConvertArgs {
                 class_map,
             },
             npy: self.format.contains(&FormatArg::Npy),
-            labels: !self.no_point_labels,
+            // Per-point labels go with the .npy maps (SqueezeSeg's layout); shards carry their
+            // own labels.
+            labels: (self.format.contains(&FormatArg::Npy)
+                || self.format.contains(&FormatArg::Labels))
+                && !self.no_point_labels,
             shards: self
                 .format
                 .contains(&FormatArg::Mcap)
@@ -75,12 +69,62 @@ impl ConvertArgs {
 }
 
 impl ConvertArgs {
+    /// The preset in force: `--preset`, else the source's default.
+    fn preset(&self, layout: Layout) -> MapPreset {
+        self.preset
+            .unwrap_or_else(|| MapPreset::default_for(layout))
+    }
+
+    /// The map: the preset's, with each value given on the command line in its place.
+    fn spec(&self, layout: Layout) -> PgmSpec {
+        let p = self.preset(layout).spec();
+        PgmSpec {
+            rows: self.rows.unwrap_or(p.rows),
+            cols: self.cols.unwrap_or(p.cols),
+            fov: self.fov_deg.map_or(p.fov, Degrees),
+            fov_up: self.fov_up_deg.map_or(p.fov_up, Degrees),
+            fov_down: self.fov_down_deg.map_or(p.fov_down, Degrees),
+            row_mode: self.row_mode.map_or(p.row_mode, |m| match m {
+                RowModeArg::Rings => RowMode::Rings,
+                RowModeArg::Elevation => RowMode::Elevation,
+            }),
+        }
+    }
+
+    /// How the map came about, for the summary: the preset, why, and what was overridden.
+    fn map_origin(&self, layout: Layout) -> String {
+        let preset = self.preset(layout);
+        let why = if self.preset.is_some() {
+            "--preset".to_string()
+        } else {
+            format!("the default for {}", layout.dataset())
+        };
+        let overridden: Vec<&str> = [
+            ("rows", self.rows.is_some()),
+            ("cols", self.cols.is_some()),
+            ("fov-deg", self.fov_deg.is_some()),
+            ("fov-up-deg", self.fov_up_deg.is_some()),
+            ("fov-down-deg", self.fov_down_deg.is_some()),
+            ("row-mode", self.row_mode.is_some()),
+        ]
+        .into_iter()
+        .filter(|(_, given)| *given)
+        .map(|(name, _)| name)
+        .collect();
+        if overridden.is_empty() {
+            format!("preset {preset} ({why})")
+        } else {
+            format!(
+                "preset {preset} ({why}), with --{} given",
+                overridden.join(", --")
+            )
+        }
+    }
+
     /// The class map: `--class-map`'s, else the default of the input's layout.
     fn class_map(&self, plan: &Plan) -> anyhow::Result<ClassMap> {
-        if let Some(path) = &self.class_map {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            return Ok(ClassMap::from_semantic_kitti_yaml(&text, path)?);
+        if let Some(name_or_path) = &self.class_map {
+            return Ok(ClassMap::named_or_file(name_or_path)?);
         }
         Ok(ClassMap::default_for(plan.layout()))
     }
@@ -93,14 +137,14 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
     } else {
         FrameSelection::Annotated
     };
-    let plan = Plan::build_as(&a.raw_root, selection, source)
-        .with_context(|| format!("reading {}", a.raw_root.display()))?;
+    let plan = Plan::build_as(&a.raw_root, selection, source)?;
     let opts = ConvertOptions {
         out: OutputDir::new(&a.out),
         params: a.params(a.class_map(&plan)?, plan.layout())?,
         threads: g.threads,
         sync: a.sync,
         overwrite: a.overwrite,
+        map_origin: a.map_origin(plan.layout()),
     };
     opts.params.validate()?;
     // A split the user named must name frames that are there.
@@ -167,7 +211,24 @@ fn table(s: &ConvertSummary) -> String {
             100.0 * a as f64 / b as f64
         }
     };
-    let _ = writeln!(t, "drives              {:>12}", s.drives);
+    let spec = &s.params.map.spec;
+    let _ = writeln!(
+        t,
+        "map                 {:>12}  ({} deg, rows {}; {})",
+        format!(
+            "{} x {} x {}",
+            spec.rows,
+            spec.cols,
+            s.params.map.channels().len()
+        ),
+        spec.fov.0,
+        match spec.row_mode {
+            RowMode::Rings => "from the laser rings",
+            RowMode::Elevation => "by elevation",
+        },
+        s.map_origin
+    );
+    let _ = writeln!(t, "{:<20}{:>12}", s.source.units(), s.drives);
     let _ = writeln!(t, "frames converted    {:>12}", s.frames_converted);
     let _ = writeln!(t, "frames failed       {:>12}", s.frames_failed);
     for (why, n) in &s.frames_skipped {

@@ -1,10 +1,12 @@
 //! `kitti2pgm preview`: converted frames to PNG, from `.npy` files or any ground-truth folder.
 
 use anyhow::{bail, Context};
-use kitti2pgm::draw::preview::render;
+use kitti2pgm::draw::preview::{render, render_labels};
 use kitti2pgm::format::layout::OutputDir;
+use kitti2pgm::format::npy::read_any;
 use kitti2pgm::format::{pgm, png, summary};
 use kitti2pgm::label::ClassMap;
+use kitti2pgm::report::score::read_cell_prediction;
 use kitti2pgm::report::truth::{GroundTruth, MapFrame};
 
 use crate::cli::PreviewArgs;
@@ -17,6 +19,16 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
         && a.out
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let png_named = a
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if png_named && !single_file {
+        bail!(
+            "{}: several frames make several pictures: give a folder for --out (a .png name takes one .npy)",
+            a.out.display()
+        );
+    }
     if !single_file {
         std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     }
@@ -32,6 +44,20 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
         if is_npy(input) {
             report((|| {
                 let map = class_map(input)?;
+                let out = |stem: &std::ffi::OsStr| {
+                    if single_file {
+                        a.out.clone()
+                    } else {
+                        a.out.join(stem).with_extension("png")
+                    }
+                };
+                // A prediction (H x W labels, H x W x K scores): its labels alone.
+                if let Some(shape) = prediction_shape(input, &map)? {
+                    let p = read_cell_prediction(input, shape, &map)?;
+                    let stem = input.file_stem().context("input has no file name")?;
+                    png::write(&out(stem), &render_labels(&p.labels, shape, &map))?;
+                    return Ok(());
+                }
                 let f = pgm::read(input)?;
                 let stem = input.file_stem().context("input has no file name")?;
                 let id = stem.to_string_lossy().parse().unwrap_or_default();
@@ -95,6 +121,21 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
         Outcome::Partial
     } else {
         Outcome::Ok
+    })
+}
+
+/// The map shape of a `.npy` that holds a prediction (H x W labels, or H x W x K scores of the
+/// K classes) rather than a converted frame (H x W x 6 or 9); `None` for a converted frame.
+fn prediction_shape(
+    npy: &std::path::Path,
+    map: &ClassMap,
+) -> anyhow::Result<Option<(usize, usize)>> {
+    let a = read_any(npy)?;
+    let d: Vec<usize> = a.shape.iter().map(|&v| v as usize).collect();
+    Ok(match d[..] {
+        [h, w] | [h, w, 1] => Some((h, w)),
+        [h, w, k] if k == map.len() && !(a.is_float() && (k == 6 || k == 9)) => Some((h, w)),
+        _ => None,
     })
 }
 

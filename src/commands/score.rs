@@ -26,8 +26,21 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     if gt.provenance == Provenance::Assumed || gt.partial.is_some() {
         eprintln!("kitti2pgm: {}", gt.provenance_note());
     }
-    let only: Option<BTreeSet<FrameId>> = a
-        .imageset
+    // A list, or an ImageSet folder: its val.txt (what a model is evaluated on).
+    let list = a.imageset.as_ref().map(|l| {
+        if l.is_dir() {
+            l.join("val.txt")
+        } else {
+            l.clone()
+        }
+    });
+    if let Some(l) = list.as_ref().filter(|l| !l.is_file()) {
+        anyhow::bail!(
+            "{}: no such frame list (give an ImageSet list such as OUT/ImageSet/val.txt, or the ImageSet folder for its val.txt)",
+            l.display()
+        );
+    }
+    let only: Option<BTreeSet<FrameId>> = list
         .as_ref()
         .map(|l| imageset::read(l))
         .transpose()?

@@ -1,6 +1,5 @@
 //! `kitti2pgm split`: the CLI over [`kitti2pgm::plan::split`].
 
-use anyhow::Context;
 use kitti2pgm::format::layout::OutputDir;
 use kitti2pgm::format::{create_dir, imageset};
 use kitti2pgm::plan::split::split;
@@ -17,8 +16,7 @@ pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
     } else {
         FrameSelection::Annotated
     };
-    let lists = split(&a.raw_root, selection, rule.as_ref(), source)
-        .with_context(|| format!("reading {}", a.raw_root.display()))?;
+    let lists = split(&a.raw_root, selection, rule.as_ref(), source)?;
     let dir = OutputDir::new(&a.out).imageset_dir();
     create_dir(&dir)?;
     for (name, ids) in [
@@ -45,12 +43,18 @@ pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
         println!("{}", dir.display());
         println!("all    {:>8}", lists.all.len());
         println!("train  {:>8}", lists.train.len());
-        println!(
-            "val    {:>8}  ({} drives: {})",
-            lists.val.len(),
-            lists.val_drives.len(),
-            lists.val_drives.join(" ")
-        );
+        if lists.val_drives.is_empty() {
+            // A frame split (the object set), or no val at all.
+            println!("val    {:>8}", lists.val.len());
+        } else {
+            let units = lists.all.first().map_or("drives", |id| id.layout.units());
+            println!(
+                "val    {:>8}  ({} {units}: {})",
+                lists.val.len(),
+                lists.val_drives.len(),
+                lists.val_drives.join(" ")
+            );
+        }
         if !lists.test.is_empty() {
             println!("test   {:>8}  (frames without labels)", lists.test.len());
         }

@@ -41,6 +41,9 @@ pub struct ConvertOptions {
     pub sync: bool,
     /// Convert every frame again, even those an earlier run with the same parameters finished.
     pub overwrite: bool,
+    /// How the map was chosen, in words, for the summary (`preset full (the default for
+    /// SemanticKITTI)`); empty when the caller gave the map directly.
+    pub map_origin: String,
 }
 
 impl ConvertOptions {
@@ -52,6 +55,7 @@ impl ConvertOptions {
             threads: 0,
             sync: false,
             overwrite: false,
+            map_origin: String::new(),
         }
     }
 }
@@ -188,6 +192,8 @@ pub fn convert(
             summary: ConvertSummary {
                 version: env!("CARGO_PKG_VERSION").to_string(),
                 params: params.clone(),
+                source: plan.layout(),
+                map_origin: opts.map_origin.clone(),
                 drives: (plan.drives.len() + plan.failed.len()) as u64,
                 frames_planned: plan.jobs.len() as u64,
                 frames_skipped: plan.skipped.clone(),

@@ -71,3 +71,18 @@ pub fn render(map: &MapFrame, classes: &ClassMap) -> Result<RgbImage> {
     });
     Ok(img)
 }
+
+/// A picture of a label map alone (a model's prediction: `rows x cols` class ids, row-major),
+/// in the class colours, rows doubled as in [`render`].
+pub fn render_labels(labels: &[u8], (rows, cols): (usize, usize), classes: &ClassMap) -> RgbImage {
+    let mut img = RgbImage::new(cols as u32, rows as u32 * ROW_SCALE);
+    for r in 0..rows {
+        for c in 0..cols {
+            let px = Rgb(classes.colour(labels[r * cols + c]));
+            for k in 0..ROW_SCALE {
+                img.put_pixel(c as u32, r as u32 * ROW_SCALE + k, px);
+            }
+        }
+    }
+    img
+}

@@ -33,7 +33,14 @@ pub struct ConvertSummary {
     /// `--overwrite`) removed before converting, so that the folder holds one conversion.
     #[serde(default)]
     pub stale_removed: u64,
-    /// Drives found.
+    /// The dataset the frames come from (its layout).
+    #[serde(default)]
+    pub source: crate::kitti::Layout,
+    /// How the map was chosen: the preset, why (asked for, or the source's default) and the
+    /// values given on their own (`preset full (the default for SemanticKITTI)`).
+    #[serde(default)]
+    pub map_origin: String,
+    /// Drives (sequences, object splits) found.
     pub drives: u64,
     /// Frames the run set out to convert (converted, kept, or failed at the end).
     #[serde(default)]

@@ -38,7 +38,11 @@ pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
     if !root.is_dir() {
         return Err(Error::Input {
             path: root.into(),
-            message: "not a folder".into(),
+            message: if root.exists() {
+                "not a folder (give the dataset's root folder)".into()
+            } else {
+                "no such folder".into()
+            },
         });
     }
     let canonical = root.canonicalize().map_err(|e| Error::io(root, e))?;

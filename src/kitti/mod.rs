@@ -52,6 +52,26 @@ pub enum Layout {
     Object,
 }
 
+impl Layout {
+    /// The dataset's name, for messages (`KITTI raw`, `SemanticKITTI`, `the KITTI object set`).
+    pub fn dataset(self) -> &'static str {
+        match self {
+            Layout::Raw => "KITTI raw",
+            Layout::Sequence => "SemanticKITTI",
+            Layout::Object => "the KITTI object set",
+        }
+    }
+
+    /// What its folders of frames are called (`drives`, `sequences`, `splits`).
+    pub fn units(self) -> &'static str {
+        match self {
+            Layout::Raw => "drives",
+            Layout::Sequence => "sequences",
+            Layout::Object => "splits",
+        }
+    }
+}
+
 /// A folder of frames: a raw drive (`<date>_drive_<NNNN>_sync`), an odometry sequence
 /// (`sequences/<NN>`) or an object split (`training/`, `testing/`).
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Serialize)]

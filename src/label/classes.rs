@@ -7,7 +7,6 @@
 //! it; nothing else knows how many classes there are. The default is the paper's 4-class map.
 
 use std::collections::BTreeMap;
-use std::ops::AddAssign;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -118,6 +117,28 @@ impl ClassMap {
             learning_map: BTreeMap::new(),
             absent_in_miou: AbsentInMiou::LeftOut,
         }
+    }
+
+    /// The built-in map called `name`: the name outputs record (`kitti-paper-4`,
+    /// `semantic-kitti`) or its short forms (`kitti-paper`, `kitti_paper`, `semantic_kitti`).
+    pub fn builtin(name: &str) -> Option<ClassMap> {
+        match name {
+            "kitti-paper-4" | "kitti-paper" | "kitti_paper" | "kitti_paper_4" => {
+                Some(ClassMap::kitti_paper())
+            }
+            "semantic-kitti" | "semantic_kitti" => Some(ClassMap::semantic_kitti()),
+            _ => None,
+        }
+    }
+
+    /// A class map by built-in name ([`ClassMap::builtin`]) or from a `semantic-kitti.yaml`-style
+    /// file.
+    pub fn named_or_file(name_or_path: &Path) -> Result<ClassMap> {
+        if let Some(m) = name_or_path.to_str().and_then(ClassMap::builtin) {
+            return Ok(m);
+        }
+        let text = std::fs::read_to_string(name_or_path).map_err(|e| Error::io(name_or_path, e))?;
+        ClassMap::from_semantic_kitti_yaml(&text, name_or_path)
     }
 
     /// The default classes of a layout: SemanticKITTI's 20 for sequences, the paper's 4 for
@@ -385,51 +406,10 @@ impl ClassMap {
     }
 }
 
-/// A count per class id, `counts[id]`.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct ClassCounts(pub Vec<u64>);
-
-impl ClassCounts {
-    /// Zero for each of `n` classes.
-    pub fn zeros(n: usize) -> ClassCounts {
-        ClassCounts(vec![0; n])
-    }
-
-    /// Counts `ids` (each must be below the length).
-    pub fn count<I: IntoIterator<Item = ClassId>>(n: usize, ids: I) -> ClassCounts {
-        let mut c = ClassCounts::zeros(n);
-        for id in ids {
-            c.0[id as usize] += 1;
-        }
-        c
-    }
-
-    /// The count of class `id` (0 beyond the length).
-    pub fn get(&self, id: ClassId) -> u64 {
-        self.0.get(id as usize).copied().unwrap_or(0)
-    }
-
-    /// All counts added.
-    pub fn total(&self) -> u64 {
-        self.0.iter().sum()
-    }
-}
-
-impl AddAssign<&ClassCounts> for ClassCounts {
-    fn add_assign(&mut self, o: &ClassCounts) {
-        if self.0.len() < o.0.len() {
-            self.0.resize(o.0.len(), 0);
-        }
-        for (a, b) in self.0.iter_mut().zip(&o.0) {
-            *a += b;
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::label::ClassCounts;
 
     #[test]
     fn paper_map() {

@@ -9,9 +9,11 @@
 
 pub mod boxes;
 pub mod classes;
+pub mod counts;
 
 pub use boxes::{LabelBox, Labeller, PointLabels};
-pub use classes::{ClassCounts, ClassId, ClassInfo, ClassMap};
+pub use classes::{ClassId, ClassInfo, ClassMap};
+pub use counts::ClassCounts;
 
 use crate::kitti::tracklets::Tracklets;
 

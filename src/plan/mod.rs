@@ -32,6 +32,10 @@ pub struct DrivePlan {
     /// Its day's calibration (raw drives; sequences and object frames read theirs per frame,
     /// [`DrivePlan::camera`]).
     pub calib: Option<Arc<Calibration>>,
+    /// Why a raw drive's day calibration could not be read: only colour needs it (the tracklet
+    /// boxes are in the velodyne frame), so the drive converts without `--rgb` and its frames
+    /// fail with this error with it.
+    pub calib_error: Option<String>,
     /// Its tracklets (empty without a `tracklet_labels.xml`).
     pub tracklets: Arc<Tracklets>,
     /// Velodyne timestamps, when the file exists.
@@ -77,6 +81,7 @@ impl DrivePlan {
         Ok(DrivePlan {
             drive,
             calib,
+            calib_error: None,
             tracklets: Arc::new(tracklets),
             timestamps,
         })
@@ -103,6 +108,13 @@ impl DrivePlan {
                     file,
                 ))
             }
+            None if self.drive.layout == Layout::Raw => Err(Error::Input {
+                path: self.drive.date_dir(),
+                message: format!(
+                    "colour needs the day's calibration: {}",
+                    self.calib_error.as_deref().unwrap_or("not read")
+                ),
+            }),
             None => {
                 let file = self.drive.calib_path(frame);
                 let c = FrameCalib::read(&file)?;
@@ -243,8 +255,14 @@ impl Plan {
             } else {
                 Ok(None)
             };
-            let loaded =
-                calib.and_then(|c| DrivePlan::load(drive.clone(), c).map_err(|e| e.to_string()));
+            // A raw day without a readable calibration still converts without colour.
+            let (calib, calib_error) = match calib {
+                Ok(c) => (c, None),
+                Err(e) => (None, Some(e)),
+            };
+            let loaded = DrivePlan::load(drive.clone(), calib)
+                .map(|dp| DrivePlan { calib_error, ..dp })
+                .map_err(|e| e.to_string());
             let dp = match loaded {
                 Ok(dp) => dp,
                 Err(error) => {

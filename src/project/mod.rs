@@ -23,12 +23,14 @@ pub mod channels;
 pub mod cloud;
 pub mod columns;
 pub mod frame;
+pub mod preset;
 
 pub use augment::Augment;
 pub use channels::{Channel, Channels};
 pub use cloud::{project_cloud, Cloud, CloudMap};
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
+pub use preset::MapPreset;
 
 use serde::{Deserialize, Serialize};
 

@@ -16,7 +16,7 @@ fn point_shards_hold_the_converters_points_and_labels() {
     let (code, first, err) = convert_json(
         &fixtures(),
         &out,
-        &["--format", "points", "--rgb", "--val-drives", "52"],
+        &["--format", "points,labels", "--rgb", "--val-drives", "52"],
     );
     assert_eq!(code, 0, "{err}");
     assert_eq!(first["frames_converted"], 3);
@@ -67,7 +67,7 @@ fn point_shards_hold_the_converters_points_and_labels() {
     assert_eq!(seen, 3);
 
     // A re-run keeps intact point shards; a damaged one is found and rewritten.
-    let args = ["--format", "points", "--rgb", "--val-drives", "52"];
+    let args = ["--format", "points,labels", "--rgb", "--val-drives", "52"];
     let (_, again, _) = convert_json(&fixtures(), &out, &args);
     assert_eq!(again["shards_skipped"], 2);
     assert_eq!(again["shards_written"], 0);

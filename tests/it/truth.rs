@@ -135,7 +135,7 @@ fn stats_reads_shards_only_and_bare_folders() {
     let raw = fixtures();
     let npy = t.path().join("npy");
     let mcap = t.path().join("mcap");
-    for (out, format) in [(&npy, "npy"), (&mcap, "mcap")] {
+    for (out, format) in [(&npy, "npy"), (&mcap, "mcap,labels")] {
         let (code, _, e) = run_text(&[
             "convert",
             s(&raw),

@@ -149,8 +149,9 @@ fn read_object_labels<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py
 }
 
 /// A class map as a dict (name, classes with name and colour, background, ignore, miou,
-/// object_types, learning_map, ...): "kitti-paper" (car, pedestrian, cyclist, background),
-/// "semantic-kitti" (the 20 training classes), or a SemanticKITTI-style yaml file.
+/// object_types, learning_map, ...): "kitti-paper-4" (the name outputs record; also
+/// "kitti-paper": background, car, pedestrian, cyclist), "semantic-kitti" (the 20 training
+/// classes), or a SemanticKITTI-style yaml file.
 #[pyfunction]
 #[pyo3(signature = (name="kitti-paper"))]
 fn class_map<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
@@ -159,16 +160,7 @@ fn class_map<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
 
 /// The class map of a name or yaml path.
 pub(crate) fn class_map_of(name: &str) -> PyResult<ClassMap> {
-    match name {
-        "kitti-paper" | "kitti_paper" => Ok(ClassMap::kitti_paper()),
-        "semantic-kitti" | "semantic_kitti" => Ok(ClassMap::semantic_kitti()),
-        path => {
-            let p = std::path::Path::new(path);
-            let text =
-                std::fs::read_to_string(p).map_err(|e| py_err(kitti2pgm::Error::io(p, e)))?;
-            ClassMap::from_semantic_kitti_yaml(&text, p).map_err(py_err)
-        }
-    }
+    ClassMap::named_or_file(std::path::Path::new(name)).map_err(py_err)
 }
 
 /// A box dict as the library's box: centre (3), size (l, w, h: full extents along the box's
