@@ -111,12 +111,13 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
     } else {
-        print!("{}", table(&rep, map));
+        print!("{}", table(&rep, map, false));
     }
     Ok(Outcome::Ok)
 }
 
-fn table(r: &ScoreReport, map: &ClassMap) -> String {
+fn table(r: &ScoreReport, map: &ClassMap, full_confusion: bool) -> String {
+    use kitti2pgm::label::classes::AbsentInMiou;
     let mut t = String::new();
     let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into());
     let what = if r.protocol == Protocol::Cells {
@@ -129,16 +130,23 @@ fn table(r: &ScoreReport, map: &ClassMap) -> String {
         "{} frames, {} {what} scored ({} frames without prediction scored as background)",
         r.frames, r.elements, r.missing_frames
     );
+    let w = map
+        .names()
+        .iter()
+        .map(|n| n.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
     let _ = writeln!(
         t,
-        "\n{:<12} {:>8} {:>10} {:>8} {:>12}",
+        "\n{:<w$} {:>8} {:>10} {:>8} {:>12}",
         "class", "IoU", "precision", "recall", "support"
     );
     for name in map.names() {
         let s = &r.classes[name];
         let _ = writeln!(
             t,
-            "{:<12} {:>8} {:>10} {:>8} {:>12}",
+            "{:<w$} {:>8} {:>10} {:>8} {:>12}",
             name,
             f(s.iou),
             f(s.precision),
@@ -146,24 +154,57 @@ fn table(r: &ScoreReport, map: &ClassMap) -> String {
             s.support
         );
     }
+    let rule = match r.miou_absent {
+        AbsentInMiou::LeftOut => "a class absent from truth and prediction is left out",
+        AbsentInMiou::Zero => {
+            "a class absent from truth and prediction counts 0, as the benchmark's"
+        }
+    };
+    let over = if r.miou_classes.len() <= 6 {
+        r.miou_classes.join(", ")
+    } else {
+        let left: Vec<&str> = map
+            .names()
+            .into_iter()
+            .filter(|n| !r.miou_classes.iter().any(|c| c == n))
+            .collect();
+        format!("all but {}", left.join(", "))
+    };
     let _ = writeln!(
         t,
-        "\nmIoU ({}; absent classes left out): {:.4}",
-        r.miou_classes.join(", "),
-        r.miou
+        "\nmIoU     {:.4}  (mean over {} classes: {over}; {rule})",
+        r.miou,
+        r.miou_classes.len(),
     );
-    let _ = writeln!(t, "\nconfusion (rows: truth, columns: prediction)");
-    let _ = write!(t, "{:<12}", "");
-    for name in map.names() {
-        let _ = write!(t, "{name:>13}");
-    }
-    let _ = writeln!(t);
-    for (g, name) in map.names().iter().enumerate() {
-        let _ = write!(t, "{name:<12}");
-        for v in &r.confusion.m[g] {
-            let _ = write!(t, "{v:>13}");
+    let _ = writeln!(
+        t,
+        "accuracy {}  (correct {what} over all scored)",
+        f(r.accuracy)
+    );
+    // The matrix only where it fits a terminal: SemanticKITTI's 20 x 20 is in --json and
+    // --confusion PNG.
+    if full_confusion || map.len() <= 6 {
+        let cw = w.max(9) + 1;
+        let _ = writeln!(t, "\nconfusion (rows: truth, columns: prediction)");
+        let _ = write!(t, "{:<w$}", "");
+        for name in map.names() {
+            let _ = write!(t, "{name:>cw$}");
         }
         let _ = writeln!(t);
+        for (g, name) in map.names().iter().enumerate() {
+            let _ = write!(t, "{name:<w$}");
+            for v in &r.confusion.m[g] {
+                let _ = write!(t, "{v:>cw$}");
+            }
+            let _ = writeln!(t);
+        }
+    } else {
+        let _ = writeln!(
+            t,
+            "(the {}x{} confusion matrix: --json, or --confusion PNG for a picture)",
+            map.len(),
+            map.len()
+        );
     }
     if let Some(pf) = &r.per_frame {
         let _ = write!(t, "\n{:<28}", "frame");

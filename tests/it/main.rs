@@ -9,6 +9,7 @@ mod cli;
 mod cloud;
 mod fuzz;
 mod label;
+mod newcomer;
 mod pinned;
 mod points;
 mod project;

@@ -289,12 +289,14 @@ fn json_schema_is_stable() {
     assert_eq!(
         keys,
         [
+            "accuracy",
             "class_names",
             "classes",
             "confusion",
             "elements",
             "frames",
             "miou",
+            "miou_absent",
             "miou_classes",
             "missing_frames",
             "per_frame",
@@ -303,7 +305,7 @@ fn json_schema_is_stable() {
             "version"
         ]
     );
-    assert_eq!(j["version"], 2);
+    assert_eq!(j["version"], 3, "3 added accuracy and miou_absent");
     assert_eq!(
         j["class_names"],
         serde_json::json!(["background", "car", "pedestrian", "cyclist"])

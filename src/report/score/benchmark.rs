@@ -25,7 +25,18 @@ use crate::report::truth::GroundTruth;
 /// files (`.../predictions/` and the dataset's `labels/`), class ids for `convert`'s.
 fn classes(path: &Path, raw_ids: bool, map: &ClassMap) -> Result<Vec<ClassId>> {
     if !raw_ids {
-        return label_file::read_classes(path, map);
+        return label_file::read_classes(path, map).map_err(|e| match e {
+            Error::Format { path, line, message } if message.contains("not a class id") => {
+                Error::Format {
+                    path,
+                    line,
+                    message: format!(
+                        "{message}; raw SemanticKITTI ids (the benchmark's) are read from sequences/<NN>/predictions/<frame6>.label, class ids from convert's labels/<NN>/<frame6>.label"
+                    ),
+                }
+            }
+            other => other,
+        });
     }
     map.classes_of_raw(&label_file::read_raw(path)?, path)
 }
@@ -64,14 +75,14 @@ fn score_one(
         Some(p) => {
             return Err(Error::Input {
                 path: p.clone(),
-                message: "a SemanticKITTI root is scored per point: predictions are .label files (sequences/<NN>/predictions/<frame6>.label)".into(),
+                message: "a SemanticKITTI root is scored per point: predictions are .label files (PRED/sequences/<NN>/predictions/<frame6>.label, raw ids, the benchmark's layout)".into(),
             })
         }
         None if opts.missing_as_background => None,
         None => {
             return Err(Error::Input {
                 path: preds.root.clone(),
-                message: format!("no prediction for ground-truth frame {id} (use --missing-as-background to score it as {})", map.name(map.background)),
+                message: format!("no prediction for ground-truth frame {id}: expected PRED/sequences/{:02}/predictions/{:06}.label (use --missing-as-background to score it as {})", id.drive, id.frame, map.name(map.background)),
             })
         }
     };

@@ -61,7 +61,14 @@ impl Confusion {
             .sum()
     }
 
-    /// `TP / (TP + FP + FN)`, or `None` when the class is absent from truth and prediction.
+    /// Overall accuracy: the diagonal over every counted element (`None` when none was counted).
+    pub fn accuracy(&self) -> Option<f64> {
+        let total = self.total();
+        (total > 0).then(|| (0..self.k()).map(|c| self.tp(c)).sum::<u64>() as f64 / total as f64)
+    }
+
+    /// IoU of class `c`: TP / (TP + FP + FN); `None` when the class is absent from truth and
+    /// prediction.
     pub fn iou(&self, c: usize) -> Option<f64> {
         let d = self.tp(c) + self.fp(c) + self.fn_(c);
         (d > 0).then(|| self.tp(c) as f64 / d as f64)

@@ -103,8 +103,14 @@ pub struct ScoreReport {
     pub elements: u64,
     /// Per class, keyed by name.
     pub classes: BTreeMap<String, ClassScore>,
-    /// Mean IoU over `miou_classes` (classes absent from truth and prediction left out).
+    /// Mean IoU over `miou_classes`; a class absent from truth and prediction is left out or
+    /// counts 0 as `miou_absent` says (the class map's rule: SemanticKITTI's counts 0).
     pub miou: f64,
+    /// How absent classes enter `miou`.
+    pub miou_absent: crate::label::classes::AbsentInMiou,
+    /// Overall accuracy: correctly classified elements over all scored elements (`null` when
+    /// none was scored), as the SemanticKITTI benchmark reports it beside mIoU.
+    pub accuracy: Option<f64>,
     /// Confusion matrix, rows = truth, columns = prediction, class id order.
     pub confusion: Confusion,
     /// Predictions whose frame is not in the ground truth at all (not scored: named, so that a
@@ -164,7 +170,7 @@ pub fn report(
         })
         .collect();
     ScoreReport {
-        version: 2,
+        version: 3,
         protocol,
         class_names: map.names().into_iter().map(String::from).collect(),
         miou_classes: map.miou.iter().map(|&c| map.name(c).to_string()).collect(),
@@ -173,6 +179,8 @@ pub fn report(
         elements: total.total(),
         classes: map.keyed(&scores),
         miou: total.miou_for(map),
+        miou_absent: map.absent_in_miou,
+        accuracy: total.accuracy(),
         confusion: total,
         predictions_without_truth: Vec::new(),
         per_frame: per_frame.then(|| frames.iter().map(|f| FramePerf::new(f, map)).collect()),

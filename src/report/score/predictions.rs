@@ -116,8 +116,15 @@ impl Predictions {
             .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
             .cloned()
             .collect();
+        let mut unrecognised = None::<PathBuf>;
         for p in paths {
-            let Some(id) = frame_id_of(&p) else { continue };
+            let Some(id) = frame_id_of(&p) else {
+                let prediction_like = p.extension().is_some_and(|e| e == "npy" || e == "label");
+                if prediction_like {
+                    unrecognised.get_or_insert(p);
+                }
+                continue;
+            };
             if p.extension().is_some_and(|e| e == "npy") {
                 npy.get_or_insert(p.clone());
             } else {
@@ -170,11 +177,18 @@ impl Predictions {
             shards.push((shard, summary));
         }
         if files.is_empty() && in_shard.is_empty() {
+            let found = unrecognised
+                .map(|p| format!("; {} is not named as one", p.display()))
+                .unwrap_or_default();
             return Err(Error::Input {
                 path: root.into(),
-                message:
-                    "no prediction (<frame id>.npy, <drive>/<frame>.label or prediction shards)"
-                        .into(),
+                message: format!(
+                    "no prediction found{found}. Expected: map predictions <frame id>.npy \
+                     (2011_09_26_0001_0000000000.npy, 00_000000.npy), per-point \
+                     <drive>/<frame>.label (2011_09_26_drive_0001_sync/0000000000.label), \
+                     SemanticKITTI's sequences/<NN>/predictions/<frame6>.label, or prediction \
+                     shards (.mcap)"
+                ),
             });
         }
         Ok(Predictions {
