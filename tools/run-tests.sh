@@ -1,14 +1,18 @@
 #!/usr/bin/env bash
-# Every test: the Rust suite (unit, integration on fixtures/, doc tests) and the Python packages'
-# tests (native module, shard reader, trainer). The native module (tools/kitti2pgm_py, PyO3 +
-# maturin) is built from source by pip, in release mode (about 3 minutes on 2 cores). Installs the Python dependencies first; pip skips what is
-# already there, and keeps its downloads in its cache, so a second run installs nothing. PyPI's
-# torch brings its CUDA libraries (about 4 GB) even for the CPU tests.
+# Every test: the README's install command first (tools/install.sh: the CLI and the Python
+# side, so that CI installs exactly what a user does), the test dependencies, then the Rust
+# suite (unit, integration on fixtures/, doc tests) and the Python packages' tests (native
+# module, shard reader, trainer, and the README and docs run as written). pip skips what is
+# already installed and keeps its downloads in its cache; cargo reuses its builds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+t0=$SECONDS
+tools/install.sh
+export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 python3 -m pip install --quiet --disable-pip-version-check \
   -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]"
-python3 -m pip install --quiet --disable-pip-version-check ./tools/kitti2pgm_py
+echo "run-tests.sh: installed in $((SECONDS - t0)) s"
 cargo test --locked
 cargo build --locked --quiet          # the binary the Python tests drive
 python3 -m pytest -q tools
+echo "run-tests.sh: done in $((SECONDS - t0)) s"

@@ -11,8 +11,15 @@ pub fn bar(len: u64, enabled: bool, what: &str) -> ProgressBar {
     }
     let pb = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
     pb.set_style(
-        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {per_sec} eta {eta}")
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {rate} eta {eta}")
             .expect("static template")
+            // indicatif's {per_sec} prints "44.0707/s": one decimal is enough.
+            .with_key(
+                "rate",
+                |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = write!(w, "{:.1}/s", s.per_sec());
+                },
+            )
             .progress_chars("=> "),
     );
     pb.set_message(what.to_string());

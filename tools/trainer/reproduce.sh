@@ -7,7 +7,7 @@
 #
 # Environment (defaults are the paper's setting): STEPS (50000), BATCH (32 a step, split over
 # GPUS processes), GPUS (the CUDA devices present, else 1 CPU process), WIDTH (1.0),
-# VAL_DRIVES (SqueezeSeg's), KITTI2PGM (the binary; else target/release, built if needed),
+# VAL_DRIVES (SqueezeSeg's; a seeded 30% drive split where none of them is in RAW_ROOT), KITTI2PGM (the binary; else target/release, built if needed),
 # EXTRA (more trainer options, e.g. "--compile"), CONVERT (more convert options), EVAL (more
 # evaluate options).
 set -euo pipefail
@@ -19,11 +19,25 @@ batch=${BATCH:-32}
 width=${WIDTH:-1.0}
 gpus=${GPUS:-$(python3 -c 'import torch; print(max(torch.cuda.device_count(), 1))')}
 if [ -z "${KITTI2PGM:-}" ]; then
-  (cd "$here" && cargo build --release --quiet)
-  KITTI2PGM=$here/target/release/kitti2pgm
+  if command -v kitti2pgm >/dev/null 2>&1; then
+    KITTI2PGM=kitti2pgm
+  else
+    (cd "$here" && cargo build --release --quiet)
+    KITTI2PGM=$here/target/release/kitti2pgm
+  fi
 fi
 split=()
-[ -n "${VAL_DRIVES:-}" ] && split=(--val-drives "$VAL_DRIVES")
+if [ -n "${VAL_DRIVES:-}" ]; then
+  split=(--val-drives "$VAL_DRIVES")
+else
+  # SqueezeSeg's val drives, unless none of them is here (a subset of KITTI raw, the fixtures):
+  # then a seeded, drive-disjoint 30% split, so that there is something to evaluate on.
+  val=$("$KITTI2PGM" --no-progress split "$raw" --out "$(mktemp -d)" --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["val"])')
+  if [ "$val" = 0 ]; then
+    echo "reproduce.sh: none of SqueezeSeg's val drives is in $raw: a seeded 30% drive split instead" >&2
+    split=(--random-val 0.3 --seed 0)
+  fi
+fi
 mkdir -p "$out"
 "$KITTI2PGM" --no-progress convert "$raw" --out "$out/data" --rgb --format npy,mcap "${split[@]}" ${CONVERT:-}
 "$KITTI2PGM" --no-progress split "$raw" --out "$out/data" "${split[@]}"

@@ -1,7 +1,7 @@
 //! Numpy arguments: checked for type, dtype and shape, with a `ValueError` that names the
 //! argument and says what it got.
 
-use numpy::{Element, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::{Element, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -29,18 +29,64 @@ fn describe(obj: &Bound<'_, PyAny>) -> String {
     }
 }
 
+/// An array of another numeric dtype as one of element type `T` (numpy's `astype`, one copy),
+/// by the module's one rule: float and integer arrays convert to float32; integer arrays convert
+/// to an integer type when every value fits (else `ValueError` naming the value); bool arrays
+/// only to bool; nothing converts silently with rounding or wrapping. `None` when `obj` is no
+/// numpy array or its dtype does not convert.
+fn converted<'py, T: Element + DtypeName>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let Ok(a) = obj.cast::<numpy::PyUntypedArray>() else {
+        return Ok(None);
+    };
+    let kind = a.dtype().kind() as char;
+    let ok = match T::KIND {
+        'f' => matches!(kind, 'f' | 'i' | 'u'),
+        'u' => matches!(kind, 'i' | 'u'),
+        'b' => kind == 'b',
+        _ => false,
+    };
+    if !ok {
+        return Ok(None);
+    }
+    if T::KIND == 'u' && a.len() > 0 {
+        for (what, bound) in [("min", 0.0), ("max", T::MAX)] {
+            let v: f64 = obj.call_method0(what)?.extract()?;
+            let outside = if what == "min" { v < bound } else { v > bound };
+            if outside {
+                return Err(PyValueError::new_err(format!(
+                    "{name} holds {v}, which does not fit {} (0..={})",
+                    T::NAME,
+                    T::MAX
+                )));
+            }
+        }
+    }
+    Ok(Some(obj.call_method1("astype", (T::NAME,))?))
+}
+
 /// `f` of the values of an array of element type `T`, row-major, and its shape: the array's own
 /// memory when it is C-contiguous, else a row-major copy (Fortran-ordered and strided arrays
 /// are read in their logical order, never as their memory lies).
-fn with_values<T: Element + Copy, R>(
+fn with_values<T: Element + Copy + DtypeName, R>(
     obj: &Bound<'_, PyAny>,
     name: &str,
     want: &str,
     f: impl FnOnce(&[T], &[usize]) -> PyResult<R>,
 ) -> PyResult<R> {
-    let arr = obj.cast::<PyArrayDyn<T>>().map_err(|_| {
-        PyValueError::new_err(format!("{name} must be {want}, got {}", describe(obj)))
-    })?;
+    let conv;
+    let arr = match obj.cast::<PyArrayDyn<T>>() {
+        Ok(a) => a,
+        Err(_) => {
+            conv = converted::<T>(obj, name)?.ok_or_else(|| {
+                PyValueError::new_err(format!("{name} must be {want}, got {}", describe(obj)))
+            })?;
+            conv.cast::<PyArrayDyn<T>>()
+                .map_err(|_| PyValueError::new_err(format!("{name}: conversion to {} failed", T::NAME)))?
+        }
+    };
     let ro = arr.readonly();
     let shape = ro.shape().to_vec();
     if arr.is_c_contiguous() {
@@ -72,7 +118,7 @@ fn with_values<T: Element + Copy, R>(
 }
 
 /// The values of an array of element type `T`, row-major, with its shape (one copy).
-fn values<T: Element + Copy>(
+fn values<T: Element + Copy + DtypeName>(
     obj: &Bound<'_, PyAny>,
     name: &str,
     want: &str,
@@ -150,18 +196,33 @@ pub fn colours_arg(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<[f32; 3]>> 
     Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
 }
 
-/// The numpy name of an element type, for messages.
+/// The numpy name, kind and largest value of an element type (messages and conversion).
 pub trait DtypeName {
     /// e.g. `uint8`.
     const NAME: &'static str;
+    /// numpy's dtype kind: `f`, `u` or `b`.
+    const KIND: char;
+    /// The largest value.
+    const MAX: f64;
 }
 
 impl DtypeName for u8 {
     const NAME: &'static str = "uint8";
+    const KIND: char = 'u';
+    const MAX: f64 = u8::MAX as f64;
 }
 impl DtypeName for u16 {
     const NAME: &'static str = "uint16";
+    const KIND: char = 'u';
+    const MAX: f64 = u16::MAX as f64;
 }
 impl DtypeName for bool {
     const NAME: &'static str = "bool";
+    const KIND: char = 'b';
+    const MAX: f64 = 1.0;
+}
+impl DtypeName for f32 {
+    const NAME: &'static str = "float32";
+    const KIND: char = 'f';
+    const MAX: f64 = f32::MAX as f64;
 }

@@ -15,7 +15,7 @@ use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
-use kitti2pgm::project::rings;
+use kitti2pgm::project::{project_cloud, rings, Cloud};
 
 use crate::readers::{box_dict, class_map_of, scan_array, to_py};
 use crate::{py_err, spec_of};
@@ -27,7 +27,8 @@ use crate::{py_err, spec_of};
 ///
 /// root: a KITTI raw root (or date / drive folder), a SemanticKITTI root (sequences/) or a
 /// KITTI object root (training/, testing/); source forces "raw", "semantickitti" or "object".
-/// class_map: "kitti-paper", "semantic-kitti" or a yaml file (default: the layout's).
+/// class_map: "kitti-paper-4", "semantic-kitti" or a yaml file (default: the layout's).
+/// `len(ds)`, `ds[i]` / `ds["<frame id>"]` and `for frame in ds` give the frames as `load` does.
 /// rgb_camera: 2 or 3 to sample each point's colour from that camera's image.
 /// all_frames: every scan, not only those with a tracklet pose (KITTI raw).
 #[pyclass(frozen, module = "kitti2pgm")]
@@ -92,6 +93,18 @@ impl Dataset {
         };
         map.validate().map_err(py_err)?;
         let ids: Vec<String> = plan.frame_ids().map(|f| f.to_string()).collect();
+        if ids.is_empty() {
+            let why: Vec<String> = plan.failed.iter().map(|f| f.error.clone()).collect();
+            return Err(PyValueError::new_err(format!(
+                "{}: no frame to load{}",
+                root.display(),
+                if why.is_empty() {
+                    " (no scan with annotations; all_frames=True takes every scan)".to_string()
+                } else {
+                    format!(": {}", why.join("; "))
+                }
+            )));
+        }
         let by_id = ids
             .iter()
             .enumerate()
@@ -139,6 +152,23 @@ impl Dataset {
 
     fn __len__(&self) -> usize {
         self.ids.len()
+    }
+
+    /// `ds[i]` or `ds["<frame id>"]`: the frame, as `load` gives it.
+    fn __getitem__<'py>(
+        &self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        self.load(py, frame)
+    }
+
+    /// `for frame in ds`: every frame in order, as `load` gives it.
+    fn __iter__(slf: Bound<'_, Self>) -> DatasetIter {
+        DatasetIter {
+            dataset: slf.unbind(),
+            next: 0,
+        }
     }
 
     fn __repr__(&self) -> String {
@@ -199,9 +229,11 @@ impl Dataset {
         Ok(out)
     }
 
-    /// The map `kitti2pgm convert` writes for a frame (same keyword arguments as
-    /// `kitti2pgm.project`'s map shape): load + project in one call.
-    #[pyo3(signature = (frame, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode="rings"))]
+    /// The frame projected as `kitti2pgm convert` projects it: the dict `kitti2pgm.project`
+    /// returns (map, channels, mask, label, instance, rgb_valid, row, col, point_index, stats),
+    /// with the same map keywords; load + project in one call.
+    #[pyo3(signature = (frame, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode="rings"),
+        text_signature = "(self, frame, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings')")]
     #[allow(clippy::too_many_arguments)]
     fn project<'py>(
         &self,
@@ -213,7 +245,7 @@ impl Dataset {
         fov_up_deg: f64,
         fov_down_deg: f64,
         row_mode: &str,
-    ) -> PyResult<Bound<'py, PyAny>> {
+    ) -> PyResult<Bound<'py, PyDict>> {
         let spec = spec_of(rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode)?;
         let k = self.index_of(frame)?;
         let (d, f) = self.plan.jobs[k];
@@ -222,24 +254,52 @@ impl Dataset {
             spec,
             ..self.map.clone()
         };
-        let conv = py
+        let projected = py
             .detach(|| {
                 let l = load(dp, f, &map, false)?;
-                let cam = l.camera.as_ref().map(|(p, i)| (p, i));
-                Ok::<_, kitti2pgm::Error>(kitti2pgm::convert::process(
-                    &l.id,
-                    &l.scan,
-                    &l.labels,
-                    &spec,
-                    &map.class_map,
-                    cam,
-                ))
+                let colours = l.point_colours();
+                let valid: Option<Vec<bool>> =
+                    colours.as_ref().map(|c| c.iter().map(Option::is_some).collect());
+                let flat: Option<Vec<[f32; 3]>> = colours
+                    .as_ref()
+                    .map(|c| c.iter().map(|v| v.unwrap_or([0.0; 3])).collect());
+                let cloud = Cloud {
+                    points: &l.scan.points,
+                    intensity: &l.scan.reflectance,
+                    rings: None,
+                    labels: Some(&l.labels.points.class),
+                    instance: Some(&l.labels.points.instance),
+                    colours: flat.as_deref(),
+                    colour_valid: valid.as_deref(),
+                };
+                project_cloud(&cloud, &spec, None)
             })
             .map_err(py_err)?;
-        let (h, w, c) = (conv.pgm.rows, conv.pgm.cols, conv.pgm.depth());
-        Ok(PyArray1::from_vec(py, conv.pgm.data)
-            .reshape([h, w, c])?
-            .into_any())
+        crate::map_dict(py, projected, true)
+    }
+}
+
+/// Iterates over a [`Dataset`]'s frames.
+#[pyclass(module = "kitti2pgm")]
+pub struct DatasetIter {
+    dataset: Py<Dataset>,
+    next: usize,
+}
+
+#[pymethods]
+impl DatasetIter {
+    fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    fn __next__<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let ds = self.dataset.bind(py).get();
+        if self.next >= ds.ids.len() {
+            return Ok(None);
+        }
+        let i = self.next;
+        self.next += 1;
+        ds.load(py, &i.into_pyobject(py)?.into_any()).map(Some)
     }
 }
 

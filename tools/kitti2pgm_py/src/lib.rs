@@ -95,7 +95,8 @@ fn rings<'py>(
 #[pyfunction]
 #[pyo3(signature = (points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9,
     row_mode="rings", rings=None, labels=None, instance=None, colours=None, colour_valid=None,
-    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0, point_cells=true))]
+    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0, point_cells=true),
+    text_signature = "(points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings', rings=None, labels=None, instance=None, colours=None, colour_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
     py: Python<'py>,
@@ -158,7 +159,7 @@ fn project<'py>(
 }
 
 /// The dict `project` returns; every array takes over its Rust buffer.
-fn map_dict<'py>(py: Python<'py>, m: CloudMap, point_cells: bool) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn map_dict<'py>(py: Python<'py>, m: CloudMap, point_cells: bool) -> PyResult<Bound<'py, PyDict>> {
     let CloudMap {
         frame,
         point_cell,
@@ -249,5 +250,6 @@ fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(rings, m)?)?;
     readers::register(m)?;
     m.add_class::<dataset::Dataset>()?;
+    m.add_class::<dataset::DatasetIter>()?;
     Ok(())
 }

@@ -153,7 +153,7 @@ fn read_object_labels<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py
 /// "kitti-paper": background, car, pedestrian, cyclist), "semantic-kitti" (the 20 training
 /// classes), or a SemanticKITTI-style yaml file.
 #[pyfunction]
-#[pyo3(signature = (name="kitti-paper"))]
+#[pyo3(signature = (name="kitti-paper-4"))]
 fn class_map<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
     to_py(py, &class_map_of(name)?)
 }

@@ -49,7 +49,7 @@ def test_project_is_the_converters_bytes_on_raw(converted, tmp_path, rgb, full):
         assert m["map"].tobytes() == want.tobytes(), fid
         assert m["channels"] == ["x", "y", "z", "intensity", "range", "label"] + (["r", "g", "b"] if rgb else [])
         assert np.array_equal(m["mask"], want[..., 4] > 0)
-        assert np.array_equal(ds.project(fid, **shape), want)
+        assert np.array_equal(ds.project(fid, **shape)["map"], want)
         # From the file itself, through the reader.
         scan = k2.read_scan(pathlib.Path(str(RAW)) / "2011_09_26" / f"2011_09_26_drive_{fid[11:15]}_sync"
                             / "velodyne_points" / "data" / f"{fid[16:]}.bin")
@@ -166,10 +166,12 @@ def test_bad_arrays_raise_clear_value_errors():
     n = len(pts)
     cases = [
         (pts[:, :3], {}, r"points must be a float32 array of shape \(N, 4\).*shape \(%d, 3\)" % n),
-        (pts.astype(np.float64), {}, "points must be a float32 array.*got a float64 array"),
+        (pts.astype(np.complex64), {}, "points must be a float32 array.*got a complex64 array"),
         (pts.tolist(), {}, "points must be a float32 array.*list"),
         (pts, {"labels": f["label"][:-1]}, r"labels must be a uint8 array of shape \(%d,\)" % n),
-        (pts, {"labels": f["label"].astype(np.int64)}, "labels must be a uint8 array"),
+        (pts, {"labels": f["label"].astype(np.float32)}, "labels must be a uint8 array"),
+        (pts, {"labels": np.full(n, 300, np.int64)}, r"labels holds 300, which does not fit uint8"),
+        (pts, {"labels": np.full(n, -1, np.int16)}, r"labels holds -1, which does not fit uint8"),
         (pts, {"rings": np.full(n, 64, np.uint8)}, "ring 64 of point 0 is not below 64"),
         (pts, {"colours": np.zeros((n, 4), np.float32)}, r"colours must be a float32 array of shape \(%d, 3\)" % n),
         (pts, {"cols": 0}, "map size 64x0 is out of range"),
@@ -258,6 +260,38 @@ def test_wild_boxes_are_refused_not_hung():
 def test_a_class_map_that_cannot_label_the_source_is_refused():
     with pytest.raises(ValueError, match="has no rule for the annotations"):
         k2.Dataset(RAW, class_map="semantic-kitti")
+
+
+def test_one_dtype_rule_and_one_vocabulary():
+    """(Issue 20) Numeric arrays convert by one rule (float64 points, int64 labels that fit);
+    Dataset indexes, iterates and projects to the same dict as project(); class maps go by the
+    names outputs record; paths may be str or Path."""
+    ds = k2.Dataset(str(RAW))
+    assert len(ds) == 3 and [f["id"] for f in ds] == ds.frames
+    f = ds[0]
+    assert ds[ds.frames[0]]["id"] == f["id"] and ds[-1]["id"] == ds.frames[-1]
+    with pytest.raises(IndexError):
+        ds[3]
+    want = k2.project(f["points"], labels=f["label"], instance=f["instance"])
+    got = k2.project(f["points"].astype(np.float64), labels=f["label"].astype(np.int64),
+                     instance=f["instance"].astype(np.int32))
+    assert got["map"].tobytes() == want["map"].tobytes()
+    d = ds.project(0)
+    assert set(d) == set(want) and d["map"].tobytes() == want["map"].tobytes()
+    assert k2.class_map("kitti-paper-4")["name"] == "kitti-paper-4"
+    assert k2.class_map("semantic-kitti")["name"] == "semantic-kitti"
+    assert k2.Dataset(RAW, class_map="kitti-paper-4").class_map["name"] == "kitti-paper-4"
+    import inspect
+    sig = str(inspect.signature(k2.project))
+    assert "fov_down_deg=-24.9" in sig and "Ellipsis" not in sig, sig
+    assert "fov_down_deg=-24.9" in str(inspect.signature(k2.Dataset.project))
+
+
+def test_a_dataset_without_frames_says_why(tmp_path):
+    root = tmp_path / "2011_09_26" / "2011_09_26_drive_0001_sync" / "velodyne_points" / "data"
+    root.mkdir(parents=True)
+    with pytest.raises(ValueError, match="no frame to load"):
+        k2.Dataset(tmp_path)
 
 
 def test_threads_get_the_same_maps():

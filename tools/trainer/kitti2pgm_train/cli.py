@@ -14,13 +14,20 @@ import argparse
 import json
 import sys
 
-from .models import INPUTS, MODELS
+from .names import INPUTS, MODELS
+
+
+class _Help(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
+    """The description as written, every option with its default."""
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="kitti2pgm_train", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="kitti2pgm_train", description=__doc__, formatter_class=_Help)
     sub = p.add_subparsers(dest="command", required=True)
-    t = sub.add_parser("train", help="train a model (the paper's schedule by default)")
+    t = sub.add_parser("train", help="train a model (the paper's schedule by default)", formatter_class=_Help,
+                       description="Train SqueezeSeg or PointSeg from kitti2pgm shards. Progress goes to stderr "
+                                   "(a line every --log-every steps; a live line on a terminal), the log to "
+                                   "<out>/log.csv.")
     t.add_argument("--shards", required=True,
                    help="shards folder (train-*.mcap, val-*.mcap) or a convert output folder; map shards (OUT/shards) "
                         "or point shards (OUT/points: projected on the fly, see --augment)")
@@ -35,11 +42,11 @@ def parser() -> argparse.ArgumentParser:
                    help="with --stats: sqrt or plain inverse frequency; reference = the class map's own weights "
                         "(SqueezeSeg's [1/15, 1, 10, 10] for the paper's map; used without --stats; squeezeseg is "
                         "an alias); uniform = no weighting")
-    t.add_argument("--steps", type=int, default=50_000)
-    t.add_argument("--batch", type=int, default=32)
-    t.add_argument("--lr", type=float, default=0.01)
-    t.add_argument("--momentum", type=float, default=0.9)
-    t.add_argument("--weight-decay", type=float, default=1e-4)
+    t.add_argument("--steps", type=int, default=50_000, help="training steps (the paper's schedule)")
+    t.add_argument("--batch", type=int, default=32, help="frames per step (per process with torchrun)")
+    t.add_argument("--lr", type=float, default=0.01, help="SGD learning rate at step 0")
+    t.add_argument("--momentum", type=float, default=0.9, help="SGD momentum")
+    t.add_argument("--weight-decay", type=float, default=1e-4, help="SGD weight decay")
     t.add_argument("--lr-halve-every", type=int, default=10_000, help="halve the learning rate every N steps")
     t.add_argument("--no-flip", dest="flip", action="store_false", help="no random left-right flip")
     t.add_argument("--augment", default="",
@@ -51,10 +58,10 @@ def parser() -> argparse.ArgumentParser:
                    help="--augment scale: uniform factor")
     t.add_argument("--jitter", type=float, default=0.01, help="--augment jitter: standard deviation of the bell-shaped, bounded (3.46 x) noise on x, y, z, metres")
     t.add_argument("--drop", type=float, default=0.1, help="--augment drop: probability of dropping a point")
-    t.add_argument("--dropout", type=float, default=0.5)
+    t.add_argument("--dropout", type=float, default=0.5, help="dropout before the classifier")
     t.add_argument("--crf", action="store_true", help="SqueezeSeg's recurrent CRF on the logits")
     t.add_argument("--width-mult", type=float, default=1.0, help="channel width multiplier (1 = the paper's)")
-    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--seed", type=int, default=0, help="seed of the weights, batches and augmentation")
     t.add_argument("--workers", type=int, default=2, help="DataLoader worker processes reading the shards (0 = in the training process)")
     t.add_argument("--device", default="auto", help="auto, cpu or cuda")
     t.add_argument("--amp", action=argparse.BooleanOptionalAction, default=None,
@@ -66,28 +73,30 @@ def parser() -> argparse.ArgumentParser:
                    help="load the decoded train split onto the device once and batch, flip and normalise there "
                         "(auto: on CUDA when it takes at most half the free memory; on also works on CPU); "
                         "otherwise DataLoader workers with pinned memory and prefetching")
-    t.add_argument("--log-every", type=int, default=50)
+    t.add_argument("--log-every", type=int, default=50, help="a log.csv row and a progress line every N steps")
     t.add_argument("--val-every", type=int, default=0,
                    help="every N steps, predict the val shards, log the IoUs to val.csv (and TensorBoard) and keep "
                         "the best model in best.pt (which evaluate then uses)")
     t.add_argument("--val-shards", help="explicit val shards (glob) instead of <shards>/val-*.mcap")
-    t.add_argument("--checkpoint-every", type=int, default=1000)
+    t.add_argument("--checkpoint-every", type=int, default=1000, help="checkpoint.pt written every N steps")
     t.add_argument("--tensorboard", action="store_true", help="also log to <out>/tensorboard")
     t.add_argument("--stop-after", type=int, default=0, help=argparse.SUPPRESS)
-    e = sub.add_parser("evaluate", help="predict the val shards, write predictions/<id>.npy, print IoUs")
-    e.add_argument("--run", required=True)
+    e = sub.add_parser("evaluate", help="predict the val shards, write predictions/<id>.npy, print IoUs",
+                       formatter_class=_Help)
+    e.add_argument("--run", required=True, help="the run directory (train --out)")
     e.add_argument("--shards", required=True, help="shards folder (val-*.mcap is used)")
     e.add_argument("--val-shards", help="explicit shards (glob) instead of <shards>/val-*.mcap")
     e.add_argument("--predictions", help="where to write the .npy maps (default <run>/predictions)")
     e.add_argument("--format", choices=["npy", "mcap", "both"], default="npy",
                    help="predictions as <id>.npy maps, as one prediction shard <run>/predictions.mcap, or both")
-    e.add_argument("--batch", type=int, default=8)
-    e.add_argument("--device", default="auto")
+    e.add_argument("--batch", type=int, default=8, help="frames per forward pass")
+    e.add_argument("--device", default="auto", help="auto, cpu or cuda")
     e.add_argument("--timing-frames", type=int, default=10, help="frames timed for inference ms/frame")
-    e.add_argument("--json", action="store_true")
+    e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.add_argument("--onnx", help="also time this exported model (onnxruntime, CPU) per frame")
-    x = sub.add_parser("export", help="export a run as ONNX and/or TorchScript, normalisation inside")
-    x.add_argument("--run", required=True)
+    x = sub.add_parser("export", help="export a run as ONNX and/or TorchScript, normalisation inside",
+                       formatter_class=_Help)
+    x.add_argument("--run", required=True, help="the run directory (train --out)")
     x.add_argument("--out", help="the .onnx file to write")
     x.add_argument("--torchscript", help="the TorchScript .pt file to write")
     return p
@@ -125,7 +134,30 @@ def main(argv=None) -> int:
                 print(f"{r['frames']} frames; predictions in {r['predictions'] or r['prediction_shard']}")
                 print(c.table())
                 print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in r["inference_ms_per_frame"].items() if v))
-    except (FileExistsError, FileNotFoundError, ValueError, ShardError) as e:
+    except (FileExistsError, FileNotFoundError, ValueError, ShardError, MissingExtra) as e:
         print(f"kitti2pgm_train: error: {e}", file=sys.stderr)
         return 1
+    except ModuleNotFoundError as e:
+        print(f"kitti2pgm_train: error: {missing_extra(e)}", file=sys.stderr)
+        return 1
     return 0
+
+
+class MissingExtra(Exception):
+    """An optional package a command needs is not installed."""
+
+
+# Optional packages and the extra of kitti2pgm-train that installs them.
+EXTRAS = {"onnx": "export", "onnxscript": "export", "onnxruntime": "export", "tensorboard": "tensorboard",
+          "kitti2pgm": None}
+
+
+def missing_extra(e: ModuleNotFoundError) -> str:
+    """What to install for a missing module, in words."""
+    name = (e.name or "").split(".")[0]
+    if name == "kitti2pgm":
+        return "point shards need the native module: pip install ./tools/kitti2pgm_py (or tools/install.sh)"
+    extra = EXTRAS.get(name)
+    if extra:
+        return f"this needs {name}: pip install 'kitti2pgm-train[{extra}]' (or -e 'tools/trainer[{extra}]')"
+    return f"{e} (is the trainer installed? tools/install.sh)"

@@ -15,22 +15,36 @@ import torch
 import torch.nn.functional as F
 
 
+def say(message: str) -> None:
+    """A line for the person running the trainer (stderr)."""
+    print(f"kitti2pgm_train: {message}", file=sys.stderr, flush=True)
+
+
 class Progress:
-    """A one-line progress display with rate and ETA on a terminal (stderr); silent otherwise.
-    ``start`` is where a resumed run begins, so that the rate counts this run's work only."""
+    """Progress on stderr: a live line with rate and ETA on a terminal, and a plain line at each
+    log step elsewhere (a log file, a CI job). ``start`` is where a resumed run begins, so that
+    the rate counts this run's work only."""
 
     def __init__(self, total: int, what: str, start: int = 0):
         self.total, self.what, self.tty = total, what, sys.stderr.isatty()
         self.start, self.t0 = start, time.perf_counter()
 
+    def _status(self, done: int) -> str:
+        rate = (done - self.start) / max(time.perf_counter() - self.t0, 1e-9)
+        eta = (self.total - done) / rate if rate > 0 else 0.0
+        h, rest = divmod(int(eta), 3600)
+        return f"{self.what} {done}/{self.total} ({rate:.1f} steps/s, ETA {h}:{rest // 60:02}:{rest % 60:02})"
+
     def update(self, done: int, extra: str = "") -> None:
+        """The live line (terminal only)."""
         if self.tty:
-            rate = (done - self.start) / max(time.perf_counter() - self.t0, 1e-9)
-            eta = (self.total - done) / rate if rate > 0 else 0.0
-            h, rest = divmod(int(eta), 3600)
-            sys.stderr.write(f"\r{self.what} {done}/{self.total} ({rate:.1f}/s, ETA {h}:{rest // 60:02}:{rest % 60:02}) "
-                             f"{extra}   ")
+            sys.stderr.write(f"\r{self._status(done)} {extra}   ")
             sys.stderr.flush()
+
+    def line(self, done: int, extra: str = "") -> None:
+        """A plain line, where there is no live one."""
+        if not self.tty:
+            print(f"{self._status(done)} {extra}", file=sys.stderr, flush=True)
 
     def close(self) -> None:
         if self.tty:

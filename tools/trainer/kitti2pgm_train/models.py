@@ -22,12 +22,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-# Channel names of each input, in the order the tensor is built.
-INPUTS: Dict[str, Tuple[Tuple[str, ...], ...]] = {
-    "xyzdi": (("x", "y", "z", "intensity", "range"),),
-    "xyzdirgb": (("x", "y", "z", "intensity", "range", "r", "g", "b"),),
-    "xyzdi+dirgb": (("x", "y", "z", "intensity", "range"), ("range", "intensity", "r", "g", "b")),
-}
+from .names import INPUTS, MODELS  # noqa: F401 (re-exported)
 
 
 def conv(cin: int, cout: int, k, stride=1, padding=0, dilation=1) -> nn.Sequential:
@@ -202,5 +197,3 @@ class SegNet(nn.Module):
             logits = self.crf(logits, xyz, mask)
         return logits
 
-
-MODELS = {"squeezeseg": "SqueezeSeg", "pointseg": "PointSeg"}

@@ -20,7 +20,7 @@ import torch
 from kitti2pgm_data import class_map, read_metadata
 
 from . import __version__
-from .common import Progress, atomic_save, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
+from .common import Progress, atomic_save, say, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
 from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames, class_weights, collate, find_shards,
                    load_stats)
 from .evaluate import predict
@@ -54,10 +54,23 @@ def train(args) -> dict:
     device = pick_device(args.device, local_rank)
     run = args.out
     ckpt_path = os.path.join(run, "checkpoint.pt")
-    if os.path.exists(os.path.join(run, "config.json")) and not args.resume:
+    if args.tensorboard:
+        import importlib.util
+        if importlib.util.find_spec("tensorboard") is None:
+            raise ModuleNotFoundError("no tensorboard", name="tensorboard")
+    started = os.path.exists(os.path.join(run, "config.json"))
+    if started and not os.path.exists(ckpt_path):
+        # A run that stopped before its first checkpoint left nothing to continue: start it again.
+        if rank == 0:
+            say(f"{run}: the run there stopped before its first checkpoint; starting it again")
+            for name in ("config.json", "log.csv", "val.csv"):
+                if os.path.exists(os.path.join(run, name)):
+                    os.remove(os.path.join(run, name))
+        started, args.resume = False, False
+    if started and not args.resume:
         raise FileExistsError(f"{run} already holds a run: pass --resume to continue it, or choose another --out")
-    if args.resume and not os.path.exists(ckpt_path):
-        raise FileNotFoundError(f"{ckpt_path}: no checkpoint to resume")
+    if args.resume and not started:
+        raise FileNotFoundError(f"{ckpt_path}: no run to resume in {run}")
     if world > 1:
         torch.distributed.barrier()  # every rank has checked the run directory before rank 0 writes it
     os.makedirs(run, exist_ok=True)
@@ -115,6 +128,10 @@ def train(args) -> dict:
         from torch.utils.tensorboard import SummaryWriter
         tb = SummaryWriter(os.path.join(run, "tensorboard"))
     model.train()
+    if rank == 0:
+        say(f"training {args.model} ({args.input}) on {len(data)} frames of {len(train_paths)} shard(s), "
+            f"{len(classes['classes'])} classes, device {device}{' x ' + str(world) if world > 1 else ''}; "
+            f"steps {start}..{args.steps} of {args.batch} frames; run in {run}")
     progress = Progress(args.steps, "training", start) if rank == 0 else None
     t_last, frames_since = time.perf_counter(), 0
     loss_value = float("nan")
@@ -185,6 +202,8 @@ def train(args) -> dict:
                 tb.add_scalar("loss", loss_value, done)
                 tb.add_scalar("lr", lr, done)
             t_last, frames_since, wait = now, 0, 0.0
+            if progress:
+                progress.line(done, f"loss {loss_value:.4f}, {fps:.1f} frames/s, lr {lr:.3g}")
         if progress:
             progress.update(done, f"loss {loss_value:.4f}")
         if val_data is not None and (done % args.val_every == 0 or done == args.steps):

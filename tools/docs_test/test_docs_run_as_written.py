@@ -1,0 +1,113 @@
+"""The README runs as written: every ``sh`` and ``python`` block of README.md,
+tools/trainer/README.md and docs/python.md, in that order, in one temporary folder that holds the
+repository's ``fixtures`` and ``tools`` (as links), so that the commands' outputs (``out/...``)
+never land in the repository.
+
+- ``kitti2pgm`` is the binary under test (target/debug or $KITTI2PGM_BIN) on PATH; the installed
+  one is what ``tools/install.sh`` (run by tools/run-tests.sh) puts in ~/.cargo/bin.
+- ``KITTI_RAW`` points the full-dataset examples at ``fixtures/raw``; reproduce.sh gets the
+  environment of a smoke run (two steps a model, on the CPU).
+- A block marked ``sh setup`` is the installation itself, run by tools/run-tests.sh (checked
+  here); a block marked ``sh norun`` must say why in an HTML comment just above it.
+"""
+
+import os
+import pathlib
+import re
+import subprocess
+import sys
+
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+DOCS = ["README.md", "tools/trainer/README.md", "docs/python.md"]
+FENCE = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```\s*$", re.S | re.M)
+
+
+def blocks(doc):
+    """(language, marks, code, line) of each fenced block."""
+    text = (REPO / doc).read_text()
+    out = []
+    for m in FENCE.finditer(text):
+        line = text[: m.start()].count("\n") + 1
+        before = text[: m.start()].rstrip().splitlines()[-1:] or [""]
+        out.append((m.group(1), m.group(2).split(), m.group(3), line, before[0]))
+    return out
+
+
+def runnable():
+    for doc in DOCS:
+        for lang, marks, code, line, before in blocks(doc):
+            if lang not in ("sh", "python"):
+                continue
+            yield doc, lang, marks, code, line, before
+
+
+def test_every_block_is_run_or_says_why_not():
+    seen = list(runnable())
+    assert len([b for b in seen if not b[2]]) >= 10, "the docs hold runnable blocks"
+    for doc, lang, marks, code, line, before in seen:
+        if "norun" in marks:
+            assert before.startswith("<!-- norun:"), f"{doc}:{line}: a norun block says why just above it"
+        if "setup" in marks:
+            assert "tools/install.sh" in code, f"{doc}:{line}: a setup block installs"
+    # The setup blocks are what CI runs before the tests.
+    assert "tools/install.sh" in (REPO / "tools/run-tests.sh").read_text()
+
+
+def _binary():
+    env = os.environ.get("KITTI2PGM_BIN")
+    if env:
+        return env
+    p = REPO / "target" / "debug" / "kitti2pgm"
+    if not p.exists():
+        subprocess.run(["cargo", "build", "--quiet"], cwd=REPO, check=True)
+    return str(p)
+
+
+def test_the_docs_run_as_written(tmp_path):
+    work = tmp_path / "work"
+    work.mkdir()
+    for name in ("fixtures", "tools"):
+        (work / name).symlink_to(REPO / name)
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "kitti2pgm").symlink_to(_binary())
+    env = dict(os.environ,
+               PATH=f"{bin_dir}{os.pathsep}{os.path.dirname(sys.executable)}{os.pathsep}{os.environ.get('PATH', '')}",
+               KITTI_RAW="fixtures/raw", KITTI2PGM=str(bin_dir / "kitti2pgm"),
+               STEPS="2", BATCH="3", WIDTH="0.25", GPUS="1", EXTRA="--device cpu --workers 0",
+               CONVERT="--cols 64", EVAL="--device cpu --timing-frames 0", PYTHONUNBUFFERED="1")
+    untracked_before = _untracked()
+    ran = 0
+    for doc, lang, marks, code, line, _ in runnable():
+        if "setup" in marks or "norun" in marks:
+            continue
+        cmd = ["bash", "-euo", "pipefail", "-c", code] if lang == "sh" else [sys.executable, "-c", code]
+        r = subprocess.run(cmd, cwd=work, env=env, capture_output=True, text=True, timeout=900)
+        assert r.returncode == 0, f"{doc}:{line} ({lang}) failed with {r.returncode}:\n{code}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+        ran += 1
+    assert ran >= 10
+    # What the commands promise is there.
+    out = work / "out"
+    assert (out / "raw/ImageSet/val.txt").read_text().split() == ["2011_09_26_0052_0000000000"]
+    assert (out / "balance.png").stat().st_size > 0 and (out / "frame.png").stat().st_size > 0
+    assert (out / "model.onnx").stat().st_size > 0
+    assert sorted(p.name for p in (out / "runs/mid/predictions").iterdir()) == ["2011_09_26_0052_0000000000.npy"]
+    # reproduce.sh, without VAL_DRIVES on the fixtures: six rows, IoUs in range.
+    table = (out / "repro/table.md").read_text().splitlines()
+    assert len(table) == 2 + 6 and all(r.startswith("|") for r in table), table
+    assert "| squeezeseg | xyzdi+dirgb |" in "\n".join(table)
+    import json
+    rows = json.loads((out / "repro/table.json").read_text())
+    assert len(rows) == 6 and all(0.0 <= row["miou"] <= 1.0 for row in rows)
+    # Nothing was written into the repository through the linked folders.
+    new = _untracked() - untracked_before
+    assert not new, new
+
+
+def _untracked():
+    """Untracked, unignored files under fixtures/ and tools/."""
+    status = subprocess.run(["git", "status", "--porcelain", "--untracked-files=all", "fixtures", "tools"],
+                            cwd=REPO, capture_output=True, text=True).stdout
+    return {l[3:] for l in status.splitlines() if l.startswith("??")}

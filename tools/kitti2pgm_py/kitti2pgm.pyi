@@ -1,0 +1,98 @@
+"""Type stubs of kitti2pgm's native module (the Rust library from Python).
+
+One dtype rule for every array argument: numpy arrays of any real numeric dtype are accepted and
+converted (one copy): points to float32; integer arrays (labels, rings, instance) to their type
+when every value fits, else ValueError; float arrays are refused where integers are expected;
+bool arrays only where bools are. Fortran-ordered and strided arrays are read in their logical
+order. Paths are str or os.PathLike.
+"""
+
+from os import PathLike
+from typing import Any, Dict, Iterator, List, Optional, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+LASERS: int
+MAX_RANGE_M: float
+
+_Path = Union[str, "PathLike[str]"]
+_Array = npt.NDArray[Any]
+Frame = Dict[str, Any]
+"""A loaded frame: id, points (N, 4) float32, file_index (N,) uint32, ring (N,) uint8 or None,
+label (N,) uint8, instance (N,) uint16, annotated, boxes, colours (N, 3) float32 or None,
+colour_valid (N,) bool or None."""
+MapDict = Dict[str, Any]
+"""A projected map: map (H, W, C) float32, channels, mask (H, W) bool, label (H, W) uint8,
+instance (H, W) uint16, rgb_valid (H, W) bool or None, row / col (N,) int32 or None,
+point_index (H, W) int32 or None, stats."""
+
+def project(
+    points: _Array,
+    *,
+    rows: int = 64,
+    cols: int = 512,
+    fov_deg: float = 90.0,
+    fov_up_deg: float = 2.0,
+    fov_down_deg: float = -24.9,
+    row_mode: str = "rings",
+    rings: Optional[_Array] = None,
+    labels: Optional[_Array] = None,
+    instance: Optional[_Array] = None,
+    colours: Optional[_Array] = None,
+    colour_valid: Optional[_Array] = None,
+    rotate_deg: float = 0.0,
+    scale: float = 1.0,
+    flip: bool = False,
+    jitter: float = 0.0,
+    drop: float = 0.0,
+    seed: int = 0,
+    point_cells: bool = True,
+) -> MapDict: ...
+def rings(points: _Array) -> Optional[npt.NDArray[np.uint8]]: ...
+def label_points(
+    points: _Array, boxes: List[Dict[str, Any]], *, background: int = 0
+) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint16]]: ...
+def read_scan(path: _Path, *, with_file_index: bool = False) -> Any: ...
+def read_point_labels(path: _Path) -> npt.NDArray[np.uint32]: ...
+def read_calibration(date_dir: _Path) -> Dict[str, Any]: ...
+def read_frame_calibration(path: _Path) -> Dict[str, Any]: ...
+def read_tracklets(path: _Path) -> Any: ...
+def read_object_labels(path: _Path) -> List[Dict[str, Any]]: ...
+def class_map(name: str = "kitti-paper-4") -> Dict[str, Any]: ...
+
+class Dataset:
+    def __init__(
+        self,
+        root: _Path,
+        *,
+        source: Optional[str] = None,
+        class_map: Optional[str] = None,
+        rgb_camera: Optional[int] = None,
+        sampling: str = "nearest",
+        all_frames: bool = False,
+    ) -> None: ...
+    @property
+    def frames(self) -> List[str]: ...
+    @property
+    def layout(self) -> str: ...
+    @property
+    def class_map(self) -> Dict[str, Any]: ...
+    @property
+    def failed(self) -> List[Tuple[str, str]]: ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, frame: Union[int, str]) -> Frame: ...
+    def __iter__(self) -> Iterator[Frame]: ...
+    def load(self, frame: Union[int, str]) -> Frame: ...
+    def project(
+        self,
+        frame: Union[int, str],
+        *,
+        rows: int = 64,
+        cols: int = 512,
+        fov_deg: float = 90.0,
+        fov_up_deg: float = 2.0,
+        fov_down_deg: float = -24.9,
+        row_mode: str = "rings",
+    ) -> MapDict: ...
