@@ -21,8 +21,8 @@ _Path = Union[str, "PathLike[str]"]
 _Array = npt.NDArray[Any]
 Frame = Dict[str, Any]
 """A loaded frame: id, points (N, 4) float32, file_index (N,) uint32, ring (N,) uint8 or None,
-label (N,) uint8, instance (N,) uint16, annotated, boxes, colours (N, 3) float32 or None,
-colour_valid (N,) bool or None."""
+label (N,) uint8, instance (N,) uint16, annotated, boxes, rgb (N, 3) float32 or None,
+rgb_valid (N,) bool or None (colours / colour_valid: the same arrays, older names)."""
 MapDict = Dict[str, Any]
 """A projected map: map (H, W, C) float32, channels, mask (H, W) bool, label (H, W) uint8,
 instance (H, W) uint16, rgb_valid (H, W) bool or None, row / col (N,) int32 or None,
@@ -49,6 +49,8 @@ def project(
     drop: float = 0.0,
     seed: int = 0,
     point_cells: bool = True,
+    rgb: Optional[_Array] = None,
+    rgb_valid: Optional[_Array] = None,
 ) -> MapDict: ...
 def rings(points: _Array) -> Optional[npt.NDArray[np.uint8]]: ...
 def label_points(

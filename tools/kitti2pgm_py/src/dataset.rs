@@ -182,7 +182,8 @@ impl Dataset {
     /// One frame, read and labelled: a dict with id, points (N, 4) float32 (finite, in range,
     /// file order), file_index (N,) uint32, ring (N,) uint8 or None (no 64 rings), label (N,)
     /// uint8, instance (N,) uint16, annotated (bool), boxes (list of dicts, as label_points
-    /// takes them), colours (N, 3) float32 and colour_valid (N,) bool with rgb_camera, else None.
+    /// takes them), rgb (N, 3) float32 and rgb_valid (N,) bool with rgb_camera, else None (the
+    /// point shards' names; colours / colour_valid are the same arrays under older names).
     /// `frame`: an id or an index.
     fn load<'py>(
         &self,
@@ -218,12 +219,19 @@ impl Dataset {
             Some(c) => {
                 let valid: Vec<bool> = c.iter().map(Option::is_some).collect();
                 let flat: Vec<f32> = c.iter().flat_map(|v| v.unwrap_or([0.0; 3])).collect();
-                out.set_item("colours", PyArray1::from_vec(py, flat).reshape([n, 3])?)?;
-                out.set_item("colour_valid", PyArray1::from_vec(py, valid))?;
+                let rgb = PyArray1::from_vec(py, flat).reshape([n, 3])?;
+                let rgb_valid = PyArray1::from_vec(py, valid);
+                // rgb / rgb_valid as the point shards name them; colours / colour_valid, the
+                // older names, are the same arrays.
+                out.set_item("rgb", &rgb)?;
+                out.set_item("rgb_valid", &rgb_valid)?;
+                out.set_item("colours", rgb)?;
+                out.set_item("colour_valid", rgb_valid)?;
             }
             None => {
-                out.set_item("colours", py.None())?;
-                out.set_item("colour_valid", py.None())?;
+                for key in ["rgb", "rgb_valid", "colours", "colour_valid"] {
+                    out.set_item(key, py.None())?;
+                }
             }
         }
         Ok(out)

@@ -82,7 +82,8 @@ fn rings<'py>(
 /// points: (N, 4) float32 x, y, z, intensity (velodyne frame, metres), in scan order.
 /// rings: optional (N,) uint8 ring indices (< 64); default: recovered from the scan order.
 /// labels: optional (N,) uint8 class ids; instance: optional (N,) uint16.
-/// colours: optional (N, 3) float32 in [0, 1] (adds r, g, b channels); colour_valid: (N,) bool.
+/// rgb: optional (N, 3) float32 in [0, 1] (adds r, g, b channels); rgb_valid: (N,) bool
+/// (colours / colour_valid: older names of the same).
 /// rotate_deg, scale, flip, jitter (metres), drop (probability), seed: 3D augmentation applied
 /// before projecting (rows stay the rings of the original order; a rotation by k column angles
 /// shifts the map by exactly k columns).
@@ -95,8 +96,9 @@ fn rings<'py>(
 #[pyfunction]
 #[pyo3(signature = (points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9,
     row_mode="rings", rings=None, labels=None, instance=None, colours=None, colour_valid=None,
-    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0, point_cells=true),
-    text_signature = "(points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings', rings=None, labels=None, instance=None, colours=None, colour_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
+    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0, point_cells=true, rgb=None,
+    rgb_valid=None),
+    text_signature = "(points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings', rings=None, labels=None, instance=None, colours=None, colour_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True, rgb=None, rgb_valid=None)")]
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
     py: Python<'py>,
@@ -119,7 +121,18 @@ fn project<'py>(
     drop: f32,
     seed: u64,
     point_cells: bool,
+    rgb: Option<&Bound<'py, PyAny>>,
+    rgb_valid: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    // rgb / rgb_valid: the names of the shards and of Dataset.load; colours / colour_valid:
+    // the older ones, still taken.
+    let either = |a: Option<&Bound<'py, PyAny>>, b: Option<&Bound<'py, PyAny>>, names: &str| match (a, b) {
+        (Some(_), Some(_)) => Err(PyValueError::new_err(format!("give one of {names}, not both"))),
+        (a, b) => Ok(a.or(b).cloned()),
+    };
+    let colours = either(rgb, colours, "rgb and colours")?;
+    let colour_valid = either(rgb_valid, colour_valid, "rgb_valid and colour_valid")?;
+    let (colours, colour_valid) = (colours.as_ref(), colour_valid.as_ref());
     let spec = spec_of(rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode)?;
     let (pts, intensity) = points_arg(points, "points", true)?;
     let n = pts.len();

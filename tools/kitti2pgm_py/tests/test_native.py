@@ -278,6 +278,14 @@ def test_one_dtype_rule_and_one_vocabulary():
     assert got["map"].tobytes() == want["map"].tobytes()
     d = ds.project(0)
     assert set(d) == set(want) and d["map"].tobytes() == want["map"].tobytes()
+    # rgb / rgb_valid, the shards' names, as in Dataset.load (colours / colour_valid: older names).
+    c = k2.Dataset(RAW, rgb_camera=2)[0]
+    assert c["rgb"] is c["colours"] and c["rgb"].shape == (len(c["points"]), 3)
+    a = k2.project(c["points"], rgb=c["rgb"], rgb_valid=c["rgb_valid"])
+    b = k2.project(c["points"], colours=c["rgb"], colour_valid=c["rgb_valid"])
+    assert a["map"].tobytes() == b["map"].tobytes() and a["channels"][-3:] == ["r", "g", "b"]
+    with pytest.raises(ValueError, match="one of rgb and colours"):
+        k2.project(c["points"], rgb=c["rgb"], colours=c["rgb"])
     assert k2.class_map("kitti-paper-4")["name"] == "kitti-paper-4"
     assert k2.class_map("semantic-kitti")["name"] == "semantic-kitti"
     assert k2.Dataset(RAW, class_map="kitti-paper-4").class_map["name"] == "kitti-paper-4"

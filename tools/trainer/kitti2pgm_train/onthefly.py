@@ -105,7 +105,7 @@ class PointFrameSet:
         kw = dict(self.map_args)
         kw.update(self.augment.draw(self.seed, key, flip))
         if f["rgb"] is not None:
-            kw.update(colours=f["rgb"], colour_valid=f["rgb_valid"].astype(bool))
+            kw.update(rgb=f["rgb"], rgb_valid=f["rgb_valid"].astype(bool))
         m = self.project(f["points"], rings=f["ring"], labels=f["label"], instance=f["instance"], point_cells=False,
                          **kw)
         m["id"] = f["id"]
