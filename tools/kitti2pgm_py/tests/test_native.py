@@ -387,3 +387,19 @@ def test_fuzzed_array_inputs_raise_value_errors_or_give_finite_maps():
         except ValueError:
             continue
         assert len(cls) == len(p)
+
+
+def test_type_stubs_ship_with_the_module():
+    """kitti2pgm.pyi and py.typed are installed beside the module, and the stub names every
+    public function and the Dataset's methods."""
+    import os
+
+    here = os.path.dirname(k2.__file__)
+    assert os.path.exists(os.path.join(here, "py.typed"))
+    stub = open(os.path.join(here, "__init__.pyi")).read()
+    for name in ["def project(", "def rings(", "def label_points(", "def read_scan(", "def class_map(",
+                 "class Dataset", "def __getitem__", "def __iter__", "rgb_valid"]:
+        assert name in stub, name
+    public = [n for n in dir(k2) if not n.startswith("_") and callable(getattr(k2, n))]
+    for n in public:
+        assert f"def {n}(" in stub or f"class {n}" in stub or n == "DatasetIter", n
