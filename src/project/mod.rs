@@ -24,6 +24,7 @@ pub mod cloud;
 pub mod columns;
 pub mod frame;
 pub mod preset;
+pub mod unproject;
 
 pub use augment::Augment;
 pub use channels::{Channel, Channels};

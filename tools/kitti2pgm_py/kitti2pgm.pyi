@@ -53,6 +53,21 @@ def project(
     rgb_valid: Optional[_Array] = None,
 ) -> MapDict: ...
 def rings(points: _Array) -> Optional[npt.NDArray[np.uint8]]: ...
+def unproject(
+    pred: _Array,
+    row: _Array,
+    col: _Array,
+    points: _Array,
+    cell_range: Optional[_Array] = None,
+    *,
+    method: str = "cell",
+    class_map: str = "semantic-kitti",
+    k: int = 5,
+    window: int = 5,
+    sigma: float = 1.0,
+    cutoff: float = 1.0,
+    wrap_columns: bool = False,
+) -> npt.NDArray[np.int16]: ...
 def label_points(
     points: _Array, boxes: List[Dict[str, Any]], *, background: int = 0
 ) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint16]]: ...

@@ -44,21 +44,22 @@ fn converted<'py, T: Element + DtypeName>(
     let kind = a.dtype().kind() as char;
     let ok = match T::KIND {
         'f' => matches!(kind, 'f' | 'i' | 'u'),
-        'u' => matches!(kind, 'i' | 'u'),
+        'u' | 'i' => matches!(kind, 'i' | 'u'),
         'b' => kind == 'b',
         _ => false,
     };
     if !ok {
         return Ok(None);
     }
-    if T::KIND == 'u' && a.len() > 0 {
-        for (what, bound) in [("min", 0.0), ("max", T::MAX)] {
+    if matches!(T::KIND, 'u' | 'i') && a.len() > 0 {
+        for (what, bound) in [("min", T::MIN), ("max", T::MAX)] {
             let v: f64 = obj.call_method0(what)?.extract()?;
             let outside = if what == "min" { v < bound } else { v > bound };
             if outside {
                 return Err(PyValueError::new_err(format!(
-                    "{name} holds {v}, which does not fit {} (0..={})",
+                    "{name} holds {v}, which does not fit {} ({}..={})",
                     T::NAME,
+                    T::MIN,
                     T::MAX
                 )));
             }
@@ -83,8 +84,9 @@ fn with_values<T: Element + Copy + DtypeName, R>(
             conv = converted::<T>(obj, name)?.ok_or_else(|| {
                 PyValueError::new_err(format!("{name} must be {want}, got {}", describe(obj)))
             })?;
-            conv.cast::<PyArrayDyn<T>>()
-                .map_err(|_| PyValueError::new_err(format!("{name}: conversion to {} failed", T::NAME)))?
+            conv.cast::<PyArrayDyn<T>>().map_err(|_| {
+                PyValueError::new_err(format!("{name}: conversion to {} failed", T::NAME))
+            })?
         }
     };
     let ro = arr.readonly();
@@ -202,6 +204,8 @@ pub trait DtypeName {
     const NAME: &'static str;
     /// numpy's dtype kind: `f`, `u` or `b`.
     const KIND: char;
+    /// The smallest value.
+    const MIN: f64 = 0.0;
     /// The largest value.
     const MAX: f64;
 }
@@ -221,8 +225,31 @@ impl DtypeName for bool {
     const KIND: char = 'b';
     const MAX: f64 = 1.0;
 }
+impl DtypeName for i32 {
+    const NAME: &'static str = "int32";
+    const KIND: char = 'i';
+    const MIN: f64 = i32::MIN as f64;
+    const MAX: f64 = i32::MAX as f64;
+}
 impl DtypeName for f32 {
     const NAME: &'static str = "float32";
     const KIND: char = 'f';
+    const MIN: f64 = f32::MIN as f64;
     const MAX: f64 = f32::MAX as f64;
+}
+
+/// A two-dimensional array of type `T` with its shape (rows, cols), row-major (one copy).
+pub fn grid_arg<T: Element + Copy + DtypeName>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+) -> PyResult<(Vec<T>, usize, usize)> {
+    let want = format!("a {} array of shape (H, W)", T::NAME);
+    let (v, shape) = values::<T>(obj, name, &want)?;
+    match shape[..] {
+        [h, w] => Ok((v, h, w)),
+        _ => Err(PyValueError::new_err(format!(
+            "{name} must be {want}, got {}",
+            describe(obj)
+        ))),
+    }
 }

@@ -266,8 +266,9 @@ impl Dataset {
             .detach(|| {
                 let l = load(dp, f, &map, false)?;
                 let colours = l.point_colours();
-                let valid: Option<Vec<bool>> =
-                    colours.as_ref().map(|c| c.iter().map(Option::is_some).collect());
+                let valid: Option<Vec<bool>> = colours
+                    .as_ref()
+                    .map(|c| c.iter().map(Option::is_some).collect());
                 let flat: Option<Vec<[f32; 3]>> = colours
                     .as_ref()
                     .map(|c| c.iter().map(|v| v.unwrap_or([0.0; 3])).collect());

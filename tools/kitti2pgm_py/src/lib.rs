@@ -126,10 +126,13 @@ fn project<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     // rgb / rgb_valid: the names of the shards and of Dataset.load; colours / colour_valid:
     // the older ones, still taken.
-    let either = |a: Option<&Bound<'py, PyAny>>, b: Option<&Bound<'py, PyAny>>, names: &str| match (a, b) {
-        (Some(_), Some(_)) => Err(PyValueError::new_err(format!("give one of {names}, not both"))),
-        (a, b) => Ok(a.or(b).cloned()),
-    };
+    let either =
+        |a: Option<&Bound<'py, PyAny>>, b: Option<&Bound<'py, PyAny>>, names: &str| match (a, b) {
+            (Some(_), Some(_)) => Err(PyValueError::new_err(format!(
+                "give one of {names}, not both"
+            ))),
+            (a, b) => Ok(a.or(b).cloned()),
+        };
     let colours = either(rgb, colours, "rgb and colours")?;
     let colour_valid = either(rgb_valid, colour_valid, "rgb_valid and colour_valid")?;
     let (colours, colour_valid) = (colours.as_ref(), colour_valid.as_ref());
@@ -171,8 +174,117 @@ fn project<'py>(
     map_dict(py, map, point_cells)
 }
 
+/// Carries a map prediction back to every point of the scan it was projected from.
+///
+/// pred: (H, W) class ids (a model's label map); row, col: (N,) each point's cell, as `project`
+/// returns them (-1 outside the map); points: (N, 3+) the scan (its ranges are computed as the
+/// map's); cell_range: (H, W) the map's range channel (`m["map"][..., 4]`), needed by "knn".
+/// method: "cell" (a point takes its cell's class) or "knn" (RangeNet++'s post-processing, its
+/// result point for point: k nearest by range in a window around the cell, Gaussian-weighted,
+/// neighbours beyond cutoff vote for nobody, the class map's ignored classes never win).
+/// class_map: the classes (a name or yaml path); wrap_columns: neighbours across the 360-degree
+/// seam (the reference pads with zeros there).
+///
+/// Returns (N,) int16: each point's class, -1 for points outside the map ("not predicted").
+#[pyfunction]
+#[pyo3(signature = (pred, row, col, points, cell_range=None, *, method="cell", class_map="semantic-kitti",
+    k=5, window=5, sigma=1.0, cutoff=1.0, wrap_columns=false))]
+#[allow(clippy::too_many_arguments)]
+fn unproject<'py>(
+    py: Python<'py>,
+    pred: &Bound<'py, PyAny>,
+    row: &Bound<'py, PyAny>,
+    col: &Bound<'py, PyAny>,
+    points: &Bound<'py, PyAny>,
+    cell_range: Option<&Bound<'py, PyAny>>,
+    method: &str,
+    class_map: &str,
+    k: usize,
+    window: usize,
+    sigma: f32,
+    cutoff: f32,
+    wrap_columns: bool,
+) -> PyResult<Bound<'py, PyArray1<i16>>> {
+    use kitti2pgm::project::unproject::{unproject as run, KnnParams, Method, PointsInMap};
+    let (pred, h, w) = arrays::grid_arg::<u8>(pred, "pred")?;
+    let (pts, _) = points_arg(points, "points", false)?;
+    let n = pts.len();
+    let row = vec_arg::<i32>(row, "row", n)?;
+    let col = vec_arg::<i32>(col, "col", n)?;
+    let method = match method {
+        "cell" => Method::Cell,
+        "knn" => Method::Knn(KnnParams {
+            k,
+            window,
+            sigma,
+            cutoff,
+            wrap_columns,
+        }),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "method must be 'cell' or 'knn', not {other:?}"
+            )))
+        }
+    };
+    let cell_range = match (cell_range, &method) {
+        (Some(c), _) => {
+            let (v, ch, cw) = arrays::grid_arg::<f32>(c, "cell_range")?;
+            if (ch, cw) != (h, w) {
+                return Err(PyValueError::new_err(format!(
+                    "cell_range is {ch}x{cw}, pred is {h}x{w}"
+                )));
+            }
+            v
+        }
+        (None, Method::Knn(_)) => {
+            return Err(PyValueError::new_err(
+                "method 'knn' needs cell_range: the map's range channel (m['map'][..., 4])",
+            ))
+        }
+        (None, Method::Cell) => vec![0.0; h * w],
+    };
+    let mut point_cell = Vec::with_capacity(n);
+    for i in 0..n {
+        let (r, c) = (row[i], col[i]);
+        point_cell.push(match (r, c) {
+            (-1, -1) => EMPTY,
+            (r, c) if r >= 0 && c >= 0 && (r as usize) < h && (c as usize) < w => {
+                (r as usize * w + c as usize) as u32
+            }
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "point {i} is in cell ({r}, {c}), outside the {h}x{w} prediction"
+                )))
+            }
+        });
+    }
+    let classes = readers::class_map_of(class_map)?;
+    let labels = py
+        .detach(|| {
+            let point_range: Vec<f32> = pts.iter().map(kitti2pgm::project::norm).collect();
+            let m = PointsInMap {
+                rows: h,
+                cols: w,
+                point_cell: &point_cell,
+                point_range: &point_range,
+                cell_range: &cell_range,
+            };
+            run(&m, &pred, &method, &classes)
+        })
+        .map_err(py_err)?;
+    let out: Vec<i16> = labels
+        .into_iter()
+        .map(|l| l.map_or(-1, i16::from))
+        .collect();
+    Ok(PyArray1::from_vec(py, out))
+}
+
 /// The dict `project` returns; every array takes over its Rust buffer.
-pub(crate) fn map_dict<'py>(py: Python<'py>, m: CloudMap, point_cells: bool) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn map_dict<'py>(
+    py: Python<'py>,
+    m: CloudMap,
+    point_cells: bool,
+) -> PyResult<Bound<'py, PyDict>> {
     let CloudMap {
         frame,
         point_cell,
@@ -261,6 +373,7 @@ fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_RANGE_M", kitti2pgm::kitti::velodyne::MAX_RANGE_M)?;
     m.add_function(wrap_pyfunction!(project, m)?)?;
     m.add_function(wrap_pyfunction!(rings, m)?)?;
+    m.add_function(wrap_pyfunction!(unproject, m)?)?;
     readers::register(m)?;
     m.add_class::<dataset::Dataset>()?;
     m.add_class::<dataset::DatasetIter>()?;

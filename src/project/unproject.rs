@@ -1,0 +1,467 @@
+//! Back from the map to every point: the class a range-image prediction gives each point of the
+//! scan (users are scored on points, not cells).
+//!
+//! [`Method::Cell`]: a point takes its cell's class. [`Method::Knn`]: RangeNet++'s
+//! post-processing (lidar-bonnetal `postproc/KNN.py`), the reference's result point for point:
+//!
+//! - the `window x window` cells around the point's cell, in row-major order, the centre taking
+//!   the point's own range (a point that lost its cell to a nearer one keeps its range);
+//! - a cell outside the map is zero padding (range 0, class 0); an empty cell has an infinite
+//!   range;
+//! - distance = `|range - point range| * (1 - g)`, `g` the normalised Gaussian kernel of `sigma`
+//!   over the window (computed in double precision and rounded to single, where the reference
+//!   computes it in single: they differ by at most one unit in the last place);
+//! - the `k` nearest by distance (ties: the earlier cell of the window; the reference leaves
+//!   them to `torch.topk`);
+//! - with `cutoff > 0`, a neighbour farther than `cutoff` votes for nobody;
+//! - the class with most votes among the classes that may win (the class map's non-ignored
+//!   classes: SemanticKITTI's all but 0 `unlabeled`, as the reference's `[1:-1]`), ties to the
+//!   lower id; no vote at all gives the first such class (the reference's `argmax` of zeros).
+//!
+//! Deliberate differences, behind options and off by default: [`KnnParams::wrap_columns`] takes
+//! the neighbours across the 360-degree seam instead of zero padding. For a class map whose class
+//! 0 may win (the paper's `background`), padding votes for nobody rather than for class 0.
+//!
+//! Points outside the map's field of view get no class (`None`: "not predicted").
+
+use crate::error::{Error, Result};
+use crate::label::{ClassId, ClassMap};
+
+use super::EMPTY;
+
+/// RangeNet++'s kNN parameters (its defaults: k 5, window 5, sigma 1.0, cutoff 1.0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KnnParams {
+    /// Neighbours that vote.
+    pub k: usize,
+    /// Side of the search window, cells (odd).
+    pub window: usize,
+    /// Standard deviation of the Gaussian that down-weights far cells of the window, cells.
+    pub sigma: f32,
+    /// Neighbours whose weighted range difference is above this vote for nobody (<= 0: none
+    /// is cut off).
+    pub cutoff: f32,
+    /// Take the window across the left and right edges of a 360-degree map (the reference pads
+    /// with zeros there).
+    pub wrap_columns: bool,
+}
+
+impl Default for KnnParams {
+    fn default() -> Self {
+        KnnParams {
+            k: 5,
+            window: 5,
+            sigma: 1.0,
+            cutoff: 1.0,
+            wrap_columns: false,
+        }
+    }
+}
+
+impl KnnParams {
+    /// Checks the numbers.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Config(m));
+        if self.window.is_multiple_of(2) || self.window > 31 {
+            return bad(format!("kNN window {} must be odd, 1 to 31", self.window));
+        }
+        if self.k == 0 || self.k > self.window * self.window {
+            return bad(format!(
+                "kNN k {} must be 1 to {} (the window's cells)",
+                self.k,
+                self.window * self.window
+            ));
+        }
+        if !(self.sigma > 0.0 && self.sigma.is_finite()) {
+            return bad(format!(
+                "kNN sigma {} must be a positive number",
+                self.sigma
+            ));
+        }
+        if !self.cutoff.is_finite() {
+            return bad(format!("kNN cutoff {} must be finite", self.cutoff));
+        }
+        Ok(())
+    }
+
+    /// `1 - g` for each cell of the window, row-major: `g` the Gaussian of `sigma` around the
+    /// window's centre, normalised to sum 1.
+    pub fn weights(&self) -> Vec<f32> {
+        let s = self.window;
+        let mean = (s as f64 - 1.0) / 2.0;
+        let var = (self.sigma as f64).powi(2);
+        let g: Vec<f64> = (0..s * s)
+            .map(|i| {
+                let (y, x) = ((i / s) as f64, (i % s) as f64);
+                (1.0 / (2.0 * std::f64::consts::PI * var))
+                    * (-((x - mean).powi(2) + (y - mean).powi(2)) / (2.0 * var)).exp()
+            })
+            .collect();
+        let sum: f64 = g.iter().sum();
+        g.iter().map(|v| 1.0 - (v / sum) as f32).collect()
+    }
+}
+
+/// How a point's class is found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Method {
+    /// Its cell's class.
+    Cell,
+    /// RangeNet++'s kNN vote.
+    Knn(KnnParams),
+}
+
+/// A scan in its map: where each point went, and the ranges the kNN compares.
+#[derive(Debug, Clone, Copy)]
+pub struct PointsInMap<'a> {
+    /// Map rows.
+    pub rows: usize,
+    /// Map columns.
+    pub cols: usize,
+    /// The cell (`row * cols + col`) of every point; [`EMPTY`] outside the field of view.
+    pub point_cell: &'a [u32],
+    /// Each point's range, metres.
+    pub point_range: &'a [f32],
+    /// Range of the point kept in each cell, metres; 0 (or less) for an empty cell.
+    pub cell_range: &'a [f32],
+}
+
+/// The class of every point (`None`: outside the map) from `pred`, the predicted class of each
+/// cell (row-major), for a map of the classes of `classes`.
+pub fn unproject(
+    m: &PointsInMap<'_>,
+    pred: &[ClassId],
+    method: &Method,
+    classes: &ClassMap,
+) -> Result<Vec<Option<ClassId>>> {
+    let cells = m.rows * m.cols;
+    let check = |what: &str, n: usize, want: usize| {
+        if n == want {
+            Ok(())
+        } else {
+            Err(Error::Config(format!(
+                "{what} has {n} entries, expected {want}"
+            )))
+        }
+    };
+    check("the prediction", pred.len(), cells)?;
+    check("the point ranges", m.point_range.len(), m.point_cell.len())?;
+    check("the cell ranges", m.cell_range.len(), cells)?;
+    if let Some(i) = pred.iter().position(|&c| c as usize >= classes.len()) {
+        return Err(Error::Config(format!(
+            "cell ({}, {}) is predicted as class {}, the map {:?} has {}",
+            i / m.cols,
+            i % m.cols,
+            pred[i],
+            classes.name,
+            classes.len()
+        )));
+    }
+    if let Some(i) = m
+        .point_cell
+        .iter()
+        .position(|&c| c != EMPTY && c as usize >= cells)
+    {
+        return Err(Error::Config(format!(
+            "point {i} is in cell {}, beyond the map's {cells}",
+            m.point_cell[i]
+        )));
+    }
+    match method {
+        Method::Cell => Ok(m
+            .point_cell
+            .iter()
+            .map(|&c| (c != EMPTY).then(|| pred[c as usize]))
+            .collect()),
+        Method::Knn(p) => {
+            p.validate()?;
+            // RangeNet++'s defaults, and the other usual windows, with the sizes known to the
+            // compiler (arrays on the stack, loops unrolled); any other shape in general code.
+            Ok(match (p.window, p.k) {
+                (5, 5) => knn_fixed::<5, 25, 5>(m, pred, p, classes),
+                (3, 3) => knn_fixed::<3, 9, 3>(m, pred, p, classes),
+                (7, 7) => knn_fixed::<7, 49, 7>(m, pred, p, classes),
+                _ => knn(m, pred, p, classes),
+            })
+        }
+    }
+}
+
+/// What both kNN paths share: who may win, what padding votes for, the weights, the ranges.
+struct Vote {
+    can_win: Vec<bool>,
+    first_winner: usize,
+    nobody: usize,
+    pad_vote: usize,
+    weights: Vec<f32>,
+    far: Vec<f32>,
+}
+
+impl Vote {
+    fn new(m: &PointsInMap<'_>, p: &KnnParams, classes: &ClassMap) -> Vote {
+        let n_classes = classes.len();
+        let can_win: Vec<bool> = (0..n_classes)
+            .map(|c| !classes.ignore.contains(&(c as ClassId)))
+            .collect();
+        Vote {
+            first_winner: can_win.iter().position(|&w| w).unwrap_or(0),
+            nobody: n_classes,
+            // Zero padding votes for class 0, which cannot win where it is ignored (the
+            // reference's `unlabeled`); elsewhere it votes for nobody.
+            pad_vote: if can_win.first() == Some(&false) {
+                0
+            } else {
+                n_classes
+            },
+            can_win,
+            weights: p.weights(),
+            // Each cell's range for the comparison: empty cells infinitely far.
+            far: m
+                .cell_range
+                .iter()
+                .map(|&r| if r > 0.0 { r } else { f32::INFINITY })
+                .collect(),
+        }
+    }
+
+    /// The winner among `n` chosen neighbours (distances `d`, classes `v`): most votes among
+    /// the classes that may win, ties to the lower id; no vote gives the first such class.
+    #[inline(always)]
+    fn winner(&self, d: &[f32], v: &[usize], cutoff: f32) -> usize {
+        let (mut winner, mut most) = (self.first_winner, 0usize);
+        let cls = |i: usize| {
+            if cutoff > 0.0 && d[i] > cutoff {
+                self.nobody
+            } else {
+                v[i]
+            }
+        };
+        for a in 0..d.len() {
+            let c = cls(a);
+            if c >= self.nobody || !self.can_win[c] {
+                continue;
+            }
+            let count = (0..d.len()).filter(|&b| cls(b) == c).count();
+            if count > most || (count == most && c < winner) {
+                winner = c;
+                most = count;
+            }
+        }
+        winner
+    }
+}
+
+/// [`knn`] with the window (`S` x `S` = `N` cells) and `K` known at compile time.
+fn knn_fixed<const S: usize, const N: usize, const K: usize>(
+    m: &PointsInMap<'_>,
+    pred: &[ClassId],
+    p: &KnnParams,
+    classes: &ClassMap,
+) -> Vec<Option<ClassId>> {
+    let vote = Vote::new(m, p, classes);
+    let w: [f32; N] = vote.weights[..].try_into().expect("S x S weights");
+    let half = S / 2;
+    let centre = half * S + half;
+    let (rows, cols) = (m.rows, m.cols);
+    let far = &vote.far[..];
+    let mut out = Vec::with_capacity(m.point_cell.len());
+    for (&cell, &r) in m.point_cell.iter().zip(m.point_range) {
+        if cell == EMPTY {
+            out.push(None);
+            continue;
+        }
+        let (row, col) = (cell as usize / cols, cell as usize % cols);
+        if !(row >= half && row + half < rows && col >= half && col + half < cols) {
+            // Near an edge: the general code, one point.
+            let one = PointsInMap {
+                point_cell: std::slice::from_ref(&cell),
+                point_range: std::slice::from_ref(&r),
+                ..*m
+            };
+            out.push(knn_with(&one, pred, p, &vote)[0]);
+            continue;
+        }
+        let mut dist = [0f32; N];
+        let mut cls = [0usize; N];
+        let top = (row - half) * cols + col - half;
+        for dy in 0..S {
+            let base = top + dy * cols;
+            let rr: &[f32; S] = far[base..base + S].try_into().expect("S cells");
+            let pp: &[u8; S] = pred[base..base + S].try_into().expect("S cells");
+            for x in 0..S {
+                dist[dy * S + x] = (rr[x] - r).abs() * w[dy * S + x];
+                cls[dy * S + x] = pp[x] as usize;
+            }
+        }
+        dist[centre] = 0.0;
+        // The K smallest, ties to the earlier cell.
+        let mut bd = [f32::INFINITY; K];
+        let mut bj = [0usize; K];
+        let mut n = 0usize;
+        for (j, &d) in dist.iter().enumerate() {
+            if n == K && d >= bd[K - 1] {
+                continue;
+            }
+            let mut at = if n < K { n } else { K - 1 };
+            n = (n + 1).min(K);
+            while at > 0 && bd[at - 1] > d {
+                bd[at] = bd[at - 1];
+                bj[at] = bj[at - 1];
+                at -= 1;
+            }
+            bd[at] = d;
+            bj[at] = j;
+        }
+        let v: [usize; K] = std::array::from_fn(|a| cls[bj[a]]);
+        out.push(Some(vote.winner(&bd, &v, p.cutoff) as ClassId));
+    }
+    out
+}
+
+/// The vote of every point (see the module docs).
+fn knn(
+    m: &PointsInMap<'_>,
+    pred: &[ClassId],
+    p: &KnnParams,
+    classes: &ClassMap,
+) -> Vec<Option<ClassId>> {
+    knn_with(m, pred, p, &Vote::new(m, p, classes))
+}
+
+/// The general kNN, any window and k.
+fn knn_with(
+    m: &PointsInMap<'_>,
+    pred: &[ClassId],
+    p: &KnnParams,
+    vote_of: &Vote,
+) -> Vec<Option<ClassId>> {
+    let (far, weights) = (&vote_of.far, &vote_of.weights);
+    let pad_vote = vote_of.pad_vote;
+    let s = p.window;
+    let half = s / 2;
+    let (rows, cols) = (m.rows, m.cols);
+    let centre = half * s + half;
+    let mut dist = vec![0f32; s * s];
+    let mut vote = vec![0usize; s * s];
+    // The k nearest so far, as (distance, window cell), sorted; ties keep the earlier cell.
+    let mut best_d = vec![0f32; p.k];
+    let mut best_j = vec![0usize; p.k];
+    let mut out = Vec::with_capacity(m.point_cell.len());
+    for (&cell, &r) in m.point_cell.iter().zip(m.point_range) {
+        if cell == EMPTY {
+            out.push(None);
+            continue;
+        }
+        let (row, col) = (cell as usize / cols, cell as usize % cols);
+        let inside = row >= half && row + half < rows && col >= half && col + half < cols;
+        if inside {
+            // The common case: the window lies in the map; rows of it are contiguous.
+            let top = (row - half) * cols + col - half;
+            for dy in 0..s {
+                let base = top + dy * cols;
+                let (rr, pp) = (&far[base..base + s], &pred[base..base + s]);
+                let (dd, ww, vv) = (
+                    &mut dist[dy * s..dy * s + s],
+                    &weights[dy * s..dy * s + s],
+                    &mut vote[dy * s..dy * s + s],
+                );
+                for x in 0..s {
+                    dd[x] = (rr[x] - r).abs() * ww[x];
+                    vv[x] = pp[x] as usize;
+                }
+            }
+        } else {
+            for dy in 0..s {
+                for dx in 0..s {
+                    let j = dy * s + dx;
+                    let rr = row as isize + dy as isize - half as isize;
+                    let mut cc = col as isize + dx as isize - half as isize;
+                    if p.wrap_columns {
+                        cc = cc.rem_euclid(cols as isize);
+                    }
+                    let (range, class) =
+                        if rr < 0 || rr >= rows as isize || cc < 0 || cc >= cols as isize {
+                            (0.0, pad_vote)
+                        } else {
+                            let k = rr as usize * cols + cc as usize;
+                            (far[k], pred[k] as usize)
+                        };
+                    dist[j] = (range - r).abs() * weights[j];
+                    vote[j] = class;
+                }
+            }
+        }
+        // The centre compares the point with itself.
+        dist[centre] = 0.0;
+        // The k smallest, ties to the earlier cell: insertion into a short sorted list.
+        let mut n = 0;
+        for (j, &d) in dist.iter().enumerate() {
+            if n == p.k && d >= best_d[n - 1] {
+                continue;
+            }
+            let mut at = n.min(p.k - 1);
+            if n < p.k {
+                n += 1;
+            }
+            while at > 0 && best_d[at - 1] > d {
+                best_d[at] = best_d[at - 1];
+                best_j[at] = best_j[at - 1];
+                at -= 1;
+            }
+            best_d[at] = d;
+            best_j[at] = j;
+        }
+        let votes: Vec<usize> = (0..n).map(|a| vote[best_j[a]]).collect();
+        let winner = vote_of.winner(&best_d[..n], &votes, p.cutoff);
+        out.push(Some(winner as ClassId));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn semantic() -> ClassMap {
+        ClassMap::semantic_kitti()
+    }
+
+    #[test]
+    fn weights_are_one_minus_the_normalised_gaussian() {
+        let w = KnnParams::default().weights();
+        assert_eq!(w.len(), 25);
+        let g: f32 = w.iter().map(|v| 1.0 - v).sum();
+        assert!((g - 1.0).abs() < 1e-5);
+        assert!(w[12] < w[0], "the centre weighs least");
+        assert_eq!(w[0], w[24]);
+    }
+
+    #[test]
+    fn cell_and_knn_on_a_tiny_map() {
+        // 3 x 3 map, every cell filled at range 10 with class 9 (road), but the centre cell
+        // says 1 (car); the point there is at range 10 too.
+        let cell_range = vec![10.0f32; 9];
+        let mut pred = vec![9u8; 9];
+        pred[4] = 1;
+        let m = PointsInMap {
+            rows: 3,
+            cols: 3,
+            point_cell: &[4, EMPTY],
+            point_range: &[10.0, 5.0],
+            cell_range: &cell_range,
+        };
+        let map = semantic();
+        let cell = unproject(&m, &pred, &Method::Cell, &map).unwrap();
+        assert_eq!(cell, vec![Some(1), None]);
+        let knn = unproject(&m, &pred, &Method::Knn(KnnParams::default()), &map).unwrap();
+        // Its 8 neighbours at distance 0 outvote it; padding (16 cells) is 10 m away x weight.
+        assert_eq!(knn, vec![Some(9), None]);
+        let bad = unproject(&m, &pred[..8], &Method::Cell, &map).unwrap_err();
+        assert!(bad.to_string().contains("8 entries, expected 9"));
+        let even = KnnParams {
+            window: 4,
+            ..Default::default()
+        };
+        assert!(unproject(&m, &pred, &Method::Knn(even), &map).is_err());
+    }
+}

@@ -1,0 +1,94 @@
+#!/usr/bin/env python3
+"""RangeNet++'s kNN post-processing: kitti2pgm.unproject(method="knn") against the reference's
+PyTorch formulation (unfold the range image and the argmax, topk, scatter-add vote; written here
+from the algorithm), one thread each, the same inputs, 64 x 2048 maps of the SemanticKITTI scans.
+
+Usage: bench_unproject.py [SCAN.bin ...] [--repeat N]   (default: the fixture and shared scans)
+Prints the medians and their ratio, measured in one run; checks the two agree point for point.
+"""
+import glob
+import math
+import os
+import pathlib
+import statistics
+import sys
+import time
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+import kitti2pgm as k2
+
+REPO = pathlib.Path(__file__).resolve().parents[3]
+
+
+def torch_knn(proj_range, unproj_range, proj_argmax, px, py, k=5, search=5, sigma=1.0, cutoff=1.0, nclasses=20):
+    """The reference's steps in PyTorch (CPU)."""
+    H, W = proj_range.shape
+    pad = (search - 1) // 2
+    unfold_r = F.unfold(proj_range[None, None], kernel_size=(search, search), padding=(pad, pad))
+    idx = py * W + px
+    r = unfold_r[:, :, idx]
+    r[r < 0] = float("inf")
+    r[:, (search * search - 1) // 2, :] = unproj_range
+    d = torch.abs(r - unproj_range)
+    x = torch.arange(search).repeat(search).view(search, search)
+    xy = torch.stack([x, x.t()], dim=-1).float()
+    mean, var = (search - 1) / 2.0, sigma ** 2
+    g = (1.0 / (2.0 * math.pi * var)) * torch.exp(-torch.sum((xy - mean) ** 2, dim=-1) / (2 * var))
+    g = (g / g.sum()).view(1, -1, 1)
+    d = d * (1 - g)
+    _, knn_idx = d.topk(k, dim=1, largest=False, sorted=False)
+    unfold_a = F.unfold(proj_argmax[None, None].float(), kernel_size=(search, search), padding=(pad, pad)).long()
+    a = torch.gather(unfold_a[:, :, idx], 1, knn_idx)
+    if cutoff > 0:
+        a[torch.gather(d, 1, knn_idx) > cutoff] = nclasses
+    onehot = torch.zeros((1, nclasses + 1, len(idx)))
+    onehot.scatter_add_(1, a, torch.ones_like(a, dtype=torch.float32))
+    return onehot[:, 1:-1].argmax(dim=1)[0] + 1
+
+
+def main():
+    argv = sys.argv[1:]
+    repeat = 5
+    if "--repeat" in argv:
+        i = argv.index("--repeat")
+        repeat = int(argv[i + 1])
+        argv = argv[:i] + argv[i + 2:]
+    args = argv
+    scans = args or sorted(glob.glob(str(REPO / "fixtures/semantickitti/sequences/*/velodyne/*.bin"))
+                           + glob.glob(str(REPO / "../shared/semantickitti/sequences/*/velodyne/*.bin")))
+    torch.set_num_threads(1)
+    t_rust, t_torch, agree, total = [], [], 0, 0
+    for path in scans:
+        pts = k2.read_scan(path)
+        m = k2.project(pts, cols=2048, fov_deg=360)
+        rng = np.random.default_rng(0)
+        pred = rng.integers(1, 20, (64, 2048)).astype(np.uint8)
+        cell_range = np.ascontiguousarray(m["map"][..., 4])
+        inside = m["row"] >= 0
+        px = torch.from_numpy(m["col"][inside].astype(np.int64))
+        py = torch.from_numpy(m["row"][inside].astype(np.int64))
+        ur = torch.from_numpy(np.sqrt((pts[inside, :3] ** 2).sum(1)).astype(np.float32))
+        pr = torch.from_numpy(np.where(m["mask"], cell_range, -1.0).astype(np.float32))
+        pa = torch.from_numpy(pred.astype(np.int64))
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            ours = k2.unproject(pred, m["row"], m["col"], pts, cell_range, method="knn")
+            t1 = time.perf_counter()
+            ref = torch_knn(pr, ur, pa, px, py)
+            t2 = time.perf_counter()
+            t_rust.append(t1 - t0)
+            t_torch.append(t2 - t1)
+        agree += int((ours[inside] == ref.numpy()).sum())
+        total += int(inside.sum())
+    mr, mt = statistics.median(t_rust) * 1e3, statistics.median(t_torch) * 1e3
+    print(f"{len(scans)} scans (64 x 2048, {total // len(scans)} points each), {repeat} runs each, 1 thread")
+    print(f"PyTorch reference  median {mt:8.2f} ms/scan")
+    print(f"kitti2pgm knn      median {mr:8.2f} ms/scan   speed-up {mt / mr:.0f}x")
+    print(f"agreement with torch.topk's tie order: {agree}/{total} points ({100 * agree / total:.3f}%)")
+
+
+if __name__ == "__main__":
+    main()
