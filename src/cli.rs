@@ -67,6 +67,23 @@ pub enum Command {
     /// maps, HxWxK scores (argmax), SqueezeSeg-layout HxWx6/9 .npy, per-point .label files or
     /// prediction shards. Exit status 1 on bad or missing predictions, naming the frame.
     Score(ScoreArgs),
+    /// Carry map predictions back to every point of their scans, in the source's per-point
+    /// layout: SemanticKITTI OUT/sequences/<NN>/predictions/<frame6>.label (raw ids, as the
+    /// benchmark takes them), KITTI raw and object OUT/labels/<drive>/<frame>.label (class ids).
+    ///
+    /// Each scan is projected again with the map the ground truth records (--gt: a convert
+    /// folder or shards), by convert's own code. --method knn (default) is RangeNet++'s kNN
+    /// post-processing, its result point for point (--knn-k 5, --knn-window 5, --knn-sigma 1,
+    /// --knn-cutoff 1); --method cell gives each point its cell's class. Points outside the map
+    /// (a 90-degree map's back) are "not predicted": raw id 0 (unlabeled) for SemanticKITTI,
+    /// class 0xffff for the others; counted. Exit status 3 when some frames fail.
+    Unproject(crate::commands::unproject::UnprojectArgs),
+    /// Check a SemanticKITTI prediction folder before submitting it, as the benchmark's
+    /// validate_submission.py does: every scan of the sequences has
+    /// sequences/<NN>/predictions/<frame6>.label with one raw id of the dataset's learning_map
+    /// per point; nothing missing or extra; every problem named (exit status 1). --zip packs a
+    /// valid folder in the benchmark's layout, with description.txt.
+    Submission(crate::commands::submission::SubmissionArgs),
     /// Describe MCAP shards: frames, channels, sizes, compression ratio, class counts, and the
     /// conversion parameters stored in them. Fails, naming the shard and frame, on a corrupted one.
     Inspect(InspectArgs),
@@ -104,6 +121,14 @@ pub struct ScoreArgs {
     /// Point protocol: score every scan point in the field of view (needs --raw).
     #[arg(long, requires = "raw")]
     pub points: bool,
+    /// Score map predictions per point as well, carried back to the points by this method
+    /// (cell: each point its cell's class; knn: RangeNet++'s post-processing, --knn-*); the
+    /// table shows the cell (2D) and point (3D) figures side by side. Needs --raw.
+    #[arg(long, value_enum, requires = "raw", value_name = "METHOD")]
+    pub unproject: Option<crate::commands::unproject::MethodArg>,
+    /// The kNN's parameters for --unproject knn.
+    #[command(flatten)]
+    pub knn: crate::commands::unproject::KnnArgs,
     /// KITTI raw root (for --points, and for .label predictions under the cell protocol).
     #[arg(long, value_name = "RAW_ROOT")]
     pub raw: Option<PathBuf>,

@@ -7,6 +7,8 @@ pub mod progress;
 mod score;
 mod split;
 mod stats;
+pub mod submission;
+pub mod unproject;
 
 use crate::cli::{Args, Command};
 use crate::Outcome;
@@ -24,6 +26,8 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
         Command::Stats(a) => stats::run(a, &global),
         Command::Score(a) => score::run(a, &global),
         Command::Inspect(a) => inspect::run(a),
+        Command::Unproject(a) => unproject::run(a, &global),
+        Command::Submission(a) => submission::run(a),
     }
 }
 

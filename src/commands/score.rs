@@ -12,6 +12,7 @@ use kitti2pgm::report::score::{
     predictions_without_truth, report, score, worst, Predictions, Protocol, ScoreOptions,
     ScoreReport,
 };
+use kitti2pgm::project::unproject::Method;
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
 use super::completeness;
@@ -54,6 +55,17 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         },
         missing_as_background: a.missing_as_background,
         raw: a.raw.clone(),
+        unproject: a
+            .unproject
+            .map_or(Method::Cell, |m| a.knn.method(m)),
+    };
+    let opts = ScoreOptions {
+        protocol: if a.unproject.is_some() {
+            Protocol::Points
+        } else {
+            opts.protocol
+        },
+        ..opts
     };
     let map = &gt.params.class_map;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -74,6 +86,29 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
             "kitti2pgm: {} prediction(s) for frames not in the ground truth, not scored (first: {first})",
             rep.predictions_without_truth.len()
         );
+    }
+    if a.unproject.is_some() {
+        // The same predictions per cell, for the 2D figures beside the 3D ones.
+        let cells = ScoreOptions {
+            protocol: Protocol::Cells,
+            unproject: Method::Cell,
+            ..opts.clone()
+        };
+        let (cell_scores, _) = pool
+            .install(|| score(&gt, only.as_ref(), &preds, &cells, &none, &|_| {}))
+            .with_context(context)?;
+        let rep2d = report(Protocol::Cells, &cell_scores, map, false);
+        if a.json {
+            let j = serde_json::json!({
+                "unproject": format!("{:?}", a.unproject.expect("given")).to_lowercase(),
+                "cells": rep2d,
+                "points": rep,
+            });
+            println!("{}", serde_json::to_string_pretty(&j)?);
+        } else {
+            print!("{}", side_by_side(&rep2d, &rep, map));
+        }
+        return Ok(Outcome::Ok);
     }
     if let Some(p) = &a.confusion {
         png::write(p, &confusion_chart(&rep.confusion, map))?;
@@ -114,6 +149,55 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         print!("{}", table(&rep, map, false));
     }
     Ok(Outcome::Ok)
+}
+
+/// The cell (2D) and point (3D) figures of the same predictions, side by side.
+fn side_by_side(cells: &ScoreReport, points: &ScoreReport, map: &ClassMap) -> String {
+    let mut t = String::new();
+    let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into());
+    let _ = writeln!(
+        t,
+        "{} frames: {} cells (2D) and {} points (3D) scored",
+        points.frames, cells.elements, points.elements
+    );
+    let w = map.names().iter().map(|n| n.len()).max().unwrap_or(5).max(5);
+    let _ = writeln!(
+        t,
+        "\n{:<w$} {:>9} {:>9} {:>9} {:>12}",
+        "class", "IoU 2D", "IoU 3D", "3D - 2D", "3D support"
+    );
+    for name in map.names() {
+        let (c, p) = (&cells.classes[name], &points.classes[name]);
+        let d = match (c.iou, p.iou) {
+            (Some(a), Some(b)) => format!("{:+.4}", b - a),
+            _ => "-".into(),
+        };
+        let _ = writeln!(
+            t,
+            "{:<w$} {:>9} {:>9} {:>9} {:>12}",
+            name,
+            f(c.iou),
+            f(p.iou),
+            d,
+            p.support
+        );
+    }
+    let _ = writeln!(
+        t,
+        "\n{:<w$} {:>9.4} {:>9.4} {:>+9.4}",
+        "mIoU",
+        cells.miou,
+        points.miou,
+        points.miou - cells.miou
+    );
+    let _ = writeln!(
+        t,
+        "{:<w$} {:>9} {:>9}",
+        "accuracy",
+        f(cells.accuracy),
+        f(points.accuracy)
+    );
+    t
 }
 
 fn table(r: &ScoreReport, map: &ClassMap, full_confusion: bool) -> String {

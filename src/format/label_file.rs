@@ -18,6 +18,11 @@ pub fn encode(class: &[ClassId], instance: &[u16]) -> Vec<u8> {
     out
 }
 
+/// The bytes of a `.label` file of raw u32 entries.
+pub fn encode_raw(entries: &[u32]) -> Vec<u8> {
+    entries.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
 /// The raw u32 entries of a `.label` file.
 pub fn read_raw(path: &Path) -> Result<Vec<u32>> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;

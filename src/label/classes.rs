@@ -48,6 +48,10 @@ pub struct ClassMap {
     /// `.label` entry) to class id, its `learning_map`. Empty for box sources.
     #[serde(default)]
     pub learning_map: BTreeMap<u32, ClassId>,
+    /// Per-point sources: the raw id each class is written back as (`learning_map_inv`: what
+    /// a benchmark submission holds). Empty for box sources.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub learning_map_inv: Vec<u32>,
     /// How a class absent from both truth and prediction enters the mean IoU: left out
     /// (SqueezeSeg's evaluation, the default) or counted as 0 (SemanticKITTI's benchmark).
     #[serde(default)]
@@ -115,6 +119,7 @@ impl ClassMap {
             object_types: types.iter().map(|(t, c)| (t.to_string(), *c)).collect(),
             reference_weights: Some(vec![1.0 / 15.0, 1.0, 10.0, 10.0]),
             learning_map: BTreeMap::new(),
+            learning_map_inv: Vec::new(),
             absent_in_miou: AbsentInMiou::LeftOut,
         }
     }
@@ -173,6 +178,7 @@ impl ClassMap {
             )));
         }
         let mut classes = Vec::with_capacity(n);
+        let mut inverse = Vec::with_capacity(n);
         for c in 0..n as u32 {
             let raw = *y.learning_map_inv.get(&c).ok_or_else(|| {
                 bad(format!(
@@ -192,6 +198,7 @@ impl ClassMap {
                 name: name.clone(),
                 colour: [r, g, b],
             });
+            inverse.push(raw);
         }
         let learning_map = y
             .learning_map
@@ -221,10 +228,16 @@ impl ClassMap {
             object_types: BTreeMap::new(),
             reference_weights: None,
             learning_map,
+            learning_map_inv: inverse,
             absent_in_miou: AbsentInMiou::Zero,
         };
         map.validate().map_err(|e| bad(e.to_string()))?;
         Ok(map)
+    }
+
+    /// The raw id class `c` is written back as (`learning_map_inv`), for per-point maps.
+    pub fn raw_of_class(&self, c: ClassId) -> Option<u32> {
+        self.learning_map_inv.get(c as usize).copied()
     }
 
     /// The class of a raw per-point label (through `learning_map`); `None` for an id the map

@@ -6,4 +6,6 @@ pub mod completeness;
 pub mod inspect;
 pub mod score;
 pub mod stats;
+pub mod submission;
 pub mod truth;
+pub mod unproject;

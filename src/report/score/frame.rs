@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::format::label_file;
 use crate::kitti::velodyne::Scan;
 use crate::kitti::{discover_as, Drive, FrameId, Layout};
+use crate::project::unproject::{unproject, Method, PointsInMap};
 use crate::project::{project_with_point_cells, EMPTY};
 use crate::report::truth::GroundTruth;
 
@@ -39,6 +40,7 @@ pub fn score_frame(
     // Per point: (cell, file index) of each point in the field of view, from the scan.
     let mut point_cells: Vec<(u32, u32)> = Vec::new();
     let mut cell_winner_file: Vec<u32> = Vec::new();
+    let mut scan_cells: Option<(crate::project::Projection, Vec<f32>)> = None;
     if needs_scan {
         let raw = opts.raw.as_ref().ok_or_else(|| {
             Error::Config(format!(
@@ -72,6 +74,8 @@ pub fn score_frame(
             .filter(|(c, _)| **c != EMPTY)
             .map(|(c, f)| (*c, *f))
             .collect();
+        let range = scan.points.iter().map(crate::project::norm).collect();
+        scan_cells = Some((proj, range));
     }
     // Predicted class per cell.
     let pred_cells: Vec<u8> = match (pred_file, preds.points) {
@@ -122,7 +126,27 @@ pub fn score_frame(
                 (Some(p), true) => Some(label_file::read_classes(p, map)?),
                 _ => None,
             };
-            for &(cell, fi) in &point_cells {
+            // Map predictions reach the points by the chosen method (kept points, in the
+            // order of point_cells).
+            let carried: Option<Vec<u8>> = match (&pred_points, &opts.unproject, &scan_cells) {
+                (None, Method::Knn(_), Some((proj, range))) => {
+                    let m = PointsInMap {
+                        rows,
+                        cols,
+                        point_cell: &proj.point_cell,
+                        point_range: range,
+                        cell_range: &proj.cell_range,
+                    };
+                    Some(
+                        unproject(&m, &pred_cells, &opts.unproject, map)?
+                            .into_iter()
+                            .flatten()
+                            .collect(),
+                    )
+                }
+                _ => None,
+            };
+            for (k, &(cell, fi)) in point_cells.iter().enumerate() {
                 let t = *gt_points.get(fi as usize).ok_or_else(|| {
                     Error::format(
                         &lp,
@@ -139,7 +163,10 @@ pub fn score_frame(
                             format!("{} point labels, but the scan has point {fi}", pp.len()),
                         )
                     })?,
-                    None => pred_cells[cell as usize],
+                    None => match &carried {
+                        Some(c) => c[k],
+                        None => pred_cells[cell as usize],
+                    },
                 };
                 if map.is_scored(t) {
                     c.count(t, p);
@@ -161,8 +188,9 @@ pub fn score_frame(
     ))
 }
 
-/// The raw drive of a frame under `raw` (a raw root, date folder or drive folder).
-fn raw_drive(raw: &Path, id: &FrameId) -> Result<Drive> {
+/// The drive of a frame under `raw` (a KITTI raw root, date folder or drive folder; a
+/// SemanticKITTI root or sequence; an object root or split).
+pub(crate) fn raw_drive(raw: &Path, id: &FrameId) -> Result<Drive> {
     let name = id.drive_name();
     if id.layout != Layout::Raw {
         // A SemanticKITTI root or sequence, an object root or split.

@@ -49,6 +49,9 @@ pub struct ScoreOptions {
     /// KITTI raw root: needed for the point protocol and for `.label` predictions under the
     /// cell protocol (the cell each point falls in is recomputed from the scan).
     pub raw: Option<PathBuf>,
+    /// Point protocol with map predictions: how each point gets its class from the map
+    /// ([`crate::project::unproject`]; default: its cell's).
+    pub unproject: crate::project::unproject::Method,
 }
 
 /// The score of one frame.

@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 use crate::format::npy::{read_any, NpyArray};
 use crate::format::shard::Shard;
 use crate::kitti::{parse_drive_name, FrameId};
-use crate::label::ClassMap;
+use crate::label::{ClassId, ClassMap};
 use crate::project::{Channel, Channels};
 
 /// The kind of a prediction file.
@@ -202,6 +202,33 @@ impl Predictions {
 }
 
 impl Predictions {
+    /// Whether frame `id` has a prediction.
+    pub fn has(&self, id: &FrameId) -> bool {
+        self.files.contains_key(id) || self.in_shard.contains_key(id)
+    }
+
+    /// The predicted class of each cell of frame `id` (a map file or a prediction shard),
+    /// checked against the `rows x cols` map of `map`'s classes; `None` without a prediction.
+    /// An error for per-point (`.label`) predictions.
+    pub fn cell_labels(
+        &self,
+        id: &FrameId,
+        shape: (usize, usize),
+        map: &ClassMap,
+    ) -> Result<Option<Vec<ClassId>>> {
+        if self.points {
+            return Err(Error::Input {
+                path: self.root.clone(),
+                message: "these predictions are per point already (.label files), not maps".into(),
+            });
+        }
+        match (self.files.get(id), self.in_shard.get(id)) {
+            (Some(p), _) => Ok(Some(read_cell_prediction(p, shape, map)?.labels)),
+            (None, Some(&(k, chunk))) => self.shard_prediction(k, chunk, id, shape, map).map(Some),
+            (None, None) => Ok(None),
+        }
+    }
+
     /// The label map of frame `id` from prediction shard `k`, chunk `chunk`, checked.
     pub(super) fn shard_prediction(
         &self,

@@ -1,0 +1,231 @@
+//! REPORT: map predictions carried back to every point of their scans (`kitti2pgm unproject`),
+//! written in the source's own per-point layout.
+//!
+//! Each frame's cells are recomputed from its scan with the map the ground truth records (the
+//! convert summary or the shard metadata), by the code `convert` projects with; the prediction's
+//! classes then reach the points by [`Method`] ([`crate::project::unproject`]). Written:
+//!
+//! - SemanticKITTI: `OUT/sequences/<NN>/predictions/<frame6>.label`, the dataset's raw ids
+//!   (`learning_map_inv`), as the benchmark takes them; a point outside the map is `0`
+//!   (`unlabeled`);
+//! - KITTI raw and object: `OUT/labels/<drive>/<frame>.label` as `convert` writes them (class in
+//!   the low 16 bits, instance 0); a point outside the map is [`NOT_PREDICTED`].
+//!
+//! Points dropped when the scan was read (non-finite, beyond range) are outside the map too. A
+//! frame whose scan has another point count than the conversion's `.label` file recorded (the
+//! data changed since) fails, naming both; files are written atomically.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::score::frame::raw_drive;
+use super::score::predictions::Predictions;
+use super::truth::GroundTruth;
+use crate::error::{Error, Result};
+use crate::format::label_file;
+use crate::format::layout::OutputDir;
+use crate::kitti::velodyne::Scan;
+use crate::kitti::{FrameId, Layout};
+use crate::label::ClassMap;
+use crate::project::unproject::{unproject, Method, PointsInMap};
+use crate::project::{norm, project_with_point_cells};
+
+/// The class written (low 16 bits of a `.label` entry) for a point outside the map, in the
+/// class-id layout of KITTI raw and object outputs.
+pub const NOT_PREDICTED: u32 = 0xFFFF;
+
+/// What to carry back, from where, to where.
+#[derive(Debug, Clone)]
+pub struct UnprojectOptions {
+    /// How a point gets its class.
+    pub method: Method,
+    /// The dataset root holding the scans (KITTI raw, SemanticKITTI or object).
+    pub raw: PathBuf,
+    /// The output folder.
+    pub out: PathBuf,
+    /// Only these frames (an ImageSet list); default: every ground-truth frame with a prediction.
+    pub only: Option<BTreeSet<FrameId>>,
+    /// Flush each file before renaming it into place.
+    pub sync: bool,
+}
+
+/// One frame that could not be carried back.
+#[derive(Debug, Clone, Serialize)]
+pub struct UnprojectFailure {
+    /// The frame.
+    pub frame: String,
+    /// What went wrong, naming the file.
+    pub error: String,
+}
+
+/// What `unproject` did.
+#[derive(Debug, Clone, Serialize)]
+pub struct UnprojectSummary {
+    /// `cell` or `knn`.
+    pub method: String,
+    /// Frames written.
+    pub frames: u64,
+    /// Points written (every point of their scans).
+    pub points: u64,
+    /// Points outside the map's field of view (or dropped when read): `not predicted`.
+    pub not_predicted: u64,
+    /// Frames that failed.
+    pub failures: Vec<UnprojectFailure>,
+    /// Where the files are (`OUT/sequences` or `OUT/labels`).
+    pub written_to: PathBuf,
+}
+
+/// The output path of a frame's per-point predictions.
+pub fn prediction_path(out: &Path, id: &FrameId) -> PathBuf {
+    match id.layout {
+        Layout::Sequence => out
+            .join("sequences")
+            .join(id.drive_name())
+            .join("predictions")
+            .join(format!("{}.label", id.frame_name())),
+        _ => OutputDir::new(out).label_path(id),
+    }
+}
+
+/// One frame: its scan read, projected, its points given their classes, written.
+fn one(
+    gt: &GroundTruth,
+    preds: &Predictions,
+    id: &FrameId,
+    opts: &UnprojectOptions,
+) -> Result<(u64, u64)> {
+    let map: &ClassMap = &gt.params.class_map;
+    let spec = &gt.params.spec;
+    let pred = preds
+        .cell_labels(id, (spec.rows, spec.cols), map)?
+        .ok_or_else(|| Error::Input {
+            path: preds.root.clone(),
+            message: format!("no prediction for frame {id}"),
+        })?;
+    let drive = raw_drive(&opts.raw, id)?;
+    let scan_path = drive.scan_path(id.frame);
+    let scan = Scan::read(&scan_path)?;
+    if let Some(dir) = &gt.dir {
+        let recorded = dir.label_path(id);
+        if let Ok(meta) = std::fs::metadata(&recorded) {
+            let n = meta.len() / 4;
+            if n != scan.file_len as u64 {
+                return Err(Error::format(
+                    &scan_path,
+                    format!(
+                        "{} points, but the conversion recorded {n} ({}): the data changed since",
+                        scan.file_len,
+                        recorded.display()
+                    ),
+                ));
+            }
+        }
+    }
+    let proj = project_with_point_cells(&scan.points, spec);
+    let point_range: Vec<f32> = scan.points.iter().map(norm).collect();
+    let m = PointsInMap {
+        rows: spec.rows,
+        cols: spec.cols,
+        point_cell: &proj.point_cell,
+        point_range: &point_range,
+        cell_range: &proj.cell_range,
+    };
+    let classes = unproject(&m, &pred, &opts.method, map)?;
+    let per_point = scan.to_file_order(&classes, None);
+    let sequence = id.layout == Layout::Sequence;
+    let mut missing = 0u64;
+    let raw_ids: Vec<u32> = per_point
+        .iter()
+        .map(|c| match (c, sequence) {
+            (Some(c), true) => map.raw_of_class(*c).unwrap_or(0),
+            (Some(c), false) => *c as u32,
+            (None, true) => {
+                missing += 1;
+                0
+            }
+            (None, false) => {
+                missing += 1;
+                NOT_PREDICTED
+            }
+        })
+        .collect();
+    let path = prediction_path(&opts.out, id);
+    crate::format::create_dir(path.parent().expect("a file in a folder"))?;
+    crate::format::atomic_write(&path, &label_file::encode_raw(&raw_ids), opts.sync)?;
+    Ok((raw_ids.len() as u64, missing))
+}
+
+/// Carries every frame's prediction back to its points (frames in parallel; a failing frame is
+/// recorded and the others go on). `progress` is called after each frame.
+pub fn unproject_all(
+    gt: &GroundTruth,
+    preds: &Predictions,
+    opts: &UnprojectOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<UnprojectSummary> {
+    let map = &gt.params.class_map;
+    let sequence = gt.frames.iter().any(|f| f.layout == Layout::Sequence);
+    if sequence && map.learning_map_inv.is_empty() {
+        return Err(Error::Config(format!(
+            "class map {:?} has no learning_map_inv: SemanticKITTI predictions are written as the dataset's raw ids",
+            map.name
+        )));
+    }
+    let frames: Vec<&FrameId> = match &opts.only {
+        Some(only) => {
+            if let Some(missing) = only.iter().find(|id| !gt.frames.contains(id)) {
+                return Err(Error::Input {
+                    path: gt.path.clone(),
+                    message: format!("frame {missing} of the list is not in the ground truth"),
+                });
+            }
+            gt.frames.iter().filter(|f| only.contains(f)).collect()
+        }
+        None => gt
+            .frames
+            .iter()
+            .filter(|f| preds.has(f))
+            .collect(),
+    };
+    if frames.is_empty() {
+        return Err(Error::Input {
+            path: preds.root.clone(),
+            message: "no prediction for any ground-truth frame".into(),
+        });
+    }
+    let (points, missing) = (AtomicU64::new(0), AtomicU64::new(0));
+    let mut failures: Vec<UnprojectFailure> = frames
+        .par_iter()
+        .filter_map(|id| {
+            let r = one(gt, preds, id, opts);
+            progress(1);
+            match r {
+                Ok((n, m)) => {
+                    points.fetch_add(n, Ordering::Relaxed);
+                    missing.fetch_add(m, Ordering::Relaxed);
+                    None
+                }
+                Err(e) => Some(UnprojectFailure {
+                    frame: id.to_string(),
+                    error: e.to_string(),
+                }),
+            }
+        })
+        .collect();
+    failures.sort_by(|a, b| a.frame.cmp(&b.frame));
+    Ok(UnprojectSummary {
+        method: match opts.method {
+            Method::Cell => "cell".into(),
+            Method::Knn(_) => "knn".into(),
+        },
+        frames: (frames.len() - failures.len()) as u64,
+        points: points.into_inner(),
+        not_predicted: missing.into_inner(),
+        failures,
+        written_to: opts.out.join(if sequence { "sequences" } else { "labels" }),
+    })
+}
