@@ -8,11 +8,11 @@ use kitti2pgm::draw::charts::{confusion_chart, frame_chart};
 use kitti2pgm::format::{imageset, png};
 use kitti2pgm::kitti::FrameId;
 use kitti2pgm::label::ClassMap;
+use kitti2pgm::project::unproject::Method;
 use kitti2pgm::report::score::{
     predictions_without_truth, report, score, worst, Predictions, Protocol, ScoreOptions,
     ScoreReport,
 };
-use kitti2pgm::project::unproject::Method;
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
 use super::completeness;
@@ -55,9 +55,7 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         },
         missing_as_background: a.missing_as_background,
         raw: a.raw.clone(),
-        unproject: a
-            .unproject
-            .map_or(Method::Cell, |m| a.knn.method(m)),
+        unproject: a.unproject.map_or(Method::Cell, |m| a.knn.method(m)),
     };
     let opts = ScoreOptions {
         protocol: if a.unproject.is_some() {
@@ -160,7 +158,13 @@ fn side_by_side(cells: &ScoreReport, points: &ScoreReport, map: &ClassMap) -> St
         "{} frames: {} cells (2D) and {} points (3D) scored",
         points.frames, cells.elements, points.elements
     );
-    let w = map.names().iter().map(|n| n.len()).max().unwrap_or(5).max(5);
+    let w = map
+        .names()
+        .iter()
+        .map(|n| n.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
     let _ = writeln!(
         t,
         "\n{:<w$} {:>9} {:>9} {:>9} {:>12}",

@@ -104,7 +104,11 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
     let preds = Predictions::index(&a.pred)?;
     let only = match &a.imageset {
         Some(l) => {
-            let list = if l.is_dir() { l.join("val.txt") } else { l.clone() };
+            let list = if l.is_dir() {
+                l.join("val.txt")
+            } else {
+                l.clone()
+            };
             Some(imageset::read(&list)?.into_iter().collect())
         }
         None => None,
@@ -127,12 +131,20 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
         println!("{}", serde_json::to_string_pretty(&s)?);
     } else {
         println!("method           {:>10}", s.method);
-        println!("frames written   {:>10}  (into {})", s.frames, s.written_to.display());
+        println!(
+            "frames written   {:>10}  (into {})",
+            s.frames,
+            s.written_to.display()
+        );
         println!("points           {:>10}", s.points);
         println!(
             "not predicted    {:>10}  (outside the map's field of view: {})",
             s.not_predicted,
-            if gt.frames.iter().any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence) {
+            if gt
+                .frames
+                .iter()
+                .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence)
+            {
                 "raw id 0, unlabeled".to_string()
             } else {
                 format!("class {NOT_PREDICTED:#06x}")

@@ -78,10 +78,13 @@ pub fn check_submission(
         Some(want) => {
             let mut v = Vec::new();
             for &n in want {
-                let d = all.iter().find(|d| d.number == n).ok_or_else(|| Error::Input {
-                    path: root.into(),
-                    message: format!("no sequence {n:02} here"),
-                })?;
+                let d = all
+                    .iter()
+                    .find(|d| d.number == n)
+                    .ok_or_else(|| Error::Input {
+                        path: root.into(),
+                        message: format!("no sequence {n:02} here"),
+                    })?;
                 v.push(d.clone());
             }
             v
@@ -129,7 +132,10 @@ pub fn check_submission(
             if !names.iter().any(|s| s == name) {
                 problems.push(Problem {
                     path: p,
-                    problem: format!("extra: not one of the sequences checked ({})", names.join(", ")),
+                    problem: format!(
+                        "extra: not one of the sequences checked ({})",
+                        names.join(", ")
+                    ),
                 });
             }
         }
@@ -147,7 +153,12 @@ pub fn check_submission(
 fn check_file(file: &Path, scan: &Path, map: &ClassMap) -> std::result::Result<(), String> {
     let meta = match std::fs::metadata(file) {
         Ok(m) => m,
-        Err(_) => return Err(format!("missing (the scan {} has no prediction)", scan.display())),
+        Err(_) => {
+            return Err(format!(
+                "missing (the scan {} has no prediction)",
+                scan.display()
+            ))
+        }
     };
     let points = std::fs::metadata(scan)
         .map(|m| m.len() / POINT_BYTES as u64)

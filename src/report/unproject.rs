@@ -185,11 +185,7 @@ pub fn unproject_all(
             }
             gt.frames.iter().filter(|f| only.contains(f)).collect()
         }
-        None => gt
-            .frames
-            .iter()
-            .filter(|f| preds.has(f))
-            .collect(),
+        None => gt.frames.iter().filter(|f| preds.has(f)).collect(),
     };
     if frames.is_empty() {
         return Err(Error::Input {

@@ -19,4 +19,5 @@ mod score;
 mod shards;
 mod sources;
 mod truth;
+mod unproject;
 mod util;
