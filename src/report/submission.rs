@@ -116,7 +116,7 @@ pub fn check_submission(
                     .and_then(|n| n.strip_suffix(".label"))
                     .filter(|s| s.len() == 6)
                     .and_then(|s| s.parse::<u32>().ok());
-                if !frame.is_some_and(|f| scans.binary_search(&f).is_ok()) {
+                if frame.is_none_or(|f| scans.binary_search(&f).is_err()) {
                     problems.push(Problem {
                         path: p,
                         problem: "extra: not the prediction of a scan of this sequence".into(),
