@@ -85,7 +85,7 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
             rep.predictions_without_truth.len()
         );
     }
-    if a.unproject.is_some() {
+    if let Some(method) = a.unproject {
         // The same predictions per cell, for the 2D figures beside the 3D ones.
         let cells = ScoreOptions {
             protocol: Protocol::Cells,
@@ -98,7 +98,7 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         let rep2d = report(Protocol::Cells, &cell_scores, map, false);
         if a.json {
             let j = serde_json::json!({
-                "unproject": format!("{:?}", a.unproject.expect("given")).to_lowercase(),
+                "unproject": format!("{method:?}").to_lowercase(),
                 "cells": rep2d,
                 "points": rep,
             });
