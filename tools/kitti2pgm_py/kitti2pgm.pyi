@@ -20,7 +20,7 @@ MAX_RANGE_M: float
 _Path = Union[str, "PathLike[str]"]
 _Array = npt.NDArray[Any]
 Frame = Dict[str, Any]
-"""A loaded frame: id, points (N, 4) float32, file_index (N,) uint32, ring (N,) uint8 or None,
+"""A loaded frame: id, file_len, points (N, 4) float32, file_index (N,) uint32, ring (N,) uint8 or None,
 label (N,) uint8, instance (N,) uint16, annotated, boxes, rgb (N, 3) float32 or None,
 rgb_valid (N,) bool or None (colours / colour_valid: the same arrays, older names)."""
 MapDict = Dict[str, Any]

@@ -179,8 +179,8 @@ impl Dataset {
         )
     }
 
-    /// One frame, read and labelled: a dict with id, points (N, 4) float32 (finite, in range,
-    /// file order), file_index (N,) uint32, ring (N,) uint8 or None (no 64 rings), label (N,)
+    /// One frame, read and labelled: a dict with id, file_len (points in the .bin, dropped ones
+    /// included), points (N, 4) float32 (finite, in range, file order), file_index (N,) uint32, ring (N,) uint8 or None (no 64 rings), label (N,)
     /// uint8, instance (N,) uint16, annotated (bool), boxes (list of dicts, as label_points
     /// takes them), rgb (N, 3) float32 and rgb_valid (N,) bool with rgb_camera, else None (the
     /// point shards' names; colours / colour_valid are the same arrays under older names).
@@ -201,6 +201,7 @@ impl Dataset {
         let n = l.scan.len();
         let out = PyDict::new(py);
         out.set_item("id", l.id.to_string())?;
+        out.set_item("file_len", l.scan.file_len)?;
         out.set_item("points", scan_array(py, &l.scan)?)?;
         out.set_item("file_index", PyArray1::from_vec(py, l.scan.file_indices()))?;
         match ring {

@@ -94,6 +94,19 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--timing-frames", type=int, default=10, help="frames timed for inference ms/frame")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.add_argument("--onnx", help="also time this exported model (onnxruntime, CPU) per frame")
+    e.add_argument("--points", action="store_true",
+                   help="also carry each prediction back to every point of its scan (native module), score it "
+                        "per point (3D, beside the 2D figures) and write the per-point predictions as kitti2pgm "
+                        "unproject does (SemanticKITTI: raw ids in sequences/<NN>/predictions/); needs --raw")
+    e.add_argument("--raw", help="with --points: the dataset root holding the scans")
+    e.add_argument("--unproject", choices=["cell", "knn"], default="knn",
+                   help="with --points: a point's class from its cell, or RangeNet++'s kNN post-processing")
+    e.add_argument("--point-predictions", help="with --points: where (default <run>/point_predictions)")
+    e.add_argument("--knn-k", type=int, default=5, help="kNN: neighbours that vote")
+    e.add_argument("--knn-window", type=int, default=5, help="kNN: search window side, cells (odd)")
+    e.add_argument("--knn-sigma", type=float, default=1.0, help="kNN: Gaussian standard deviation, cells")
+    e.add_argument("--knn-cutoff", type=float, default=1.0, help="kNN: farther neighbours vote for nobody, metres")
+    e.add_argument("--knn-wrap", action="store_true", help="kNN: window across the 360-degree seam")
     x = sub.add_parser("export", help="export a run as ONNX and/or TorchScript, normalisation inside",
                        formatter_class=_Help)
     x.add_argument("--run", required=True, help="the run directory (train --out)")
@@ -133,6 +146,12 @@ def main(argv=None) -> int:
                 c.m = torch.tensor(r["confusion"])
                 print(f"{r['frames']} frames; predictions in {r['predictions'] or r['prediction_shard']}")
                 print(c.table())
+                if "points" in r:
+                    p = Confusion(r["class_map"])
+                    p.m = torch.tensor(r["points"]["confusion"])
+                    print(f"per point ({r['points']['unproject']}, {r['points']['points']} points, "
+                          f"{r['points']['not_predicted']} outside the map): mIoU {p.miou():.4f} "
+                          f"(per cell {c.miou():.4f}); predictions in {r['points']['predictions']}")
                 print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in r["inference_ms_per_frame"].items() if v))
     except (FileExistsError, FileNotFoundError, ValueError, ShardError, MissingExtra) as e:
         print(f"kitti2pgm_train: error: {e}", file=sys.stderr)

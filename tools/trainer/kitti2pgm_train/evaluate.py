@@ -64,9 +64,23 @@ def evaluate(args) -> dict:
         raise ValueError(f"{paths[0]}: the shards' classes differ from those the run was trained on")
     conf = Confusion(config["class_map"])
     progress = Progress(len(data), "evaluating")
+    points = None
+    if getattr(args, "points", False):
+        from kitti2pgm_data import read_metadata
+
+        from .points import PointEvaluation
+        if not args.raw:
+            raise ValueError("--points needs --raw: the dataset root holding the scans")
+        spec = read_metadata(paths[0])["params"]["map"]["spec"]
+        knn = dict(k=args.knn_k, window=args.knn_window, sigma=args.knn_sigma, cutoff=args.knn_cutoff,
+                   wrap_columns=args.knn_wrap)
+        points = PointEvaluation(args.raw, spec, config["class_map"], args.unproject, knn,
+                                 args.point_predictions or os.path.join(args.run, "point_predictions"))
 
     def predictions():
         for k, (fid, p) in enumerate(predict(model, data, device, args.batch, conf)):
+            if points is not None:
+                points.add(fid, p)
             if write_npy:
                 tmp = os.path.join(out, f".{fid}.tmp.npy")
                 np.save(tmp, p)
@@ -90,6 +104,10 @@ def evaluate(args) -> dict:
         timing["onnxruntime_cpu"] = onnx_time(args.onnx, data, args.timing_frames)
     result = {"frames": len(data), "class_map": config["class_map"], "predictions": out if write_npy else None, "prediction_shard": shard_out,
               **conf.as_dict(), "inference_ms_per_frame": timing}
+    if points is not None:
+        # The 3D figures beside the 2D ones: every point of the scans, by the method.
+        result["points"] = {"unproject": args.unproject, "predictions": points.out, "points": points.points,
+                            "not_predicted": points.not_predicted, **points.conf.as_dict()}
     with open(os.path.join(args.run, "eval.json"), "w") as f:
         json.dump(result, f, indent=2)
     return result

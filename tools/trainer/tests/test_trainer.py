@@ -304,3 +304,42 @@ def test_twenty_semantickitti_classes_train_and_score_like_kitti2pgm(tmp_path, k
     assert score["miou"] == ev["miou"]
     for name, iou in ev["iou"].items():
         assert score["classes"][name]["iou"] == iou, name
+
+
+def test_evaluate_per_point_equals_kitti2pgm_score(converted, tmp_path, kitti2pgm):
+    """evaluate --points --unproject knn: the 3D figures beside the 2D ones, equal to
+    kitti2pgm score --unproject knn on the same predictions; the per-point predictions are
+    written in convert's layout, and on SemanticKITTI in the benchmark's (raw ids), which
+    kitti2pgm score reads with the benchmark's protocol to the same matrix."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[3]
+    run = tmp_path / "run"
+    shards = converted / "shards"
+    _train(run, shards, 3)
+    assert main(["evaluate", "--run", str(run), "--shards", str(shards), "--val-shards", str(shards / "train-*.mcap"),
+                 "--device", "cpu", "--timing-frames", "0", "--points", "--raw", str(repo / "fixtures/raw")]) == 0
+    ev = json.loads((run / "eval.json").read_text())
+    pts = ev["points"]
+    assert pts["unproject"] == "knn" and pts["points"] > 300_000 and pts["not_predicted"] > 100_000
+    s = json.loads(kitti2pgm("score", "--gt", str(converted), "--pred", str(run / "predictions"), "--raw",
+                             str(repo / "fixtures/raw"), "--unproject", "knn", "--json").stdout)
+    assert pts["confusion"] == s["points"]["confusion"]["m"]
+    assert ev["confusion"] == s["cells"]["confusion"]["m"]
+    assert abs(pts["miou"] - s["points"]["miou"]) < 1e-9
+    written = sorted(p.name for p in (run / "point_predictions/labels/2011_09_26_drive_0001_sync").iterdir())
+    assert written == ["0000000000.label", "0000000045.label"]
+    # SemanticKITTI: raw ids in the benchmark's layout, scored by kitti2pgm against the dataset.
+    data = tmp_path / "sk"
+    kitti2pgm("convert", str(repo / "fixtures/semantickitti"), "--out", str(data), "--format", "npy,mcap",
+              "--cols", "256")
+    sk_run = tmp_path / "sk_run"
+    _train(sk_run, data / "shards", 2)
+    assert main(["evaluate", "--run", str(sk_run), "--shards", str(data / "shards"), "--device", "cpu",
+                 "--val-shards", str(data / "shards" / "train-*.mcap"),
+                 "--timing-frames", "0", "--points", "--raw", str(repo / "fixtures/semantickitti")]) == 0
+    ev = json.loads((sk_run / "eval.json").read_text())
+    bench = json.loads(kitti2pgm("score", "--gt", str(repo / "fixtures/semantickitti"), "--pred",
+                                 str(sk_run / "point_predictions"), "--json").stdout)
+    assert ev["points"]["confusion"] == bench["confusion"]["m"]
+    assert abs(ev["points"]["miou"] - bench["miou"]) < 1e-9
