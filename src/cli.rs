@@ -425,6 +425,14 @@ pub struct PreviewArgs {
     /// Output: a .png file for one .npy input, else a folder (one <frame>.png per frame).
     #[arg(long, short, value_name = "PATH")]
     pub out: PathBuf,
+    /// Per-point predictions (unproject's output, per-point .label files) are drawn against the
+    /// scans of this dataset root: bird's-eye and range views of truth, prediction and errors.
+    #[arg(long, value_name = "ROOT")]
+    pub raw: Option<PathBuf>,
+    /// With --raw: the convert folder whose .label files are the truth (KITTI raw and object;
+    /// SemanticKITTI's own labels are used where present).
+    #[arg(long, value_name = "DIR", requires = "raw")]
+    pub gt: Option<PathBuf>,
 }
 
 fn parse_preset(s: &str) -> Result<MapPreset, String> {

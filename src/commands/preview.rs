@@ -12,7 +12,86 @@ use kitti2pgm::report::truth::{GroundTruth, MapFrame};
 use crate::cli::PreviewArgs;
 use crate::Outcome;
 
+/// Per-point predictions drawn against their scans (`--raw`): one picture per frame.
+fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome> {
+    use kitti2pgm::draw::points::point_prediction_chart;
+    use kitti2pgm::kitti::velodyne::Scan;
+    use kitti2pgm::report::score::Predictions;
+    use kitti2pgm::report::unproject::{point_truth, read_point_predictions};
+    let gt = a.gt.as_ref().map(OutputDir::new);
+    let recorded = match &gt {
+        Some(d) => summary::read(&d.summary_path())?.map(|s| s.params.map.class_map),
+        None => None,
+    };
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let mut written = 0;
+    for input in &a.inputs {
+        let preds = Predictions::index(input)?;
+        if !preds.points {
+            bail!(
+                "{}: --raw draws per-point predictions (.label files); map predictions are drawn without it",
+                input.display()
+            );
+        }
+        for (id, path) in &preds.files {
+            let map = recorded
+                .clone()
+                .unwrap_or_else(|| ClassMap::default_for(id.layout));
+            let drive = kitti2pgm::report::score::frame::raw_drive(raw, id)?;
+            let scan = Scan::read(&drive.scan_path(id.frame))?;
+            let pred = read_point_predictions(path, id, &map)?;
+            if pred.len() != scan.file_len {
+                bail!(
+                    "{}: {} labels, the scan {} has {} points",
+                    path.display(),
+                    pred.len(),
+                    drive.scan_path(id.frame).display(),
+                    scan.file_len
+                );
+            }
+            let truth = point_truth(raw, id, &map, gt.as_ref())?;
+            let kept = scan.file_indices();
+            let pick = |v: &[Option<u8>]| -> Vec<Option<u8>> {
+                kept.iter()
+                    .map(|&i| v.get(i as usize).copied().flatten())
+                    .collect()
+            };
+            let pred_kept = pick(&pred);
+            let truth_kept = match &truth {
+                Some(t) => pick(t),
+                None => vec![None; kept.len()],
+            };
+            let (rings, _) = kitti2pgm::project::rings(&scan.points);
+            let caption = format!(
+                "{id}: per-point prediction{}",
+                if truth.is_none() {
+                    " (no truth here)"
+                } else {
+                    ""
+                }
+            );
+            let img = point_prediction_chart(
+                &scan.points,
+                rings.as_deref(),
+                &truth_kept,
+                &pred_kept,
+                &map,
+                &caption,
+            );
+            png::write(&a.out.join(format!("{id}.png")), &img)?;
+            written += 1;
+        }
+    }
+    if written == 0 {
+        bail!("no preview written");
+    }
+    Ok(Outcome::Ok)
+}
+
 pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
+    if let Some(raw) = a.raw.clone() {
+        return run_points(&a, &raw);
+    }
     let is_npy = |p: &std::path::Path| p.is_file() && p.extension().is_some_and(|e| e == "npy");
     let single_file = a.inputs.len() == 1
         && is_npy(&a.inputs[0])

@@ -7,7 +7,7 @@ use kitti2pgm::format::imageset;
 use kitti2pgm::project::unproject::{KnnParams, Method};
 use kitti2pgm::report::score::Predictions;
 use kitti2pgm::report::truth::GroundTruth;
-use kitti2pgm::report::unproject::{unproject_all, UnprojectOptions, NOT_PREDICTED};
+use kitti2pgm::report::unproject::{unproject_all, write_viz, UnprojectOptions, NOT_PREDICTED};
 
 use super::{completeness, progress, Global};
 use crate::Outcome;
@@ -91,6 +91,11 @@ pub struct UnprojectArgs {
     /// Flush each file before renaming it into place.
     #[arg(long)]
     pub sync: bool,
+    /// Also write the per-point predictions to this MCAP file for Foxglove: each scan's points
+    /// coloured by their predicted class, wrong ones (against the truth, where there is one) in
+    /// red.
+    #[arg(long, value_name = "MCAP")]
+    pub viz: Option<PathBuf>,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
@@ -153,6 +158,21 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
     }
     for f in &s.failures {
         eprintln!("kitti2pgm: {}: {}", f.frame, f.error);
+    }
+    if let Some(viz) = &a.viz {
+        let failed: Vec<&str> = s.failures.iter().map(|f| f.frame.as_str()).collect();
+        let frames: Vec<_> = gt
+            .frames
+            .iter()
+            .filter(|f| preds.has(f))
+            .filter(|f| opts.only.as_ref().is_none_or(|o| o.contains(f)))
+            .filter(|f| !failed.contains(&f.to_string().as_str()))
+            .cloned()
+            .collect();
+        write_viz(&gt, &opts, &frames, viz)?;
+        if !a.json {
+            println!("viz              {:>10}  ({})", frames.len(), viz.display());
+        }
     }
     Ok(match (s.failures.is_empty(), s.frames) {
         (true, _) => Outcome::Ok,

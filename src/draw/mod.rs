@@ -8,6 +8,7 @@
 //! Class colours always come from the class map.
 
 pub mod charts;
+pub mod points;
 pub mod preview;
 
 use image::{Rgb, RgbImage};

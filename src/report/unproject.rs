@@ -30,7 +30,7 @@ use crate::format::label_file;
 use crate::format::layout::OutputDir;
 use crate::kitti::velodyne::Scan;
 use crate::kitti::{FrameId, Layout};
-use crate::label::ClassMap;
+use crate::label::{ClassId, ClassMap};
 use crate::project::unproject::{unproject, Method, PointsInMap};
 use crate::project::{norm, project_with_point_cells};
 
@@ -224,4 +224,137 @@ pub fn unproject_all(
         failures,
         written_to: opts.out.join(if sequence { "sequences" } else { "labels" }),
     })
+}
+
+/// Per-point predictions as classes, from a `.label` file of frame `id`: SemanticKITTI's raw ids
+/// (`.../predictions/`) through the learning map, class ids otherwise ([`NOT_PREDICTED`] and ids
+/// unknown to the map: `None`).
+pub fn read_point_predictions(
+    path: &Path,
+    id: &FrameId,
+    map: &ClassMap,
+) -> Result<Vec<Option<ClassId>>> {
+    let raw = label_file::read_raw(path)?;
+    let raw_ids = id.layout == Layout::Sequence
+        && path
+            .parent()
+            .and_then(|p| p.file_name())
+            .is_some_and(|n| n == "predictions");
+    Ok(raw
+        .iter()
+        .map(|&v| {
+            let low = v & 0xFFFF;
+            if raw_ids {
+                map.class_of_raw(low)
+            } else {
+                (low != NOT_PREDICTED && (low as usize) < map.len()).then_some(low as ClassId)
+            }
+        })
+        .collect())
+}
+
+/// The per-point truth of frame `id`, in file order, when there is one: SemanticKITTI's own
+/// labels under the dataset `raw`, else the `.label` file of the convert folder `gt`.
+pub fn point_truth(
+    raw: &Path,
+    id: &FrameId,
+    map: &ClassMap,
+    gt: Option<&OutputDir>,
+) -> Result<Option<Vec<Option<ClassId>>>> {
+    if id.layout == Layout::Sequence {
+        let path = raw_drive(raw, id)?.point_labels_path(id.frame);
+        if path.is_file() {
+            let raw_ids = label_file::read_raw(&path)?;
+            return Ok(Some(
+                raw_ids
+                    .iter()
+                    .map(|&v| map.class_of_raw(v & 0xFFFF))
+                    .collect(),
+            ));
+        }
+    }
+    match gt.map(|d| d.label_path(id)).filter(|p| p.is_file()) {
+        Some(p) => Ok(Some(
+            label_file::read_raw(&p)?
+                .iter()
+                .map(|&v| {
+                    let c = v & 0xFFFF;
+                    ((c as usize) < map.len()).then_some(c as ClassId)
+                })
+                .collect(),
+        )),
+        None => Ok(None),
+    }
+}
+
+/// Writes the per-point predictions of `frames` (as [`unproject_all`] wrote them under
+/// `opts.out`) to an MCAP file for Foxglove (`/kitti2pgm/viz/points`, atomically): each scan's
+/// points coloured by their predicted class, the points whose prediction differs from the truth
+/// (where there is one) in red with class number `classes.len()`, points outside the map left
+/// out. One message per frame, in frame order, 100 ms apart.
+pub fn write_viz(
+    gt: &GroundTruth,
+    opts: &UnprojectOptions,
+    frames: &[FrameId],
+    path: &Path,
+) -> Result<()> {
+    use crate::format::shard::viz::{VizChannels, VizFrame};
+    let map = &gt.params.class_map;
+    let wrong = map.len() as ClassId;
+    let mut colours: Vec<[u8; 3]> = (0..map.len()).map(|c| map.colour(c as ClassId)).collect();
+    colours.push([255, 0, 0]);
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    crate::format::create_dir(dir)?;
+    let werr = |source| Error::Write {
+        path: path.into(),
+        source,
+    };
+    let merr = |e: mcap::McapError| Error::format(path, format!("MCAP writer: {e}"));
+    let tmp = crate::format::temp_builder()
+        .suffix(".mcap")
+        .tempfile_in(dir)
+        .map_err(werr)?;
+    let (file, tmp) = tmp.into_parts();
+    let mut w = mcap::WriteOptions::new()
+        .profile("kitti2pgm")
+        .library(format!("kitti2pgm {}", env!("CARGO_PKG_VERSION")))
+        .create(std::io::BufWriter::new(file))
+        .map_err(merr)?;
+    let channels = VizChannels::add(&mut w).map_err(merr)?;
+    for (k, id) in frames.iter().enumerate() {
+        let drive = raw_drive(&opts.raw, id)?;
+        let scan = Scan::read(&drive.scan_path(id.frame))?;
+        let pred = read_point_predictions(&prediction_path(&opts.out, id), id, map)?;
+        let truth = point_truth(&opts.raw, id, map, gt.dir.as_ref())?;
+        let mut v = VizFrame {
+            colours: colours.clone(),
+            ..Default::default()
+        };
+        for (i, fi) in scan.file_indices().into_iter().enumerate() {
+            let Some(p) = pred.get(fi as usize).copied().flatten() else {
+                continue;
+            };
+            let t = truth
+                .as_ref()
+                .and_then(|t| t.get(fi as usize).copied().flatten());
+            let c = match t {
+                Some(t) if map.is_scored(t) && t != p => wrong,
+                _ => p,
+            };
+            v.points.push((scan.points[i], scan.reflectance[i], c));
+        }
+        let time = k as u64 * 100_000_000;
+        channels.write(&mut w, &v, k as u32, time).map_err(merr)?;
+    }
+    w.finish().map_err(merr)?;
+    let file = w
+        .into_inner()
+        .into_inner()
+        .map_err(|e| werr(e.into_error()))?;
+    file.sync_data().map_err(werr)?;
+    tmp.persist(path).map_err(|e| werr(e.error))?;
+    Ok(())
 }

@@ -293,3 +293,65 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
     }
     out
 }
+
+#[test]
+fn per_point_predictions_are_drawn_and_go_to_foxglove() {
+    let t = tmp();
+    let out = t.path().join("sk");
+    let sk = fixture("semantickitti");
+    let (code, _, e) = convert_json(&sk, &out, &[]);
+    assert_eq!(code, 0, "{e}");
+    let pred = t.path().join("pred");
+    perfect_predictions(&out, &pred);
+    let back = t.path().join("back");
+    let viz = t.path().join("viz.mcap");
+    let (code, stdout, e) = run_text(&[
+        "unproject",
+        "--gt",
+        s(&out),
+        "--pred",
+        s(&pred),
+        "--raw",
+        s(&sk),
+        "--out",
+        s(&back),
+        "--viz",
+        s(&viz),
+    ]);
+    assert_eq!(code, 0, "{e}");
+    assert!(stdout.contains("viz"), "{stdout}");
+    // One point cloud: every point in the map, wrong ones in red (class 20).
+    let bytes = std::fs::read(&viz).unwrap();
+    let mut clouds = 0;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic == "/kitti2pgm/viz/points" {
+            let j: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            assert_eq!(j["point_stride"], 21);
+            let data = base64_len(j["data"].as_str().unwrap());
+            assert_eq!(data % 21, 0);
+            assert!(data / 21 > 100_000);
+            clouds += 1;
+        }
+    }
+    assert_eq!(clouds, 1);
+    let pics = t.path().join("pics");
+    let (code, _, e) = run_text(&["preview", s(&back), "--raw", s(&sk), "--out", s(&pics)]);
+    assert_eq!(code, 0, "{e}");
+    let img = image::open(pics.join("00_000000.png")).unwrap().to_rgb8();
+    assert!(img.width() >= 1024 && img.height() > 700);
+    // Mostly right: more green than red in the error panels.
+    let green = img.pixels().filter(|p| p.0 == [60, 170, 70]).count();
+    let red = img.pixels().filter(|p| p.0 == [230, 40, 40]).count();
+    assert!(green > 20 * red.max(1), "{green} right, {red} wrong");
+    // Map predictions are not per-point ones.
+    let (code, _, e) = run_text(&["preview", s(&pred), "--raw", s(&sk), "--out", s(&pics)]);
+    assert_eq!(code, 1);
+    assert!(e.contains("per-point predictions"), "{e}");
+}
+
+/// Decoded length of a base64 string.
+fn base64_len(s: &str) -> usize {
+    let pad = s.bytes().rev().take_while(|&b| b == b'=').count();
+    s.len() / 4 * 3 - pad
+}

@@ -190,7 +190,7 @@ pub fn score_frame(
 
 /// The drive of a frame under `raw` (a KITTI raw root, date folder or drive folder; a
 /// SemanticKITTI root or sequence; an object root or split).
-pub(crate) fn raw_drive(raw: &Path, id: &FrameId) -> Result<Drive> {
+pub fn raw_drive(raw: &Path, id: &FrameId) -> Result<Drive> {
     let name = id.drive_name();
     if id.layout != Layout::Raw {
         // A SemanticKITTI root or sequence, an object root or split.
