@@ -294,24 +294,20 @@ fn knn_fixed<const S: usize, const N: usize, const K: usize>(
             }
         }
         dist[centre] = 0.0;
-        // The K smallest, ties to the earlier cell.
-        let mut bd = [f32::INFINITY; K];
-        let mut bj = [0usize; K];
-        let mut n = 0usize;
-        for (j, &d) in dist.iter().enumerate() {
-            if n == K && d >= bd[K - 1] {
-                continue;
+        // The K smallest, ties to the earlier cell: a distance is never negative, so its bits
+        // order as it does; with the cell's index below them, every key is distinct.
+        // Branch free: each key passes down a sorted list of K, leaving the smaller behind.
+        let mut best = [u64::MAX; K];
+        for (j, d) in dist.iter().enumerate() {
+            let mut x = ((d.to_bits() as u64) << 32) | j as u64;
+            for b in best.iter_mut() {
+                let lo = (*b).min(x);
+                x = (*b).max(x);
+                *b = lo;
             }
-            let mut at = if n < K { n } else { K - 1 };
-            n = (n + 1).min(K);
-            while at > 0 && bd[at - 1] > d {
-                bd[at] = bd[at - 1];
-                bj[at] = bj[at - 1];
-                at -= 1;
-            }
-            bd[at] = d;
-            bj[at] = j;
         }
+        let bd: [f32; K] = std::array::from_fn(|a| f32::from_bits((best[a] >> 32) as u32));
+        let bj: [usize; K] = std::array::from_fn(|a| (best[a] & 0xFFFF_FFFF) as usize);
         let v: [usize; K] = std::array::from_fn(|a| cls[bj[a]]);
         out.push(Some(vote.winner(&bd, &v, p.cutoff) as ClassId));
     }
