@@ -57,6 +57,25 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         raw: a.raw.clone(),
         unproject: a.unproject.map_or(Method::Cell, |m| a.knn.method(m)),
     };
+    // Map predictions of a SemanticKITTI conversion, with the scans at hand: scored per point
+    // by default (RangeNet++'s kNN), beside the cells, as the benchmark scores them.
+    let sequence = gt
+        .frames
+        .iter()
+        .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence);
+    let a = ScoreArgs {
+        unproject: a.unproject.or((sequence
+            && a.raw.is_some()
+            && !a.points
+            && !preds.points
+            && !matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_)))
+        .then_some(crate::commands::unproject::MethodArg::Knn)),
+        ..a
+    };
+    let opts = ScoreOptions {
+        unproject: a.unproject.map_or(Method::Cell, |m| a.knn.method(m)),
+        ..opts
+    };
     let opts = ScoreOptions {
         protocol: if a.unproject.is_some() {
             Protocol::Points

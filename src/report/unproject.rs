@@ -194,6 +194,7 @@ pub fn unproject_all(
         });
     }
     let (points, missing) = (AtomicU64::new(0), AtomicU64::new(0));
+    let points_failed = AtomicU64::new(0);
     let mut failures: Vec<UnprojectFailure> = frames
         .par_iter()
         .filter_map(|id| {
@@ -205,20 +206,42 @@ pub fn unproject_all(
                     missing.fetch_add(m, Ordering::Relaxed);
                     None
                 }
-                Err(e) => Some(UnprojectFailure {
-                    frame: id.to_string(),
-                    error: e.to_string(),
-                }),
+                Err(e) => {
+                    points_failed.fetch_add(1, Ordering::Relaxed);
+                    Some(UnprojectFailure {
+                        frame: id.to_string(),
+                        error: e.to_string(),
+                    })
+                }
             }
         })
         .collect();
+    // A prediction for a frame the ground truth does not hold (a scan that is not there, a
+    // misnamed file) is named, not skipped silently.
+    if opts.only.is_none() {
+        let truth: BTreeSet<&FrameId> = gt.frames.iter().collect();
+        for id in preds
+            .frame_ids()
+            .into_iter()
+            .filter(|id| !truth.contains(id))
+        {
+            failures.push(UnprojectFailure {
+                frame: id.to_string(),
+                error: format!(
+                    "{}: a prediction for a frame that is not in the ground truth {}",
+                    preds.path_of(id).display(),
+                    gt.path.display()
+                ),
+            });
+        }
+    }
     failures.sort_by(|a, b| a.frame.cmp(&b.frame));
     Ok(UnprojectSummary {
         method: match opts.method {
             Method::Cell => "cell".into(),
             Method::Knn(_) => "knn".into(),
         },
-        frames: (frames.len() - failures.len()) as u64,
+        frames: frames.len() as u64 - points_failed.load(Ordering::Relaxed),
         points: points.into_inner(),
         not_predicted: missing.into_inner(),
         failures,

@@ -355,3 +355,80 @@ fn base64_len(s: &str) -> usize {
     let pad = s.bytes().rev().take_while(|&b| b == b'=').count();
     s.len() / 4 * 3 - pad
 }
+
+#[test]
+fn semantickitti_map_predictions_score_per_point_by_default_with_every_point() {
+    let t = tmp();
+    let sk = fixture("semantickitti");
+    // A 90-degree map: most points are outside it, and the benchmark counts them.
+    let out = t.path().join("sk90");
+    let (code, _, e) = convert_json(&sk, &out, &["--preset", "squeezeseg"]);
+    assert_eq!(code, 0, "{e}");
+    let pred = t.path().join("pred");
+    perfect_predictions(&out, &pred);
+    let (code, stdout, e) = run_text(&[
+        "score",
+        "--gt",
+        s(&out),
+        "--pred",
+        s(&pred),
+        "--raw",
+        s(&sk),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{e}");
+    let by_default: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        by_default["unproject"], "knn",
+        "per point by default: {stdout}"
+    );
+    let back = t.path().join("back");
+    let (code, j, e) = {
+        let (c, o, e) = run_text(&[
+            "unproject",
+            "--gt",
+            s(&out),
+            "--pred",
+            s(&pred),
+            "--raw",
+            s(&sk),
+            "--out",
+            s(&back),
+            "--json",
+        ]);
+        (
+            c,
+            serde_json::from_str::<serde_json::Value>(&o).unwrap_or_default(),
+            e,
+        )
+    };
+    assert_eq!(code, 0, "{e}");
+    assert!(j["not_predicted"].as_u64().unwrap() > 80_000, "{j}");
+    let (code, bench, e) = run_text(&["score", "--gt", s(&sk), "--pred", s(&back), "--json"]);
+    assert_eq!(code, 0, "{e}");
+    let bench: serde_json::Value = serde_json::from_str(&bench).unwrap();
+    assert_eq!(
+        by_default["points"]["confusion"], bench["confusion"],
+        "exactly the benchmark's count"
+    );
+    assert_eq!(by_default["points"]["elements"], bench["elements"]);
+    // A prediction for a frame the ground truth does not hold is named.
+    let extra = pred.join("00_000007.npy");
+    std::fs::copy(pred.join("00_000000.npy"), &extra).unwrap();
+    let (code, _, e) = run_text(&[
+        "unproject",
+        "--gt",
+        s(&out),
+        "--pred",
+        s(&pred),
+        "--raw",
+        s(&sk),
+        "--out",
+        s(&t.path().join("b2")),
+    ]);
+    assert_eq!(code, 3, "{e}");
+    assert!(
+        e.contains("00_000007.npy") && e.contains("not in the ground truth"),
+        "{e}"
+    );
+}

@@ -172,6 +172,21 @@ pub fn score_frame(
                     c.count(t, p);
                 }
             }
+            // SemanticKITTI's benchmark scores every point of the scan: map predictions leave
+            // the points outside the map unlabeled (the background class), and they count.
+            if id.layout == Layout::Sequence && pred_points.is_none() {
+                let mut inside = vec![false; gt_points.len()];
+                for &(_, fi) in &point_cells {
+                    if let Some(v) = inside.get_mut(fi as usize) {
+                        *v = true;
+                    }
+                }
+                for (t, _) in gt_points.iter().zip(&inside).filter(|(_, i)| !**i) {
+                    if map.is_scored(*t) {
+                        c.count(*t, map.background);
+                    }
+                }
+            }
         }
     }
     let maps = want_maps.then_some(FrameMaps {

@@ -202,6 +202,15 @@ impl Predictions {
 }
 
 impl Predictions {
+    /// The file (or shard) holding frame `id`'s prediction; the folder when there is none.
+    pub fn path_of(&self, id: &FrameId) -> &Path {
+        match (self.files.get(id), self.in_shard.get(id)) {
+            (Some(p), _) => p,
+            (None, Some(&(k, _))) => &self.shards[k].0.path,
+            (None, None) => &self.root,
+        }
+    }
+
     /// Whether frame `id` has a prediction.
     pub fn has(&self, id: &FrameId) -> bool {
         self.files.contains_key(id) || self.in_shard.contains_key(id)
