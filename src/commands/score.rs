@@ -168,6 +168,16 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     Ok(Outcome::Ok)
 }
 
+/// The width of the class column: the longest class name, at least "class".
+fn name_width(map: &ClassMap) -> usize {
+    map.names()
+        .iter()
+        .map(|n| n.len())
+        .max()
+        .unwrap_or(5)
+        .max(5)
+}
+
 /// The cell (2D) and point (3D) figures of the same predictions, side by side.
 fn side_by_side(cells: &ScoreReport, points: &ScoreReport, map: &ClassMap) -> String {
     let mut t = String::new();
@@ -177,13 +187,7 @@ fn side_by_side(cells: &ScoreReport, points: &ScoreReport, map: &ClassMap) -> St
         "{} frames: {} cells (2D) and {} points (3D) scored",
         points.frames, cells.elements, points.elements
     );
-    let w = map
-        .names()
-        .iter()
-        .map(|n| n.len())
-        .max()
-        .unwrap_or(5)
-        .max(5);
+    let w = name_width(map);
     let _ = writeln!(
         t,
         "\n{:<w$} {:>9} {:>9} {:>9} {:>12}",
@@ -237,13 +241,7 @@ fn table(r: &ScoreReport, map: &ClassMap, full_confusion: bool) -> String {
         "{} frames, {} {what} scored ({} frames without prediction scored as background)",
         r.frames, r.elements, r.missing_frames
     );
-    let w = map
-        .names()
-        .iter()
-        .map(|n| n.len())
-        .max()
-        .unwrap_or(5)
-        .max(5);
+    let w = name_width(map);
     let _ = writeln!(
         t,
         "\n{:<w$} {:>8} {:>10} {:>8} {:>12}",

@@ -1,52 +1,14 @@
 //! Nothing lost silently, round two: one regression test per defect of the second hostile
 //! audit (issue 18), each named after its defect, on the real fixtures.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::path::Path;
+use std::time::Duration;
 
 use crate::util::*;
-
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-}
-
-/// A writable copy of `fixtures/<name>` under `dir`.
-fn copy_of(name: &str, dir: &Path) -> PathBuf {
-    let to = dir.join(name);
-    copy_tree(&fixture(name), &to);
-    to
-}
 
 /// The `.npy` files of a convert folder as (name, bytes).
 fn maps(out: &Path) -> Vec<(String, Vec<u8>)> {
     tree_bytes(&out.join("lidar_2d"))
-}
-
-/// Runs the binary, killing it after `limit`; `None` when it had to be killed (a hang).
-fn run_limited(args: &[&str], limit: Duration) -> Option<(i32, String)> {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_kitti2pgm"))
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            let mut e = String::new();
-            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut e).unwrap();
-            return Some((status.code().unwrap_or(-1), e));
-        }
-        if start.elapsed() > limit {
-            child.kill().unwrap();
-            child.wait().unwrap();
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
 }
 
 #[test]

@@ -6,8 +6,7 @@
 //! in process for longer.
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 #[path = "../../examples/fuzz_parsers/mutate.rs"]
 mod mutate;
@@ -19,26 +18,10 @@ use crate::util::*;
 
 /// Runs the binary with a deadline; returns (exit code, stderr). Panics on a hang or a panic.
 fn run_bounded(args: &[&str]) -> (i32, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_kitti2pgm"))
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            let mut err = String::new();
-            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
-            assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-            return (status.code().unwrap_or(-1), err);
-        }
-        if Instant::now() > deadline {
-            child.kill().unwrap();
-            panic!("{args:?} hung");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    let (code, err) =
+        run_limited(args, Duration::from_secs(60)).unwrap_or_else(|| panic!("{args:?} hung"));
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    (code, err)
 }
 
 /// Checks that a conversion that exited 0 wrote outputs consistent with its input: one map and
@@ -143,18 +126,6 @@ fn mutated_shards_are_refused() {
     }
 }
 
-/// A writable copy of `fixtures/<name>` under `dir`.
-fn fixture_copy_of(name: &str, dir: &Path) -> std::path::PathBuf {
-    let to = dir.join(name);
-    copy_tree(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("fixtures")
-            .join(name),
-        &to,
-    );
-    to
-}
-
 #[test]
 fn mutated_object_and_semantickitti_inputs_never_panic_hang_or_pass_wrong() {
     let t = tmp();
@@ -172,12 +143,11 @@ fn mutated_object_and_semantickitti_inputs_never_panic_hang_or_pass_wrong() {
     ];
     let mut run = 0;
     for (source, file, frame) in kinds {
-        let original =
-            std::fs::read(fixture_copy_of(source, &t.path().join("orig")).join(file)).unwrap();
+        let original = std::fs::read(copy_of(source, &t.path().join("orig")).join(file)).unwrap();
         for _ in 0..8 {
             run += 1;
             let dir = t.path().join(format!("run{run}"));
-            let root = fixture_copy_of(source, &dir);
+            let root = copy_of(source, &dir);
             std::fs::write(root.join(file), mutate(&original, &mut rng)).unwrap();
             let out = dir.join("out");
             let (code, err) = run_bounded(&[

@@ -1,15 +1,7 @@
 //! A newcomer's first hour (issue 20): presets, built-in class map names, messages that name
 //! the expected layouts, outputs that are where the README says.
 
-use std::path::{Path, PathBuf};
-
 use crate::util::*;
-
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-}
 
 #[test]
 fn semantickitti_defaults_to_the_full_360_map_and_presets_apply() {

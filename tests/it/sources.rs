@@ -2,7 +2,7 @@
 //! `../shared` where present): labels checked against independent computations, the
 //! 360-degree preset against elevation binning, and their bad inputs.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use kitti2pgm::format::npy::read_f32;
 use kitti2pgm::geom::na;
@@ -11,12 +11,6 @@ use kitti2pgm::kitti::object;
 use kitti2pgm::label::ClassMap;
 
 use crate::util::*;
-
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-}
 
 fn points(bin: &Path) -> Vec<[f32; 4]> {
     std::fs::read(bin)

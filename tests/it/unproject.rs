@@ -10,12 +10,6 @@ use kitti2pgm::project::{project_with_point_cells, PgmSpec, EMPTY};
 
 use crate::util::*;
 
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures")
-        .join(name)
-}
-
 /// A `|u1` (H, W) `.npy` holding `labels`.
 fn write_label_map(path: &Path, labels: &[u8], (h, w): (usize, usize)) {
     let header = format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({h}, {w}), }}");

@@ -19,6 +19,45 @@ pub fn raw_root() -> PathBuf {
     shared().map(|s| s.join("raw")).unwrap_or_else(fixtures)
 }
 
+/// `fixtures/<name>` (raw, semantickitti, kitti_object).
+pub fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+/// A writable copy of `fixtures/<name>` under `dir`.
+pub fn copy_of(name: &str, dir: &Path) -> PathBuf {
+    let to = dir.join(name);
+    copy_tree(&fixture(name), &to);
+    to
+}
+
+/// Runs the binary, killing it after `limit`: (exit code, stderr), or `None` when it had to be
+/// killed (a hang).
+pub fn run_limited(args: &[&str], limit: std::time::Duration) -> Option<(i32, String)> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_kitti2pgm"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run kitti2pgm");
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut e = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut e).unwrap();
+            return Some((status.code().unwrap_or(-1), e));
+        }
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            return None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
 /// The fixture drive folder of drive `n`.
 pub fn fixture_drive(n: u32) -> PathBuf {
     fixtures().join(format!("2011_09_26/2011_09_26_drive_{n:04}_sync"))
