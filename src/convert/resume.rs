@@ -24,7 +24,7 @@ use std::sync::Mutex;
 use super::ConvertOptions;
 use crate::error::{Error, Result};
 use crate::format::layout::{self, OutputDir};
-use crate::format::{npy, summary};
+use crate::format::npy;
 use crate::kitti::velodyne::POINT_BYTES;
 use crate::kitti::FrameId;
 use crate::params::ConvertParams;
@@ -148,11 +148,6 @@ impl JournalRecord {
     /// Whether the journal was started with `params`.
     pub fn made_with(&self, params: &ConvertParams) -> bool {
         self.params == params_key(params)
-    }
-
-    /// The recorded parameters, typed (`None` when another version wrote them).
-    pub fn typed_params(&self) -> Option<ConvertParams> {
-        serde_json::from_str(&self.params).ok()
     }
 }
 
@@ -332,9 +327,4 @@ pub fn remove_frame_files(id: &FrameId, opts: &ConvertOptions) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Whether the folder's recorded run finished (`None`: no summary).
-pub fn recorded_complete(out: &OutputDir) -> Result<Option<bool>> {
-    Ok(summary::read(&out.summary_path())?.map(|s| s.complete))
 }
