@@ -271,147 +271,118 @@ fn knn_fixed<const S: usize, const N: usize, const K: usize>(
             continue;
         }
         let (row, col) = (cell as usize / cols, cell as usize % cols);
-        if !(row >= half && row + half < rows && col >= half && col + half < cols) {
-            // Near an edge: the general code, one point.
-            let one = PointsInMap {
-                point_cell: std::slice::from_ref(&cell),
-                point_range: std::slice::from_ref(&r),
-                ..*m
-            };
-            out.push(knn_with(&one, pred, p, &vote)[0]);
-            continue;
-        }
         let mut dist = [0f32; N];
         let mut cls = [0usize; N];
-        let top = (row - half) * cols + col - half;
-        for dy in 0..S {
-            let base = top + dy * cols;
-            let rr: &[f32; S] = far[base..base + S].try_into().expect("S cells");
-            let pp: &[u8; S] = pred[base..base + S].try_into().expect("S cells");
-            for x in 0..S {
-                dist[dy * S + x] = (rr[x] - r).abs() * w[dy * S + x];
-                cls[dy * S + x] = pp[x] as usize;
+        if row >= half && row + half < rows && col >= half && col + half < cols {
+            // The common case: the window lies in the map; its rows are contiguous.
+            let top = (row - half) * cols + col - half;
+            for dy in 0..S {
+                let base = top + dy * cols;
+                let rr: &[f32; S] = far[base..base + S].try_into().expect("S cells");
+                let pp: &[u8; S] = pred[base..base + S].try_into().expect("S cells");
+                for x in 0..S {
+                    dist[dy * S + x] = (rr[x] - r).abs() * w[dy * S + x];
+                    cls[dy * S + x] = pp[x] as usize;
+                }
             }
+            dist[centre] = 0.0;
+        } else {
+            window(m, pred, p, &vote, (row, col, r), &mut dist, &mut cls);
         }
-        dist[centre] = 0.0;
-        // The K smallest, ties to the earlier cell: a distance is never negative, so its bits
-        // order as it does; with the cell's index below them, every key is distinct.
-        // Branch free: each key passes down a sorted list of K, leaving the smaller behind.
         let mut best = [u64::MAX; K];
-        for (j, d) in dist.iter().enumerate() {
-            let mut x = ((d.to_bits() as u64) << 32) | j as u64;
-            for b in best.iter_mut() {
-                let lo = (*b).min(x);
-                x = (*b).max(x);
-                *b = lo;
-            }
-        }
+        k_smallest(&dist, &mut best);
         let bd: [f32; K] = std::array::from_fn(|a| f32::from_bits((best[a] >> 32) as u32));
-        let bj: [usize; K] = std::array::from_fn(|a| (best[a] & 0xFFFF_FFFF) as usize);
-        let v: [usize; K] = std::array::from_fn(|a| cls[bj[a]]);
+        let v: [usize; K] = std::array::from_fn(|a| cls[(best[a] & 0xFFFF_FFFF) as usize]);
         out.push(Some(vote.winner(&bd, &v, p.cutoff) as ClassId));
     }
     out
 }
 
-/// The vote of every point (see the module docs).
+/// The K smallest distances of a window (K = `best.len()`), as keys: the distance's bits above
+/// the window cell's index. A distance is never negative, so its bits order as it does, and
+/// with the index every key is distinct: ties go to the earlier cell. Branch free: each key
+/// passes down the sorted list, leaving the smaller behind. `best` must start at `u64::MAX`.
+#[inline(always)]
+fn k_smallest(dist: &[f32], best: &mut [u64]) {
+    for (j, d) in dist.iter().enumerate() {
+        let mut x = ((d.to_bits() as u64) << 32) | j as u64;
+        for b in best.iter_mut() {
+            let lo = (*b).min(x);
+            x = (*b).max(x);
+            *b = lo;
+        }
+    }
+}
+
+/// The distances and classes of the window around the point at `(row, col)` of range `r`,
+/// row-major, any window: zero padding outside the map (or the columns wrapped), the centre
+/// at distance 0.
+fn window(
+    m: &PointsInMap<'_>,
+    pred: &[ClassId],
+    p: &KnnParams,
+    vote: &Vote,
+    (row, col, r): (usize, usize, f32),
+    dist: &mut [f32],
+    cls: &mut [usize],
+) {
+    let s = p.window;
+    let half = (s / 2) as isize;
+    let (rows, cols) = (m.rows as isize, m.cols as isize);
+    for dy in 0..s {
+        for dx in 0..s {
+            let j = dy * s + dx;
+            let rr = row as isize + dy as isize - half;
+            let mut cc = col as isize + dx as isize - half;
+            if p.wrap_columns {
+                cc = cc.rem_euclid(cols);
+            }
+            let (range, class) = if rr < 0 || rr >= rows || cc < 0 || cc >= cols {
+                (0.0, vote.pad_vote)
+            } else {
+                let k = (rr * cols + cc) as usize;
+                (vote.far[k], pred[k] as usize)
+            };
+            dist[j] = (range - r).abs() * vote.weights[j];
+            cls[j] = class;
+        }
+    }
+    dist[(half as usize) * s + half as usize] = 0.0;
+}
+
+/// The vote of every point, any window and k (see the module docs).
 fn knn(
     m: &PointsInMap<'_>,
     pred: &[ClassId],
     p: &KnnParams,
     classes: &ClassMap,
 ) -> Vec<Option<ClassId>> {
-    knn_with(m, pred, p, &Vote::new(m, p, classes))
-}
-
-/// The general kNN, any window and k.
-fn knn_with(
-    m: &PointsInMap<'_>,
-    pred: &[ClassId],
-    p: &KnnParams,
-    vote_of: &Vote,
-) -> Vec<Option<ClassId>> {
-    let (far, weights) = (&vote_of.far, &vote_of.weights);
-    let pad_vote = vote_of.pad_vote;
-    let s = p.window;
-    let half = s / 2;
-    let (rows, cols) = (m.rows, m.cols);
-    let centre = half * s + half;
-    let mut dist = vec![0f32; s * s];
-    let mut vote = vec![0usize; s * s];
-    // The k nearest so far, as (distance, window cell), sorted; ties keep the earlier cell.
-    let mut best_d = vec![0f32; p.k];
-    let mut best_j = vec![0usize; p.k];
-    let mut out = Vec::with_capacity(m.point_cell.len());
-    for (&cell, &r) in m.point_cell.iter().zip(m.point_range) {
-        if cell == EMPTY {
-            out.push(None);
-            continue;
-        }
-        let (row, col) = (cell as usize / cols, cell as usize % cols);
-        let inside = row >= half && row + half < rows && col >= half && col + half < cols;
-        if inside {
-            // The common case: the window lies in the map; rows of it are contiguous.
-            let top = (row - half) * cols + col - half;
-            for dy in 0..s {
-                let base = top + dy * cols;
-                let (rr, pp) = (&far[base..base + s], &pred[base..base + s]);
-                let (dd, ww, vv) = (
-                    &mut dist[dy * s..dy * s + s],
-                    &weights[dy * s..dy * s + s],
-                    &mut vote[dy * s..dy * s + s],
-                );
-                for x in 0..s {
-                    dd[x] = (rr[x] - r).abs() * ww[x];
-                    vv[x] = pp[x] as usize;
-                }
+    let vote = Vote::new(m, p, classes);
+    let mut dist = vec![0f32; p.window * p.window];
+    let mut cls = vec![0usize; p.window * p.window];
+    let mut best = vec![u64::MAX; p.k];
+    m.point_cell
+        .iter()
+        .zip(m.point_range)
+        .map(|(&cell, &r)| {
+            if cell == EMPTY {
+                return None;
             }
-        } else {
-            for dy in 0..s {
-                for dx in 0..s {
-                    let j = dy * s + dx;
-                    let rr = row as isize + dy as isize - half as isize;
-                    let mut cc = col as isize + dx as isize - half as isize;
-                    if p.wrap_columns {
-                        cc = cc.rem_euclid(cols as isize);
-                    }
-                    let (range, class) =
-                        if rr < 0 || rr >= rows as isize || cc < 0 || cc >= cols as isize {
-                            (0.0, pad_vote)
-                        } else {
-                            let k = rr as usize * cols + cc as usize;
-                            (far[k], pred[k] as usize)
-                        };
-                    dist[j] = (range - r).abs() * weights[j];
-                    vote[j] = class;
-                }
-            }
-        }
-        // The centre compares the point with itself.
-        dist[centre] = 0.0;
-        // The k smallest, ties to the earlier cell: insertion into a short sorted list.
-        let mut n = 0;
-        for (j, &d) in dist.iter().enumerate() {
-            if n == p.k && d >= best_d[n - 1] {
-                continue;
-            }
-            let mut at = n.min(p.k - 1);
-            if n < p.k {
-                n += 1;
-            }
-            while at > 0 && best_d[at - 1] > d {
-                best_d[at] = best_d[at - 1];
-                best_j[at] = best_j[at - 1];
-                at -= 1;
-            }
-            best_d[at] = d;
-            best_j[at] = j;
-        }
-        let votes: Vec<usize> = (0..n).map(|a| vote[best_j[a]]).collect();
-        let winner = vote_of.winner(&best_d[..n], &votes, p.cutoff);
-        out.push(Some(winner as ClassId));
-    }
-    out
+            let (row, col) = (cell as usize / m.cols, cell as usize % m.cols);
+            window(m, pred, p, &vote, (row, col, r), &mut dist, &mut cls);
+            best.fill(u64::MAX);
+            k_smallest(&dist, &mut best);
+            let d: Vec<f32> = best
+                .iter()
+                .map(|b| f32::from_bits((b >> 32) as u32))
+                .collect();
+            let v: Vec<usize> = best
+                .iter()
+                .map(|b| cls[(b & 0xFFFF_FFFF) as usize])
+                .collect();
+            Some(vote.winner(&d, &v, p.cutoff) as ClassId)
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -64,7 +64,8 @@ def noisy(label_map, share, seed):
                                    dict(cols=512, fov_deg=90.0)])
 @pytest.mark.parametrize("params", [dict(k=5, window=5, sigma=1.0, cutoff=1.0),
                                     dict(k=3, window=3, sigma=0.7, cutoff=0.5),
-                                    dict(k=7, window=7, sigma=2.0, cutoff=0.0)])
+                                    dict(k=7, window=7, sigma=2.0, cutoff=0.0),
+                                    dict(k=4, window=5, sigma=1.5, cutoff=2.0)])  # the general path
 def test_knn_equals_the_reference_point_for_point(scan, shape, params):
     pts = scan["points"]
     m = k2.project(pts, labels=scan["label"], **shape)
