@@ -160,16 +160,8 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
         eprintln!("kitti2pgm: {}: {}", f.frame, f.error);
     }
     if let Some(viz) = &a.viz {
-        let failed: Vec<&str> = s.failures.iter().map(|f| f.frame.as_str()).collect();
-        let frames: Vec<_> = gt
-            .frames
-            .iter()
-            .filter(|f| preds.has(f))
-            .filter(|f| opts.only.as_ref().is_none_or(|o| o.contains(f)))
-            .filter(|f| !failed.contains(&f.to_string().as_str()))
-            .cloned()
-            .collect();
-        write_viz(&gt, &opts, &frames, viz)?;
+        let frames = &s.written;
+        write_viz(&gt, &opts, frames, viz)?;
         if !a.json {
             println!("viz              {:>10}  ({})", frames.len(), viz.display());
         }

@@ -49,20 +49,24 @@ fn convert_folder(gt: &GroundTruth) -> Option<OutputDir> {
 /// that says the run did not finish, maps the conversion's journal does not list, a frame
 /// in two shards.
 pub(crate) fn problem(gt: &GroundTruth) -> Result<Option<String>> {
-    if let Source::Shards(shards) = &gt.source {
-        let mut seen = std::collections::BTreeMap::new();
+    // The shards' frames are already listed (sorted) in `gt.frames`: a frame twice there is in
+    // two shards; only then are the shards read again, to name both.
+    if let (Source::Shards(shards), Some(twice)) = (
+        &gt.source,
+        gt.frames.windows(2).find(|w| w[0] == w[1]).map(|w| &w[0]),
+    ) {
+        let name = twice.to_string();
+        let mut holders = Vec::new();
         for s in shards {
             let md = Shard::open(s)?.metadata()?;
-            for f in md.frames.iter().filter(|f| !md.failed.contains(f)) {
-                if let Some(first) = seen.insert(f.clone(), s.clone()) {
-                    return Ok(Some(format!(
-                        "frame {f} is in two shards, {} and {} (shards of two conversions?)",
-                        first.display(),
-                        s.display()
-                    )));
-                }
+            if md.frames.contains(&name) && !md.failed.contains(&name) {
+                holders.push(s.display().to_string());
             }
         }
+        return Ok(Some(format!(
+            "frame {name} is in two shards, {} (shards of two conversions?)",
+            holders.join(" and ")
+        )));
     }
     let Some(dir) = convert_folder(gt) else {
         return Ok(None);

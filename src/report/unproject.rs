@@ -77,6 +77,9 @@ pub struct UnprojectSummary {
     pub failures: Vec<UnprojectFailure>,
     /// Where the files are (`OUT/sequences` or `OUT/labels`).
     pub written_to: PathBuf,
+    /// The frames written, in order.
+    #[serde(skip)]
+    pub written: Vec<FrameId>,
 }
 
 /// The output path of a frame's per-point predictions.
@@ -194,7 +197,6 @@ pub fn unproject_all(
         });
     }
     let (points, missing) = (AtomicU64::new(0), AtomicU64::new(0));
-    let points_failed = AtomicU64::new(0);
     let mut failures: Vec<UnprojectFailure> = frames
         .par_iter()
         .filter_map(|id| {
@@ -206,13 +208,10 @@ pub fn unproject_all(
                     missing.fetch_add(m, Ordering::Relaxed);
                     None
                 }
-                Err(e) => {
-                    points_failed.fetch_add(1, Ordering::Relaxed);
-                    Some(UnprojectFailure {
-                        frame: id.to_string(),
-                        error: e.to_string(),
-                    })
-                }
+                Err(e) => Some(UnprojectFailure {
+                    frame: id.to_string(),
+                    error: e.to_string(),
+                }),
             }
         })
         .collect();
@@ -236,16 +235,26 @@ pub fn unproject_all(
         }
     }
     failures.sort_by(|a, b| a.frame.cmp(&b.frame));
+    let written: Vec<FrameId> = frames
+        .iter()
+        .filter(|f| {
+            failures
+                .binary_search_by(|x| x.frame.as_str().cmp(&f.to_string()))
+                .is_err()
+        })
+        .map(|f| (*f).clone())
+        .collect();
     Ok(UnprojectSummary {
         method: match opts.method {
             Method::Cell => "cell".into(),
             Method::Knn(_) => "knn".into(),
         },
-        frames: frames.len() as u64 - points_failed.load(Ordering::Relaxed),
+        frames: written.len() as u64,
         points: points.into_inner(),
         not_predicted: missing.into_inner(),
         failures,
         written_to: opts.out.join(if sequence { "sequences" } else { "labels" }),
+        written,
     })
 }
 

@@ -40,6 +40,7 @@ pub fn score_frame(
     // Per point: (cell, file index) of each point in the field of view, from the scan.
     let mut point_cells: Vec<(u32, u32)> = Vec::new();
     let mut cell_winner_file: Vec<u32> = Vec::new();
+    // The projection and the points' ranges, kept for the kNN (--unproject knn).
     let mut scan_cells: Option<(crate::project::Projection, Vec<f32>)> = None;
     if needs_scan {
         let raw = opts.raw.as_ref().ok_or_else(|| {
@@ -74,8 +75,11 @@ pub fn score_frame(
             .filter(|(c, _)| **c != EMPTY)
             .map(|(c, f)| (*c, *f))
             .collect();
-        let range = scan.points.iter().map(crate::project::norm).collect();
-        scan_cells = Some((proj, range));
+        // The points' ranges only where the kNN compares them.
+        if matches!(opts.unproject, Method::Knn(_)) {
+            let range = scan.points.iter().map(crate::project::norm).collect();
+            scan_cells = Some((proj, range));
+        }
     }
     // Predicted class per cell.
     let pred_cells: Vec<u8> = match (pred_file, preds.points) {
