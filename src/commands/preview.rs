@@ -15,9 +15,8 @@ use crate::Outcome;
 /// Per-point predictions drawn against their scans (`--raw`): one picture per frame.
 fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome> {
     use kitti2pgm::draw::points::point_prediction_chart;
-    use kitti2pgm::kitti::velodyne::Scan;
     use kitti2pgm::report::score::Predictions;
-    use kitti2pgm::report::unproject::{point_truth, read_point_predictions};
+    use kitti2pgm::report::unproject::load_point_frame;
     let gt = a.gt.as_ref().map(OutputDir::new);
     let recorded = match &gt {
         Some(d) => summary::read(&d.summary_path())?.map(|s| s.params.map.class_map),
@@ -37,44 +36,22 @@ fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome>
             let map = recorded
                 .clone()
                 .unwrap_or_else(|| ClassMap::default_for(id.layout));
-            let drive = kitti2pgm::report::score::frame::raw_drive(raw, id)?;
-            let scan = Scan::read(&drive.scan_path(id.frame))?;
-            let pred = read_point_predictions(path, id, &map)?;
-            if pred.len() != scan.file_len {
-                bail!(
-                    "{}: {} labels, the scan {} has {} points",
-                    path.display(),
-                    pred.len(),
-                    drive.scan_path(id.frame).display(),
-                    scan.file_len
-                );
-            }
-            let truth = point_truth(raw, id, &map, gt.as_ref())?;
-            let kept = scan.file_indices();
-            let pick = |v: &[Option<u8>]| -> Vec<Option<u8>> {
-                kept.iter()
-                    .map(|&i| v.get(i as usize).copied().flatten())
-                    .collect()
-            };
-            let pred_kept = pick(&pred);
-            let truth_kept = match &truth {
-                Some(t) => pick(t),
-                None => vec![None; kept.len()],
-            };
-            let (rings, _) = kitti2pgm::project::rings(&scan.points);
+            let f = load_point_frame(raw, id, path, &map, gt.as_ref())?;
+            let no_truth = vec![None; f.pred.len()];
+            let (rings, _) = kitti2pgm::project::rings(&f.scan.points);
             let caption = format!(
                 "{id}: per-point prediction{}",
-                if truth.is_none() {
+                if f.truth.is_none() {
                     " (no truth here)"
                 } else {
                     ""
                 }
             );
             let img = point_prediction_chart(
-                &scan.points,
+                &f.scan.points,
                 rings.as_deref(),
-                &truth_kept,
-                &pred_kept,
+                f.truth.as_deref().unwrap_or(&no_truth),
+                &f.pred,
                 &map,
                 &caption,
             );

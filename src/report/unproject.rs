@@ -319,6 +319,53 @@ pub fn point_truth(
     }
 }
 
+/// A scan with its per-point predictions and truth, each per kept point (the scan's order).
+pub struct PointFrame {
+    /// The scan as read.
+    pub scan: Scan,
+    /// Each point's predicted class (`None`: not predicted).
+    pub pred: Vec<Option<ClassId>>,
+    /// Each point's true class, when there is a truth ([`point_truth`]).
+    pub truth: Option<Vec<Option<ClassId>>>,
+}
+
+/// Reads frame `id`'s scan under `raw`, its per-point predictions from `pred_path` (which must
+/// hold one entry per point of the scan) and its truth.
+pub fn load_point_frame(
+    raw: &Path,
+    id: &FrameId,
+    pred_path: &Path,
+    map: &ClassMap,
+    gt: Option<&OutputDir>,
+) -> Result<PointFrame> {
+    let scan_path = raw_drive(raw, id)?.scan_path(id.frame);
+    let scan = Scan::read(&scan_path)?;
+    let pred = read_point_predictions(pred_path, id, map)?;
+    if pred.len() != scan.file_len {
+        return Err(Error::format(
+            pred_path,
+            format!(
+                "{} labels, the scan {} has {} points",
+                pred.len(),
+                scan_path.display(),
+                scan.file_len
+            ),
+        ));
+    }
+    let truth = point_truth(raw, id, map, gt)?;
+    let kept = scan.file_indices();
+    let pick = |v: &[Option<ClassId>]| -> Vec<Option<ClassId>> {
+        kept.iter()
+            .map(|&i| v.get(i as usize).copied().flatten())
+            .collect()
+    };
+    Ok(PointFrame {
+        pred: pick(&pred),
+        truth: truth.as_deref().map(pick),
+        scan,
+    })
+}
+
 /// Writes the per-point predictions of `frames` (as [`unproject_all`] wrote them under
 /// `opts.out`) to an MCAP file for Foxglove (`/kitti2pgm/viz/points`, atomically): each scan's
 /// points coloured by their predicted class, the points whose prediction differs from the truth
@@ -357,26 +404,27 @@ pub fn write_viz(
         .map_err(merr)?;
     let channels = VizChannels::add(&mut w).map_err(merr)?;
     for (k, id) in frames.iter().enumerate() {
-        let drive = raw_drive(&opts.raw, id)?;
-        let scan = Scan::read(&drive.scan_path(id.frame))?;
-        let pred = read_point_predictions(&prediction_path(&opts.out, id), id, map)?;
-        let truth = point_truth(&opts.raw, id, map, gt.dir.as_ref())?;
+        let f = load_point_frame(
+            &opts.raw,
+            id,
+            &prediction_path(&opts.out, id),
+            map,
+            gt.dir.as_ref(),
+        )?;
         let mut v = VizFrame {
             colours: colours.clone(),
             ..Default::default()
         };
-        for (i, fi) in scan.file_indices().into_iter().enumerate() {
-            let Some(p) = pred.get(fi as usize).copied().flatten() else {
+        for (i, p) in f.pred.iter().enumerate() {
+            let Some(p) = *p else {
                 continue;
             };
-            let t = truth
-                .as_ref()
-                .and_then(|t| t.get(fi as usize).copied().flatten());
+            let t = f.truth.as_ref().and_then(|t| t[i]);
             let c = match t {
                 Some(t) if map.is_scored(t) && t != p => wrong,
                 _ => p,
             };
-            v.points.push((scan.points[i], scan.reflectance[i], c));
+            v.points.push((f.scan.points[i], f.scan.reflectance[i], c));
         }
         let time = k as u64 * 100_000_000;
         channels.write(&mut w, &v, k as u32, time).map_err(merr)?;
