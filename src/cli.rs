@@ -84,6 +84,18 @@ pub enum Command {
     /// per point; nothing missing or extra; every problem named (exit status 1). --zip packs a
     /// valid folder in the benchmark's layout, with description.txt.
     Submission(crate::commands::submission::SubmissionArgs),
+    /// Lint a dataset before training on it: inventory and annotation coverage, calibration
+    /// (rotations, projections, the camera's view of the points, camera/LiDAR alignment),
+    /// boxes (sizes, pose jumps, heading flips, overlaps, boxes off the ground, empty boxes,
+    /// annotations that end while the object is still there, frames whose annotation thins
+    /// out), per-point labels (unknown ids, instances with several classes, moving classes that
+    /// do not move) and the split (class balance, drives in both splits).
+    ///
+    /// Each finding has a severity (error: the data is wrong or unusable; warning: likely wrong;
+    /// note), the check, the file, the frame and the object. --list names every check and
+    /// threshold (docs/check.md explains them). Exit status: 0 clean, 3 when a finding reaches
+    /// --fail-on (default error), 1 when the root cannot be read at all.
+    Check(crate::commands::check::CheckArgs),
     /// Describe MCAP shards: frames, channels, sizes, compression ratio, class counts, and the
     /// conversion parameters stored in them. Fails, naming the shard and frame, on a corrupted one.
     Inspect(InspectArgs),

@@ -22,6 +22,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod check;
 pub mod convert;
 pub mod draw;
 pub mod error;

@@ -22,13 +22,15 @@ pub enum Outcome {
     Ok,
     /// Done, but some items (frames) failed and were reported.
     Partial,
+    /// Done, and the findings reach the severity asked to fail on (`check`).
+    Findings,
 }
 
 fn main() -> ExitCode {
     let args = cli::Args::parse();
     match commands::run(args) {
         Ok(Outcome::Ok) => ExitCode::SUCCESS,
-        Ok(Outcome::Partial) => ExitCode::from(3),
+        Ok(Outcome::Partial | Outcome::Findings) => ExitCode::from(3),
         Err(e) => {
             if let Some(io) = e.downcast_ref::<std::io::Error>() {
                 if io.kind() == std::io::ErrorKind::BrokenPipe {

@@ -1,5 +1,6 @@
 //! One module per subcommand; each turns its clap struct into library options and runs it.
 
+pub mod check;
 mod convert;
 mod inspect;
 mod preview;
@@ -20,6 +21,7 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
         progress: !args.no_progress,
     };
     match args.command {
+        Command::Check(a) => check::run(a, &global),
         Command::Convert(a) => convert::run(a, &global),
         Command::Preview(a) => preview::run(a),
         Command::Split(a) => split::run(a),

@@ -7,6 +7,7 @@
 //!
 //! Class colours always come from the class map.
 
+pub mod boxes;
 pub mod charts;
 pub mod points;
 pub mod preview;

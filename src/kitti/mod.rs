@@ -20,6 +20,7 @@ pub mod camera;
 mod discover;
 pub mod object;
 pub mod oxts;
+pub mod poses;
 pub mod timestamps;
 pub mod tracklets;
 pub mod velodyne;

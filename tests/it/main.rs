@@ -5,6 +5,7 @@ mod architecture;
 mod audit;
 mod audit2;
 mod bad_input;
+mod check;
 mod cli;
 mod cloud;
 mod fuzz;

@@ -158,3 +158,18 @@ pub fn convert_json(root: &Path, out: &Path, extra: &[&str]) -> (i32, serde_json
     let j = serde_json::from_str(&stdout).unwrap_or(serde_json::Value::Null);
     (code, j, stderr)
 }
+
+/// `../shared/<sub>`, for the tests marked `#[ignore = "needs ../shared"]`: `tools/run-tests.sh`
+/// runs them (`--include-ignored`) where `../shared` is present, and there a missing file fails
+/// the test instead of passing it silently.
+pub fn needs_shared(sub: &str) -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared")
+        .join(sub);
+    assert!(
+        p.exists(),
+        "{} is missing: this test needs ../shared beside the checkout",
+        p.display()
+    );
+    p
+}

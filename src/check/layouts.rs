@@ -1,0 +1,282 @@
+//! Each layout's own files: raw drives (tracklets, day calibration, timestamps, OXTS), sequences
+//! (calib.txt, poses, times, per-point labels) and the object set (label_2, calib), read into
+//! the [`DriveRead`] and compared with the scans.
+
+use super::inventory::{frames_in, missing, read_or_note, DriveRead};
+use super::{frame_ranges, CheckName as C, Collector, Severity as S};
+use crate::kitti::calib::{Calibration, FrameCalib, CAM_TO_CAM, VELO_TO_CAM};
+use crate::kitti::object;
+use crate::kitti::timestamps;
+use crate::kitti::tracklets::Tracklets;
+use crate::kitti::{poses, Drive};
+
+pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
+    let tpath = drive.tracklets_path();
+    if tpath.is_file() {
+        r.tracklets = read_or_note(c, C::Read, &tpath, Tracklets::read(&tpath));
+    } else {
+        c.add(
+            C::Inventory,
+            S::Warning,
+            &tpath,
+            None,
+            None,
+            "no tracklet_labels.xml: every point of this drive would be background".into(),
+        );
+    }
+    let date = drive.date_dir();
+    if [CAM_TO_CAM, VELO_TO_CAM]
+        .iter()
+        .all(|f| date.join(f).is_file())
+    {
+        r.calib = read_or_note(c, C::Calibration, &date, Calibration::read_dir(&date));
+    } else if !r.scans.is_empty() {
+        c.add(C::Inventory, S::Note, &date, None, None,
+            format!("no {CAM_TO_CAM} / {VELO_TO_CAM} beside the drive: colour (--rgb) and the camera checks are not possible"));
+    }
+    let ts = drive.scan_timestamps_path();
+    if ts.is_file() {
+        r.timestamps = read_or_note(c, C::Read, &ts, timestamps::read(&ts));
+        r.inventory.timestamps = r.timestamps.as_ref().map(Vec::len);
+    }
+    let oxts = drive.dir.join("oxts/data");
+    if oxts.is_dir() {
+        let frames = frames_in(&oxts, 10, ".txt");
+        r.inventory.poses = Some(frames.len());
+        let scans: Vec<u32> = r.scans.keys().copied().collect();
+        missing(
+            c,
+            C::Inventory,
+            S::Warning,
+            &oxts,
+            &scans,
+            &frames,
+            "scans without an OXTS record",
+        );
+    }
+    let Some(t) = &r.tracklets else { return };
+    let annotated: Vec<u32> = (0..t.end_frame()).filter(|&f| t.count_at(f) > 0).collect();
+    r.inventory.annotated = annotated.len();
+    r.inventory.annotated_range = annotated
+        .first()
+        .zip(annotated.last())
+        .map(|(a, b)| (*a, *b));
+    if let Some(n) = r.inventory.timestamps {
+        let all: Vec<u32> = (0..n as u32).collect();
+        let scans: Vec<u32> = r.scans.keys().copied().collect();
+        if !scans.is_empty() {
+            missing(
+                c,
+                C::Inventory,
+                S::Warning,
+                &ts,
+                &all,
+                &scans,
+                &format!("frames listed in the timestamps ({n}) have no scan"),
+            );
+        }
+        if t.end_frame() as usize > n {
+            c.add(
+                C::Coverage,
+                S::Error,
+                &tpath,
+                Some(n as u32),
+                None,
+                format!(
+                    "tracklets reach frame {}, past the drive's {n} frames (timestamps)",
+                    t.end_frame() - 1
+                ),
+            );
+        }
+    }
+    coverage_raw(drive, r, &annotated, c);
+}
+
+fn coverage_raw(drive: &Drive, r: &DriveRead, annotated: &[u32], c: &mut Collector) {
+    if r.scans.is_empty() {
+        return;
+    }
+    let scans: Vec<u32> = r.scans.keys().copied().collect();
+    let dir = drive.dir.join("velodyne_points/data");
+    missing(
+        c,
+        C::Coverage,
+        S::Warning,
+        &dir,
+        annotated,
+        &scans,
+        "annotated frames have no scan (their labels cannot be used)",
+    );
+    if let Some(&last) = annotated.last() {
+        let beyond: Vec<u32> = scans.iter().copied().filter(|&f| f > last).collect();
+        if let Some(&first) = beyond.first() {
+            c.add(C::Coverage, S::Warning, &drive.tracklets_path(), Some(first), None,
+                format!("the annotation ends at frame {last}, but {} scans follow: frames {} (every point background if converted with --frames all)",
+                    beyond.len(), frame_ranges(&beyond)));
+        }
+    }
+}
+
+pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
+    let calib = drive.calib_path(0);
+    if calib.is_file() {
+        r.frame_calib = read_or_note(c, C::Calibration, &calib, FrameCalib::read(&calib));
+    } else {
+        c.add(
+            C::Inventory,
+            S::Warning,
+            &calib,
+            None,
+            None,
+            "no calib.txt: colour and the camera checks are not possible".into(),
+        );
+    }
+    let scans: Vec<u32> = r.scans.keys().copied().collect();
+    let pose_path = drive.dir.join("poses.txt");
+    if pose_path.is_file() {
+        r.poses = read_or_note(c, C::Read, &pose_path, poses::read(&pose_path));
+        r.inventory.poses = r.poses.as_ref().map(Vec::len);
+    }
+    let times = drive.dir.join("times.txt");
+    if times.is_file() {
+        r.inventory.timestamps = read_or_note(c, C::Read, &times, poses::count_lines(&times));
+    }
+    for (what, n, path) in [
+        ("poses", r.inventory.poses, &pose_path),
+        ("times", r.inventory.timestamps, &times),
+    ] {
+        if let (Some(n), Some(&last)) = (n, scans.last()) {
+            if n as u32 <= last {
+                c.add(
+                    C::Inventory,
+                    S::Warning,
+                    path,
+                    Some(n as u32),
+                    None,
+                    format!("{n} {what} for scans up to frame {last}"),
+                );
+            }
+        }
+    }
+    let labels = drive.dir.join("labels");
+    if !labels.is_dir() {
+        c.add(
+            C::Coverage,
+            S::Note,
+            &labels,
+            None,
+            None,
+            "no labels/ folder (a test sequence): nothing to train on".into(),
+        );
+        return;
+    }
+    r.label_frames = frames_in(&labels, 6, ".label");
+    r.inventory.label_files = Some(r.label_frames.len());
+    r.inventory.annotated = r.label_frames.len();
+    r.inventory.annotated_range = r
+        .label_frames
+        .first()
+        .zip(r.label_frames.last())
+        .map(|(a, b)| (*a, *b));
+    missing(
+        c,
+        C::Coverage,
+        S::Warning,
+        &labels,
+        &scans,
+        &r.label_frames,
+        "scans have no label file",
+    );
+    extra_labels(drive, &scans, c);
+    for &f in &r.label_frames {
+        let Some(&points) = r.scans.get(&f) else {
+            continue;
+        };
+        let path = drive.point_labels_path(f);
+        if let Ok(m) = std::fs::metadata(&path) {
+            let n = m.len() as usize / 4;
+            if m.len() % 4 != 0 || n != points {
+                c.add(
+                    C::LabelCount,
+                    S::Error,
+                    &path,
+                    Some(f),
+                    None,
+                    format!(
+                        "{} bytes = {n} labels for a scan of {points} points",
+                        m.len()
+                    ),
+                );
+            }
+        }
+    }
+}
+
+fn extra_labels(drive: &Drive, scans: &[u32], c: &mut Collector) {
+    match drive.labels_without_scan(scans) {
+        Ok(extra) => {
+            for p in extra {
+                c.add(
+                    C::Inventory,
+                    S::Warning,
+                    &p,
+                    None,
+                    None,
+                    "a label file without a scan".into(),
+                );
+            }
+        }
+        Err(e) => c.add(C::Read, S::Error, &drive.dir, None, None, e.to_string()),
+    }
+}
+
+pub(crate) fn read_object(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
+    let scans: Vec<u32> = r.scans.keys().copied().collect();
+    let labels = frames_in(&drive.dir.join("label_2"), 6, ".txt");
+    let calibs = frames_in(&drive.dir.join("calib"), 6, ".txt");
+    r.inventory.label_files = Some(labels.len());
+    missing(
+        c,
+        C::Inventory,
+        S::Error,
+        &drive.dir.join("calib"),
+        &scans,
+        &calibs,
+        "scans have no calibration file",
+    );
+    if drive.dir.join("label_2").is_dir() {
+        missing(
+            c,
+            C::Coverage,
+            S::Warning,
+            &drive.dir.join("label_2"),
+            &scans,
+            &labels,
+            "scans have no label_2 file",
+        );
+        extra_labels(drive, &scans, c);
+    }
+    let mut annotated = Vec::new();
+    for &f in &scans {
+        let (lp, cp) = (drive.object_labels_path(f), drive.calib_path(f));
+        let boxes = lp
+            .is_file()
+            .then(|| read_or_note(c, C::Read, &lp, object::read(&lp)))
+            .flatten();
+        let calib = cp
+            .is_file()
+            .then(|| read_or_note(c, C::Calibration, &cp, FrameCalib::read(&cp)))
+            .flatten();
+        if let (Some(b), Some(k)) = (boxes, calib) {
+            if b.iter().any(|o| o.kind != "DontCare") {
+                annotated.push(f);
+            }
+            r.objects.insert(f, (b, k));
+        }
+    }
+    r.inventory.annotated = annotated.len();
+    r.inventory.annotated_range = annotated
+        .first()
+        .zip(annotated.last())
+        .map(|(a, b)| (*a, *b));
+}

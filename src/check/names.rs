@@ -1,0 +1,173 @@
+//! The names of the checks and of the severities: one spelling each, shared by the CLI, the
+//! JSON and the docs.
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::Serialize;
+
+use crate::error::Error;
+use crate::kitti::Layout;
+
+/// How bad a finding is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// Worth knowing; nothing is wrong.
+    Note,
+    /// Likely wrong.
+    Warning,
+    /// The data is wrong or unusable.
+    Error,
+}
+
+impl Severity {
+    /// The name (`note`, `warning`, `error`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Severity::Note => "note",
+            Severity::Warning => "warning",
+            Severity::Error => "error",
+        }
+    }
+}
+
+impl fmt::Display for Severity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for Severity {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self, Error> {
+        [Severity::Note, Severity::Warning, Severity::Error]
+            .into_iter()
+            .find(|v| v.as_str() == s)
+            .ok_or_else(|| Error::Config(format!("unknown severity `{s}` (note, warning, error)")))
+    }
+}
+
+macro_rules! checks {
+    ($($variant:ident $name:literal $scans:literal $doc:literal;)*) => {
+        /// A check: what it looks at is in `docs/check.md`.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+        pub enum CheckName {
+            $(#[doc = $doc] #[serde(rename = $name)] $variant,)*
+        }
+
+        impl CheckName {
+            /// Every check, in report order.
+            pub const ALL: &'static [CheckName] = &[$(CheckName::$variant,)*];
+
+            /// The name (`pose-jump`).
+            pub fn as_str(self) -> &'static str {
+                match self { $(CheckName::$variant => $name,)* }
+            }
+
+            /// Whether it needs the scans' points.
+            pub fn needs_scans(self) -> bool {
+                match self { $(CheckName::$variant => $scans,)* }
+            }
+
+            /// One line: what it finds.
+            pub fn about(self) -> &'static str {
+                match self { $(CheckName::$variant => $doc,)* }
+            }
+        }
+    };
+}
+
+checks! {
+    Read "read" false "A file that cannot be read or parsed (tracklets, calibration, labels).";
+    Inventory "inventory" false "Scans, images, timestamps, poses and label files of each drive compared; stray and missing files.";
+    Coverage "coverage" false "Annotated frames without a scan; scans past the last annotated frame.";
+    LabelCount "label-count" false "A per-point label file whose count differs from its scan's points.";
+    Calibration "calibration" false "Rotations orthonormal (det +1); rectified projections of the form [f 0 cx; 0 f cy; 0 0 1].";
+    CameraOverlap "camera-overlap" true "Share of the front points that land inside the camera image.";
+    CameraAlignment "camera-alignment" true "Depth edges of projected points against image edges: does the calibrated position stand out?";
+    BoxSize "box-size" false "Box sizes implausible for the object type.";
+    PoseJump "pose-jump" false "A box that jumps between consecutive frames beyond a physical bound.";
+    YawFlip "yaw-flip" false "A box heading that turns further between consecutive frames than a vehicle can.";
+    BoxOverlap "box-overlap" false "Boxes of different objects that overlap at the same frame.";
+    BoxGround "box-ground" true "A box whose bottom is far below or above the ground points around it.";
+    EmptyBox "empty-box" true "A box marked fully visible, within range, with no point inside.";
+    AnnotationEnds "annotation-ends" true "An annotation that ends while its object is still in the next scan.";
+    AnnotationFalloff "annotation-falloff" false "Frames whose annotated-object count falls far below the drive's usual count.";
+    LabelIds "label-ids" false "Per-point label ids unknown to the class map's yaml.";
+    InstanceClasses "instance-classes" false "One instance id carrying several classes within a sequence.";
+    MovingStatic "moving-static" true "Points of a moving class that do not move between scans (needs poses.txt).";
+    SplitBalance "split-balance" false "A class whose share in val differs from its share in train beyond a factor.";
+    SplitLeak "split-leak" false "Frames of one drive in both train and val, or split lists naming absent frames.";
+}
+
+impl CheckName {
+    /// Whether `--pictures` draws its findings: the box checks (a bird's-eye view) and the
+    /// camera checks (the points over the image).
+    pub fn pictured(self) -> bool {
+        use CheckName::*;
+        matches!(
+            self,
+            Calibration
+                | CameraOverlap
+                | CameraAlignment
+                | BoxSize
+                | PoseJump
+                | YawFlip
+                | BoxOverlap
+                | BoxGround
+                | EmptyBox
+                | AnnotationEnds
+        )
+    }
+
+    /// Whether it means anything for `layout`.
+    pub fn applies_to(self, layout: Layout) -> bool {
+        use CheckName::*;
+        match layout {
+            Layout::Raw => !matches!(self, LabelCount | LabelIds | InstanceClasses | MovingStatic),
+            Layout::Sequence => !matches!(
+                self,
+                BoxSize
+                    | PoseJump
+                    | YawFlip
+                    | BoxOverlap
+                    | BoxGround
+                    | EmptyBox
+                    | AnnotationEnds
+                    | AnnotationFalloff
+            ),
+            Layout::Object => !matches!(
+                self,
+                PoseJump
+                    | YawFlip
+                    | AnnotationEnds
+                    | AnnotationFalloff
+                    | LabelCount
+                    | LabelIds
+                    | InstanceClasses
+                    | MovingStatic
+            ),
+        }
+    }
+}
+
+impl fmt::Display for CheckName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for CheckName {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self, Error> {
+        CheckName::ALL
+            .iter()
+            .copied()
+            .find(|c| c.as_str() == s)
+            .ok_or_else(|| {
+                let all: Vec<&str> = CheckName::ALL.iter().map(|c| c.as_str()).collect();
+                Error::Config(format!("unknown check `{s}` (one of: {})", all.join(", ")))
+            })
+    }
+}

@@ -1,0 +1,152 @@
+//! Pictures of flagged frames: a bird's-eye view of the scan with its boxes (the flagged object
+//! in red), or, for the camera checks, the points over the camera image.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::inventory::{self, DriveRead};
+use super::{CheckName, CheckOptions, Collector, Finding};
+use crate::draw::boxes::{bird_eye, camera_overlay, Drawn};
+use crate::error::Result;
+use crate::kitti::tracklets::Pose;
+use crate::kitti::velodyne::Scan;
+use crate::label::{ClassMap, LabelBox};
+
+/// Draws findings' pictures, reading each drive's annotations once.
+pub struct Pictures<'a> {
+    opts: &'a CheckOptions,
+    drives: BTreeMap<String, crate::kitti::Drive>,
+    read: BTreeMap<String, DriveRead>,
+}
+
+impl<'a> Pictures<'a> {
+    /// For the drives under `root`.
+    pub fn new(root: &Path, opts: &'a CheckOptions) -> Result<Pictures<'a>> {
+        let drives = inventory::drives(root, opts.layout)?
+            .into_iter()
+            .map(|d| (d.name(), d))
+            .collect();
+        Ok(Pictures {
+            opts,
+            drives,
+            read: BTreeMap::new(),
+        })
+    }
+
+    /// The picture of `f`, when its check is [pictured](CheckName::pictured) and it is about
+    /// a frame whose scan is there.
+    pub fn draw(&mut self, f: &Finding) -> Result<Option<image::RgbImage>> {
+        if !f.check.pictured() {
+            return Ok(None);
+        }
+        let (Some(frame), Some(drive)) = (f.frame, self.drives.get(&f.drive)) else {
+            return Ok(None);
+        };
+        let scan_path = drive.scan_path(frame);
+        if !scan_path.is_file() {
+            return Ok(None);
+        }
+        if !self.read.contains_key(&f.drive) {
+            let mut quiet = Collector::new(&f.drive, self.opts);
+            let r = inventory::read_drive(drive, &mut quiet);
+            self.read.insert(f.drive.clone(), r);
+        }
+        let r = &self.read[&f.drive];
+        let scan = Scan::read(&scan_path)?;
+        let title = format!("{} {} frame {frame}: {}", f.severity, f.check, f.drive);
+        if matches!(
+            f.check,
+            CheckName::CameraOverlap | CheckName::CameraAlignment | CheckName::Calibration
+        ) {
+            let image = drive.image_path(2, frame);
+            let Some(proj) = camera(r, frame) else {
+                return Ok(None);
+            };
+            if !image.is_file() {
+                return Ok(None);
+            }
+            let img = crate::kitti::camera::read_image(&image)?;
+            return Ok(Some(camera_overlay(&img, &scan.points, &proj, &title)));
+        }
+        let boxes = boxes(r, frame, f.check == CheckName::AnnotationEnds);
+        let map = ClassMap::kitti_paper();
+        let flagged = f.object.as_ref().map(|o| o.index);
+        let drawn: Vec<Drawn> = boxes
+            .iter()
+            .map(|(i, kind, b)| Drawn {
+                label_box: b,
+                colour: map.colour(map.class_of_object(kind)).map(|c| c.max(90)),
+                flagged: Some(*i) == flagged,
+                text: format!("#{i} {kind}"),
+            })
+            .collect();
+        let centre = drawn
+            .iter()
+            .find(|d| d.flagged)
+            .map(|d| {
+                (
+                    d.label_box.pose.translation.x,
+                    d.label_box.pose.translation.y,
+                )
+            })
+            .unwrap_or((0.0, 0.0));
+        Ok(Some(bird_eye(&scan.points, &drawn, centre, 20.0, &title)))
+    }
+}
+
+fn camera(r: &DriveRead, frame: u32) -> Option<crate::geom::Matrix3x4> {
+    if let Some(c) = &r.calib {
+        return Some(c.velo_to_image(2));
+    }
+    if let Some(c) = &r.frame_calib {
+        return Some(c.velo_to_image(2));
+    }
+    r.objects.get(&frame).map(|(_, c)| c.velo_to_image(2))
+}
+
+/// The boxes at a frame (with the ghosts of annotations that ended just before, when asked):
+/// object index, type, box.
+fn boxes(r: &DriveRead, frame: u32, ghosts: bool) -> Vec<(u32, String, LabelBox)> {
+    let mut out = Vec::new();
+    if let Some(t) = &r.tracklets {
+        for (i, tr, p) in t.at(frame) {
+            out.push((
+                i as u32,
+                tr.object_type.as_str().to_string(),
+                LabelBox::new(i, tr, p, 0),
+            ));
+        }
+        for (i, tr) in t
+            .tracklets
+            .iter()
+            .enumerate()
+            .filter(|(_, tr)| ghosts && tr.end_frame() == frame && tr.poses.len() >= 2)
+        {
+            let (a, b) = (&tr.poses[tr.poses.len() - 2], &tr.poses[tr.poses.len() - 1]);
+            let pose = Pose {
+                t: std::array::from_fn(|d| 2.0 * b.t[d] - a.t[d]),
+                ..b.clone()
+            };
+            out.push((
+                i as u32,
+                format!("{} (ended)", tr.object_type.as_str()),
+                LabelBox::new(i, tr, &pose, 0),
+            ));
+        }
+    }
+    if let Some((objects, calib)) = r.objects.get(&frame) {
+        let rect_to_velo = calib.velo_to_rect().try_inverse().unwrap_or_default();
+        for (i, o) in objects
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.kind != "DontCare")
+        {
+            out.push((
+                i as u32,
+                o.kind.clone(),
+                LabelBox::from_object(i, o, &rect_to_velo, 0),
+            ));
+        }
+    }
+    out
+}

@@ -1,0 +1,188 @@
+//! The checks' thresholds: typed, with their defaults and meaning in one table, tunable by name
+//! (`pose-jump.warn-m=3`).
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+
+macro_rules! thresholds {
+    ($($field:ident $name:literal $default:literal $doc:literal;)*) => {
+        /// Every threshold of every check (`docs/check.md` explains each).
+        #[derive(Debug, Clone, PartialEq, Serialize)]
+        pub struct Thresholds {
+            $(#[doc = $doc] pub $field: f64,)*
+            /// Plausible box sizes per object type (`box-size.<type>.<l|w|h>.<min|max>`).
+            pub sizes: BTreeMap<String, SizeRange>,
+        }
+
+        impl Default for Thresholds {
+            fn default() -> Self {
+                Thresholds { $($field: $default,)* sizes: default_sizes() }
+            }
+        }
+
+        impl Thresholds {
+            /// Every scalar threshold: name, value, meaning.
+            pub fn scalars(&self) -> Vec<(&'static str, f64, &'static str)> {
+                vec![$(($name, self.$field, $doc),)*]
+            }
+
+            fn scalar_mut(&mut self, name: &str) -> Option<&mut f64> {
+                match name {
+                    $($name => Some(&mut self.$field),)*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+thresholds! {
+    max_rect_angle_deg "calibration.max-rect-angle-deg" 5.0 "Warning: a rectifying rotation (R_rect, R0_rect) turns by more than this many degrees (KITTI's: under 1).";
+    max_focal_ratio "calibration.max-focal-ratio" 1.05 "Warning: fx / fy of a rectified projection differs from 1 by more than this factor.";
+    overlap_warn "camera-overlap.warn-share" 0.6 "Warning: fewer of the points in front of the camera (depth > 5 m, within 35 degrees of the axis) land inside the image than this share.";
+    overlap_error "camera-overlap.error-share" 0.2 "Error: fewer than this share land inside the image.";
+    alignment_frames "camera-alignment.frames" 3.0 "Frames per drive (evenly spaced) whose images are read to judge the alignment.";
+    alignment_min_score "camera-alignment.min-score" 1.5 "Warning: the image edges at the calibrated position stand fewer than this many standard deviations above their mean over offsets of up to 20 px.";
+    size_error_factor "box-size.error-factor" 2.0 "Error (not warning): a dimension beyond the type's maximum times this, or below its minimum divided by it.";
+    jump_warn_m "pose-jump.warn-m" 2.0 "Warning: a box's displacement changes by more than this many metres from one frame to the next (an acceleration of 200 m/s2 at 10 Hz).";
+    jump_error_m "pose-jump.error-m" 6.0 "Error: it changes by more than this.";
+    max_speed_mps "pose-jump.max-speed-mps" 70.0 "Error: a box moves faster than this relative to the sensor (two cars at 126 km/h meeting).";
+    yaw_warn_rad "yaw-flip.vehicle-rad" 0.6 "Warning: a vehicle's (Car, Van, Truck, Tram) heading turns by more than this many radians from one frame to the next.";
+    yaw_flip_rad "yaw-flip.flip-rad" 2.5 "Warning, any type: the heading turns by more than this (a box turned around).";
+    overlap_share_warn "box-overlap.warn-share" 0.3 "Warning: this share of the smaller box's volume lies inside another object's box.";
+    overlap_share_error "box-overlap.error-share" 0.9 "Error: this share (a duplicate box).";
+    ground_offset_m "box-ground.max-offset-m" 0.6 "Warning: a box's bottom is more than this many metres below or above the ground around it.";
+    ground_ring_m "box-ground.ring-m" 2.0 "The ground around a box: points within this many metres of its footprint, outside it.";
+    ground_min_points "box-ground.min-points" 30.0 "The ground is judged only from at least this many points around the box.";
+    empty_max_range_m "empty-box.max-range-m" 40.0 "Warning: a box marked fully visible (occlusion 0), nearer than this, holds no point.";
+    ends_min_points "annotation-ends.min-points" 30.0 "Warning: the box carried one frame past the annotation's end (at its last velocity) still holds at least this many points...";
+    ends_min_share "annotation-ends.min-share" 0.5 "...and at least this share of the points it held in its last annotated frame.";
+    ends_fov_deg "annotation-ends.fov-deg" 80.0 "Only boxes within this horizontal field of view (degrees, centred forward; KITTI annotates the camera's view).";
+    falloff_share "annotation-falloff.share" 0.25 "Warning: a run of frames with fewer annotated objects than this share of the drive's median count...";
+    falloff_min_frames "annotation-falloff.min-frames" 10.0 "...at least this many frames long (drives with a median of 4 objects or more).";
+    moving_still_m "moving-static.still-m" 0.05 "Warning: an instance of a moving class whose points lie within this many metres of the previous scan's points (poses applied)...";
+    moving_still_share "moving-static.share" 0.9 "...for at least this share of its points.";
+    balance_min_count "split-balance.min-count" 100.0 "Balance is judged only when train and val each hold at least this many annotations (boxes, or labelled points).";
+    balance_factor "split-balance.factor" 3.0 "Warning: a class's share in val is more than this factor above or below its share in train.";
+}
+
+/// A plausible range of a box's length, width and height, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SizeRange {
+    /// Length (along the heading), min and max.
+    pub l: [f64; 2],
+    /// Width.
+    pub w: [f64; 2],
+    /// Height.
+    pub h: [f64; 2],
+}
+
+/// KITTI's object types, with ranges that hold every box of the 36 annotated drives shared
+/// here and the object set's frames, widened by a margin (`docs/check.md`).
+fn default_sizes() -> BTreeMap<String, SizeRange> {
+    let r = |l: [f64; 2], w: [f64; 2], h: [f64; 2]| SizeRange { l, w, h };
+    [
+        ("Car", r([2.0, 6.0], [1.0, 2.3], [1.0, 2.5])),
+        ("Van", r([3.0, 7.5], [1.4, 2.6], [1.4, 3.6])),
+        ("Truck", r([4.0, 20.0], [1.6, 3.2], [1.8, 4.6])),
+        ("Pedestrian", r([0.1, 2.0], [0.2, 1.5], [0.8, 2.3])),
+        ("Person_sitting", r([0.2, 2.0], [0.2, 1.5], [0.5, 1.8])),
+        ("Person (sitting)", r([0.2, 2.0], [0.2, 1.5], [0.5, 1.8])),
+        ("Cyclist", r([1.0, 2.6], [0.2, 1.5], [0.9, 2.3])),
+        ("Tram", r([8.0, 40.0], [1.8, 3.4], [2.5, 4.6])),
+        ("Misc", r([0.1, 20.0], [0.1, 5.0], [0.1, 5.0])),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect()
+}
+
+impl Thresholds {
+    /// Sets the threshold `name` (`pose-jump.warn-m`, `box-size.Pedestrian.l.max`) to `value`.
+    pub fn set(&mut self, name: &str, value: f64) -> Result<()> {
+        if !value.is_finite() || value < 0.0 {
+            return Err(Error::Config(format!(
+                "threshold {name} = {value}: must be a finite number >= 0"
+            )));
+        }
+        if let Some(v) = self.scalar_mut(name) {
+            *v = value;
+            return Ok(());
+        }
+        let size = name.strip_prefix("box-size.").and_then(|rest| {
+            let mut parts = rest.rsplitn(3, '.');
+            let bound = parts.next()?;
+            let dim = parts.next()?;
+            let kind = parts.next()?;
+            Some((kind.to_string(), dim, bound))
+        });
+        let Some((kind, dim, bound)) = size else {
+            return Err(Error::Config(format!(
+                "unknown threshold `{name}` (`kitti2pgm check --list` names them all)"
+            )));
+        };
+        let range = self.sizes.entry(kind).or_insert(SizeRange {
+            l: [0.0, f64::INFINITY],
+            w: [0.0, f64::INFINITY],
+            h: [0.0, f64::INFINITY],
+        });
+        let pair = match dim {
+            "l" => &mut range.l,
+            "w" => &mut range.w,
+            "h" => &mut range.h,
+            _ => {
+                return Err(Error::Config(format!(
+                    "threshold `{name}`: the dimension is l, w or h"
+                )))
+            }
+        };
+        match bound {
+            "min" => pair[0] = value,
+            "max" => pair[1] = value,
+            _ => {
+                return Err(Error::Config(format!(
+                    "threshold `{name}`: the bound is min or max"
+                )))
+            }
+        }
+        Ok(())
+    }
+
+    /// Parses `NAME=VALUE` and sets it.
+    pub fn set_pair(&mut self, pair: &str) -> Result<()> {
+        let (name, value) = pair
+            .split_once('=')
+            .ok_or_else(|| Error::Config(format!("threshold `{pair}`: write NAME=VALUE")))?;
+        let value: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| Error::Config(format!("threshold `{pair}`: `{value}` is not a number")))?;
+        self.set(name.trim(), value)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thresholds_are_set_by_name() {
+        let mut t = Thresholds::default();
+        t.set_pair("pose-jump.warn-m=3").unwrap();
+        assert_eq!(t.jump_warn_m, 3.0);
+        t.set_pair("box-size.Pedestrian.l.max=2.5").unwrap();
+        assert_eq!(t.sizes["Pedestrian"].l[1], 2.5);
+        for bad in [
+            "nope=1",
+            "pose-jump.warn-m",
+            "pose-jump.warn-m=x",
+            "box-size.Car.q.max=1",
+            "pose-jump.warn-m=-1",
+        ] {
+            assert!(t.set_pair(bad).is_err(), "{bad}");
+        }
+    }
+}
