@@ -258,7 +258,10 @@ pub fn check(
         calibration::check_files(&read, &mut c);
         let labelled = semantic::check_labels(&read, &mut c);
         let mut inv = read.inventory.clone();
-        if opts.scans {
+        if CheckName::ALL
+            .iter()
+            .any(|k| k.needs_scans() && opts.runs(*k))
+        {
             inv.scans_read = scans::check(&read, &mut c, progress);
         }
         inv.alignment = c.alignment;

@@ -8,7 +8,6 @@ use super::inventory::{self, DriveRead};
 use super::{CheckName, CheckOptions, Collector, Finding};
 use crate::draw::boxes::{bird_eye, camera_overlay, Drawn};
 use crate::error::Result;
-use crate::kitti::tracklets::Pose;
 use crate::kitti::velodyne::Scan;
 use crate::label::{ClassMap, LabelBox};
 
@@ -116,22 +115,11 @@ fn boxes(r: &DriveRead, frame: u32, ghosts: bool) -> Vec<(u32, String, LabelBox)
                 LabelBox::new(i, tr, p, 0),
             ));
         }
-        for (i, tr) in t
-            .tracklets
-            .iter()
-            .enumerate()
-            .filter(|(_, tr)| ghosts && tr.end_frame() == frame && tr.poses.len() >= 2)
-        {
-            let (a, b) = (&tr.poses[tr.poses.len() - 2], &tr.poses[tr.poses.len() - 1]);
-            let pose = Pose {
-                t: std::array::from_fn(|d| 2.0 * b.t[d] - a.t[d]),
-                ..b.clone()
-            };
-            out.push((
-                i as u32,
-                format!("{} (ended)", tr.object_type.as_str()),
-                LabelBox::new(i, tr, &pose, 0),
-            ));
+        for (i, tr) in t.tracklets.iter().enumerate().filter(|_| ghosts) {
+            if let Some(pose) = super::scans::carried_on(tr, frame) {
+                let kind = format!("{} (ended)", tr.object_type.as_str());
+                out.push((i as u32, kind, LabelBox::new(i, tr, &pose, 0)));
+            }
         }
     }
     if let Some((objects, calib)) = r.objects.get(&frame) {

@@ -12,7 +12,7 @@ use super::{
     frame_ranges, semantic, CheckName as C, Collector, ObjectRef, Severity as S, Thresholds,
 };
 use crate::geom::{Matrix3x4, Point3, Real};
-use crate::kitti::tracklets::{Occlusion, Pose};
+use crate::kitti::tracklets::{Occlusion, Pose, Tracklet};
 use crate::kitti::velodyne::Scan;
 use crate::kitti::Layout;
 use crate::label::LabelBox;
@@ -47,11 +47,20 @@ struct FrameSeen {
 pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + Sync)) -> usize {
     let frames: Vec<u32> = r.scans.keys().copied().collect();
     let t = c.t().clone();
-    let sampled = sample(r, &frames, &t);
+    let runs = |k: C| c.opts.runs(k);
+    let work = Work {
+        boxes: runs(C::EmptyBox) || runs(C::BoxGround) || runs(C::AnnotationEnds),
+        overlap: runs(C::CameraOverlap),
+    };
+    let sampled = if runs(C::CameraAlignment) {
+        sample(r, &frames, &t)
+    } else {
+        Vec::new()
+    };
     let seen: Vec<FrameSeen> = frames
         .par_iter()
         .map(|&f| {
-            let s = frame(r, f, sampled.contains(&f), &t);
+            let s = frame(r, f, sampled.contains(&f), work, &t);
             progress(1);
             s
         })
@@ -100,7 +109,16 @@ fn camera_at(r: &DriveRead, f: u32) -> Option<(Matrix3x4, Option<[f64; 2]>)> {
     }
 }
 
-fn frame(r: &DriveRead, f: u32, sampled: bool, t: &Thresholds) -> FrameSeen {
+/// What a frame's pass computes, from the checks that run.
+#[derive(Debug, Clone, Copy)]
+struct Work {
+    /// Points in boxes and the ground around them.
+    boxes: bool,
+    /// The share of front points in the image.
+    overlap: bool,
+}
+
+fn frame(r: &DriveRead, f: u32, sampled: bool, work: Work, t: &Thresholds) -> FrameSeen {
     let mut out = FrameSeen {
         frame: f,
         ..Default::default()
@@ -112,8 +130,9 @@ fn frame(r: &DriveRead, f: u32, sampled: bool, t: &Thresholds) -> FrameSeen {
             return out;
         }
     };
-    let candidates = frame_boxes(r, f, t);
-    out.boxes = measure(&scan.points, &candidates, t);
+    if work.boxes {
+        out.boxes = measure(&scan.points, &frame_boxes(r, f, t), t);
+    }
     if let Some((proj, size)) = camera_at(r, f) {
         let image_path = r.drive().image_path(2, f);
         let size = size.or_else(|| {
@@ -121,7 +140,7 @@ fn frame(r: &DriveRead, f: u32, sampled: bool, t: &Thresholds) -> FrameSeen {
                 .ok()
                 .map(|(w, h)| [w as f64, h as f64])
         });
-        if let Some(size) = size {
+        if let (Some(size), true) = (size, work.overlap) {
             out.overlap = overlap_share(&scan.points, &proj, size);
         }
         if sampled {
@@ -132,6 +151,21 @@ fn frame(r: &DriveRead, f: u32, sampled: bool, t: &Thresholds) -> FrameSeen {
         }
     }
     out
+}
+
+/// A tracklet's box one frame past its last pose, at `frame`: moved on by its last
+/// displacement, same heading. `None` unless the tracklet ends just before `frame` with two
+/// poses or more.
+pub(crate) fn carried_on(tr: &Tracklet, frame: u32) -> Option<Pose> {
+    let n = tr.poses.len();
+    if tr.end_frame() != frame || n < 2 {
+        return None;
+    }
+    let (prev, last) = (&tr.poses[n - 2], &tr.poses[n - 1]);
+    Some(Pose {
+        t: std::array::from_fn(|d| 2.0 * last.t[d] - prev.t[d]),
+        ..last.clone()
+    })
 }
 
 /// The boxes of a frame with their facts, and the ghosts of annotations that ended just before.
@@ -161,13 +195,8 @@ fn frame_boxes(r: &DriveRead, f: u32, t: &Thresholds) -> Vec<(LabelBox, BoxSeen)
             out.push((b, s));
         }
         for (i, tk) in tr.tracklets.iter().enumerate() {
-            if tk.end_frame() != f || tk.poses.len() < 2 {
+            let Some(pose) = carried_on(tk, f) else {
                 continue;
-            }
-            let (prev, last) = (&tk.poses[tk.poses.len() - 2], &tk.poses[tk.poses.len() - 1]);
-            let pose = Pose {
-                t: std::array::from_fn(|d| 2.0 * last.t[d] - prev.t[d]),
-                ..last.clone()
             };
             let b = LabelBox::new(i, tk, &pose, 0);
             let o = ObjectRef {
