@@ -42,7 +42,7 @@ macro_rules! thresholds {
 thresholds! {
     max_rect_angle_deg "calibration.max-rect-angle-deg" 5.0 "Warning: a rectifying rotation (R_rect, R0_rect) turns by more than this many degrees (KITTI's: under 1).";
     max_focal_ratio "calibration.max-focal-ratio" 1.05 "Warning: fx / fy of a rectified projection differs from 1 by more than this factor.";
-    overlap_warn "camera-overlap.warn-share" 0.6 "Warning: fewer of the points in front of the camera (depth > 5 m, within 35 degrees of the axis) land inside the image than this share.";
+    overlap_warn "camera-overlap.warn-share" 0.6 "Warning: fewer of the points ahead (velodyne x > 8 m, within 35 degrees left or right and 10 degrees up or down) land inside camera 2's image than this share.";
     overlap_error "camera-overlap.error-share" 0.2 "Error: fewer than this share land inside the image.";
     alignment_frames "camera-alignment.frames" 3.0 "Frames per drive (evenly spaced) whose images are read to judge the alignment.";
     alignment_min_score "camera-alignment.min-score" 1.5 "Warning: the image edges at the calibrated position stand fewer than this many standard deviations above their mean over offsets of up to 20 px.";

@@ -85,11 +85,9 @@ fn tracklets_of_drive_0001_every_field() {
 }
 
 #[test]
+#[ignore = "needs ../shared"]
 fn all_36_real_tracklet_files_parse() {
-    let Some(shared) = shared() else {
-        eprintln!("skipped: ../shared/kitti not present");
-        return;
-    };
+    let shared = needs_shared("kitti");
     let mut types = std::collections::BTreeMap::new();
     let mut n = 0;
     for e in std::fs::read_dir(shared.join("tracklets")).unwrap() {

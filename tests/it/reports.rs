@@ -42,11 +42,9 @@ fn skeleton(shared: &Path, root: &Path) -> BTreeSet<u32> {
 }
 
 #[test]
+#[ignore = "needs ../shared"]
 fn split_reproduces_the_official_squeezeseg_lists() {
-    let Some(shared) = shared() else {
-        eprintln!("skipped: ../shared/kitti not present");
-        return;
-    };
+    let shared = needs_shared("kitti");
     let t = tmp();
     let root = t.path().join("raw");
     let drives = skeleton(&shared, &root);

@@ -272,11 +272,9 @@ fn bad_source_inputs_name_the_file() {
 }
 
 #[test]
+#[ignore = "needs ../shared"]
 fn shared_semantickitti_scans_convert_with_every_ring() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/semantickitti");
-    if !root.is_dir() {
-        return;
-    }
+    let root = needs_shared("semantickitti");
     let t = tmp();
     let (code, j, e) = convert_json(
         &root,
