@@ -4,7 +4,10 @@
 use std::path::PathBuf;
 
 use clap::{Args as ClapArgs, Parser, Subcommand, ValueEnum};
-use kitti2pgm::project::MapPreset;
+use kitti2pgm::kitti::Layout;
+use kitti2pgm::params::ShardCompression;
+use kitti2pgm::project::camera::Sampling;
+use kitti2pgm::project::{MapPreset, RowMode};
 
 /// KITTI raw -> labelled Polar Grid Maps for LiDAR(+camera) semantic segmentation
 /// (SqueezeSeg / PointSeg training data).
@@ -173,7 +176,7 @@ pub struct SplitArgs {
     pub raw_root: PathBuf,
     /// Force the input layout instead of detecting it.
     #[arg(long, value_enum)]
-    pub source: Option<SourceArg>,
+    pub source: Option<Layout>,
     /// Output folder: the lists go to DIR/ImageSet/.
     #[arg(long, short, value_name = "DIR")]
     pub out: PathBuf,
@@ -213,24 +216,6 @@ pub struct StatsArgs {
     pub chart: Option<PathBuf>,
 }
 
-/// Row assignment.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum RowModeArg {
-    /// Rings recovered from the scan order; elevation binning only where a scan breaks it.
-    Rings,
-    /// Elevation binning between --fov-up-deg and --fov-down-deg for every scan.
-    Elevation,
-}
-
-/// Colour sampling.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum SamplingArg {
-    /// The pixel whose centre is nearest.
-    Nearest,
-    /// Bilinear blend of the four neighbouring pixels.
-    Bilinear,
-}
-
 /// `kitti2pgm convert`.
 #[derive(Debug, ClapArgs)]
 pub struct ConvertArgs {
@@ -241,7 +226,7 @@ pub struct ConvertArgs {
     pub raw_root: PathBuf,
     /// Force the input layout instead of detecting it.
     #[arg(long, value_enum)]
-    pub source: Option<SourceArg>,
+    pub source: Option<Layout>,
     /// Class map: a built-in one by the name outputs record (kitti-paper-4: background, car,
     /// pedestrian, cyclist; semantic-kitti: SemanticKITTI's 20 classes), or a
     /// semantic-kitti.yaml-style file (labels, color_map, learning_map, learning_map_inv,
@@ -258,8 +243,8 @@ pub struct ConvertArgs {
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
     pub camera: u8,
     /// Colour sampling for --rgb.
-    #[arg(long, value_enum, default_value_t = SamplingArg::Nearest)]
-    pub rgb_sampling: SamplingArg,
+    #[arg(long, value_enum, default_value_t = Sampling::Nearest)]
+    pub rgb_sampling: Sampling,
     /// Convert every scan, not only SqueezeSeg's (scans with at least one tracklet pose).
     #[arg(long)]
     pub all_frames: bool,
@@ -289,7 +274,7 @@ pub struct ConvertArgs {
     pub fov_down_deg: Option<f64>,
     /// How rows are assigned (preset: rings; elevation for rangenet).
     #[arg(long, value_enum)]
-    pub row_mode: Option<RowModeArg>,
+    pub row_mode: Option<RowMode>,
     /// Do not write the per-point .label files.
     #[arg(long)]
     pub no_point_labels: bool,
@@ -310,8 +295,8 @@ pub struct ConvertArgs {
     #[arg(long, value_name = "N")]
     pub shard_frames: Option<usize>,
     /// Chunk compression of the shards.
-    #[arg(long, value_enum, default_value_t = CompressionArg::Lz4)]
-    pub compression: CompressionArg,
+    #[arg(long, value_enum, default_value_t = ShardCompression::Lz4)]
+    pub compression: ShardCompression,
     /// Add Foxglove topics to the shards: the labelled point cloud, the tracklet boxes, the image.
     #[arg(long)]
     pub viz: bool,
@@ -321,17 +306,6 @@ pub struct ConvertArgs {
     /// Print the summary as JSON on stdout instead of a table.
     #[arg(long)]
     pub json: bool,
-}
-
-/// Input layouts of `convert`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum SourceArg {
-    /// KITTI raw drives with tracklet_labels.xml.
-    Raw,
-    /// SemanticKITTI / KITTI odometry sequences with per-point labels.
-    Semantickitti,
-    /// The KITTI 3D object set with label_2 boxes.
-    Object,
 }
 
 /// Output formats of `convert`.
@@ -347,17 +321,6 @@ pub enum FormatArg {
     /// MCAP point shards: each scan's points with ring, label, instance (and r, g, b with
     /// --rgb), unprojected, for projection with 3D augmentation while training (OUT/points).
     Points,
-}
-
-/// Shard chunk compression.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum CompressionArg {
-    /// lz4: fast to read.
-    Lz4,
-    /// zstd: smaller.
-    Zstd,
-    /// none.
-    None,
 }
 
 /// The val rule, shared by `split` and `convert --format mcap`. Default: SqueezeSeg's val drives
@@ -408,18 +371,6 @@ impl SplitRuleArgs {
             return Ok(Some(SplitRule::Frames(ids.into_iter().collect())));
         }
         Ok(None)
-    }
-}
-
-impl SourceArg {
-    /// The library's layout.
-    pub fn layout(self) -> kitti2pgm::kitti::Layout {
-        use kitti2pgm::kitti::Layout;
-        match self {
-            SourceArg::Raw => Layout::Raw,
-            SourceArg::Semantickitti => Layout::Sequence,
-            SourceArg::Object => Layout::Object,
-        }
     }
 }
 

@@ -30,6 +30,8 @@ pub mod format;
 pub mod fs;
 pub mod geom;
 pub mod kitti;
+#[macro_use]
+mod names;
 pub mod label;
 pub mod params;
 pub mod plan;

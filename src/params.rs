@@ -74,6 +74,12 @@ pub enum ShardCompression {
     None,
 }
 
+crate::named_enum!(ShardCompression, "compression", [
+    Lz4 => "lz4" [] "lz4: fast to read",
+    Zstd => "zstd" [] "zstd: smaller",
+    None => "none" [] "none",
+]);
+
 /// What a shard holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -1,12 +1,8 @@
 //! The names of the checks and of the severities: one spelling each, shared by the CLI, the
 //! JSON and the docs.
 
-use std::fmt;
-use std::str::FromStr;
-
 use serde::Serialize;
 
-use crate::error::Error;
 use crate::kitti::Layout;
 
 /// How bad a finding is.
@@ -21,32 +17,11 @@ pub enum Severity {
     Error,
 }
 
-impl Severity {
-    /// The name (`note`, `warning`, `error`).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Severity::Note => "note",
-            Severity::Warning => "warning",
-            Severity::Error => "error",
-        }
-    }
-}
-
-impl fmt::Display for Severity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-impl FromStr for Severity {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self, Error> {
-        [Severity::Note, Severity::Warning, Severity::Error]
-            .into_iter()
-            .find(|v| v.as_str() == s)
-            .ok_or_else(|| Error::Config(format!("unknown severity `{s}` (note, warning, error)")))
-    }
-}
+crate::named_enum!(Severity, "severity", [
+    Note => "note" [] "worth knowing; nothing is wrong",
+    Warning => "warning" [] "likely wrong",
+    Error => "error" [] "the data is wrong or unusable",
+]);
 
 macro_rules! checks {
     ($($variant:ident $name:literal $scans:literal $doc:literal;)*) => {
@@ -56,15 +31,9 @@ macro_rules! checks {
             $(#[doc = $doc] #[serde(rename = $name)] $variant,)*
         }
 
+        crate::named_enum!(CheckName, "check", [$($variant => $name [] $doc,)*]);
+
         impl CheckName {
-            /// Every check, in report order.
-            pub const ALL: &'static [CheckName] = &[$(CheckName::$variant,)*];
-
-            /// The name (`pose-jump`).
-            pub fn as_str(self) -> &'static str {
-                match self { $(CheckName::$variant => $name,)* }
-            }
-
             /// Whether it needs the scans' points.
             pub fn needs_scans(self) -> bool {
                 match self { $(CheckName::$variant => $scans,)* }
@@ -149,25 +118,5 @@ impl CheckName {
                     | MovingStatic
             ),
         }
-    }
-}
-
-impl fmt::Display for CheckName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-impl FromStr for CheckName {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self, Error> {
-        CheckName::ALL
-            .iter()
-            .copied()
-            .find(|c| c.as_str() == s)
-            .ok_or_else(|| {
-                let all: Vec<&str> = CheckName::ALL.iter().map(|c| c.as_str()).collect();
-                Error::Config(format!("unknown check `{s}` (one of: {})", all.join(", ")))
-            })
     }
 }

@@ -8,7 +8,6 @@ use kitti2pgm::check::{check, CheckName, CheckOptions, CheckReport, Finding, Pic
 use kitti2pgm::label::ClassMap;
 
 use super::{progress, Global};
-use crate::cli::SourceArg;
 use crate::Outcome;
 
 /// `kitti2pgm check`.
@@ -20,7 +19,7 @@ pub struct CheckArgs {
     pub root: Option<PathBuf>,
     /// The input layout, when not the one the root shows.
     #[arg(long, value_enum)]
-    pub source: Option<SourceArg>,
+    pub source: Option<kitti2pgm::kitti::Layout>,
     /// Switch these checks off (comma separated; `--list` names them).
     #[arg(long, value_delimiter = ',', value_name = "CHECK")]
     pub skip: Vec<CheckName>,
@@ -67,7 +66,7 @@ pub struct CheckArgs {
 impl CheckArgs {
     fn options(&self) -> anyhow::Result<CheckOptions> {
         let mut o = CheckOptions {
-            layout: self.source.map(SourceArg::layout),
+            layout: self.source,
             scans: !self.no_scans,
             imageset: self.imageset.clone(),
             ..Default::default()

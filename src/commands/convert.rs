@@ -7,25 +7,21 @@ use kitti2pgm::format::summary::ConvertSummary;
 use kitti2pgm::geom::Degrees;
 use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
-use kitti2pgm::params::{ConvertParams, MapParams, ShardCompression, ShardParams};
+use kitti2pgm::params::{ConvertParams, MapParams, ShardParams};
 use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
-use kitti2pgm::project::camera::{RgbOptions, Sampling};
+use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::{MapPreset, PgmSpec, RowMode};
 
 use super::{progress, Global};
-use crate::cli::{CompressionArg, ConvertArgs, FormatArg, RowModeArg, SamplingArg, SourceArg};
+use crate::cli::{ConvertArgs, FormatArg};
 use crate::Outcome;
 
 impl ConvertArgs {
     /// The library's parameters (validated by the library).
     fn params(&self, class_map: ClassMap, layout: Layout) -> kitti2pgm::Result<ConvertParams> {
         let shard_params = ShardParams {
-            compression: match self.compression {
-                CompressionArg::Lz4 => ShardCompression::Lz4,
-                CompressionArg::Zstd => ShardCompression::Zstd,
-                CompressionArg::None => ShardCompression::None,
-            },
+            compression: self.compression,
             frames_per_shard: self.shard_frames,
             viz: self.viz,
             split: self
@@ -38,10 +34,7 @@ impl ConvertArgs {
                 spec: self.spec(layout),
                 rgb: self.rgb.then_some(RgbOptions {
                     camera: self.camera,
-                    sampling: match self.rgb_sampling {
-                        SamplingArg::Nearest => Sampling::Nearest,
-                        SamplingArg::Bilinear => Sampling::Bilinear,
-                    },
+                    sampling: self.rgb_sampling,
                 }),
                 selection: if self.all_frames {
                     FrameSelection::All
@@ -84,10 +77,7 @@ impl ConvertArgs {
             fov: self.fov_deg.map_or(p.fov, Degrees),
             fov_up: self.fov_up_deg.map_or(p.fov_up, Degrees),
             fov_down: self.fov_down_deg.map_or(p.fov_down, Degrees),
-            row_mode: self.row_mode.map_or(p.row_mode, |m| match m {
-                RowModeArg::Rings => RowMode::Rings,
-                RowModeArg::Elevation => RowMode::Elevation,
-            }),
+            row_mode: self.row_mode.unwrap_or(p.row_mode),
         }
     }
 
@@ -131,7 +121,7 @@ impl ConvertArgs {
 }
 
 pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
-    let source = a.source.map(SourceArg::layout);
+    let source = a.source;
     let selection = if a.all_frames {
         FrameSelection::All
     } else {

@@ -9,7 +9,7 @@ use crate::cli::SplitArgs;
 use crate::Outcome;
 
 pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
-    let source = a.source.map(crate::cli::SourceArg::layout);
+    let source = a.source;
     let rule = a.split.rule()?;
     let selection = if a.all_frames {
         FrameSelection::All

@@ -53,6 +53,12 @@ pub enum Layout {
     Object,
 }
 
+crate::named_enum!(Layout, "source", [
+    Raw => "raw" [] "KITTI raw drives with tracklet_labels.xml",
+    Sequence => "semantickitti" ["sequences", "sequence"] "SemanticKITTI / KITTI odometry sequences with per-point labels",
+    Object => "object" [] "The KITTI 3D object set with label_2 boxes",
+]);
+
 impl Layout {
     /// The dataset's name, for messages (`KITTI raw`, `SemanticKITTI`, `the KITTI object set`).
     pub fn dataset(self) -> &'static str {

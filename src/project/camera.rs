@@ -25,6 +25,11 @@ pub enum Sampling {
     Bilinear,
 }
 
+crate::named_enum!(Sampling, "colour sampling", [
+    Nearest => "nearest" [] "The pixel whose centre is nearest",
+    Bilinear => "bilinear" [] "Bilinear blend of the four neighbouring pixels",
+]);
+
 /// Projects velodyne points into one camera's rectified image.
 #[derive(Debug, Clone)]
 pub struct CameraProjector {

@@ -50,6 +50,11 @@ pub enum RowMode {
     Elevation,
 }
 
+crate::named_enum!(RowMode, "row mode", [
+    Rings => "rings" [] "Rings recovered from the scan order; elevation binning only where a scan breaks it",
+    Elevation => "elevation" [] "Elevation binning between --fov-up-deg and --fov-down-deg for every scan",
+]);
+
 /// Shape and field of view of the map.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PgmSpec {

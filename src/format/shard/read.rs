@@ -82,7 +82,15 @@ impl Shard {
     /// ends. Any flipped bit fails; the error names the shard and, when a frame's chunk is the
     /// damaged part, the frame. A CRC stored as 0 (a writer that computed none) is not checked.
     pub fn verify(&self) -> Result<()> {
-        const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+        use mcap::records::op;
+        use mcap::MAGIC;
+        // Record layout: opcode (1 byte), content length (u64), content.
+        const RECORD_HEAD: usize = 1 + 8;
+        // Footer content: summary start (u64), summary offset start (u64), summary CRC (u32).
+        const FOOTER_CONTENT: u64 = 8 + 8 + 4;
+        // Data end content: data section CRC (u32).
+        const DATA_END_CONTENT: u64 = 4;
+        const DATA_END_LEN: usize = RECORD_HEAD + DATA_END_CONTENT as usize;
         let b = self.bytes();
         let bad = |what: String| {
             Err(Error::format(
@@ -90,9 +98,9 @@ impl Shard {
                 format!("corrupted shard: {what}"),
             ))
         };
-        // magic, footer record (opcode, length, 8 + 8 + 4 bytes), magic.
-        let footer_len = 1 + 8 + 20;
-        if b.len() < 2 * MAGIC.len() + footer_len + 13
+        // magic, ..., data end, summary, footer, magic.
+        let footer_len = RECORD_HEAD + FOOTER_CONTENT as usize;
+        if b.len() < 2 * MAGIC.len() + footer_len + DATA_END_LEN
             || !b.starts_with(MAGIC)
             || !b.ends_with(MAGIC)
         {
@@ -104,32 +112,33 @@ impl Shard {
         let u64_at = |p: usize| u64::from_le_bytes(b[p..p + 8].try_into().expect("8 bytes"));
         let u32_at = |p: usize| u32::from_le_bytes(b[p..p + 4].try_into().expect("4 bytes"));
         let footer = b.len() - MAGIC.len() - footer_len;
-        if b[footer] != 0x02 || u64_at(footer + 1) != 20 {
+        if b[footer] != op::FOOTER || u64_at(footer + 1) != FOOTER_CONTENT {
             return bad(format!("no footer record at byte {footer}"));
         }
-        let summary_start = u64_at(footer + 9) as usize;
-        let summary_crc = u32_at(footer + 25);
+        let summary_start = u64_at(footer + RECORD_HEAD) as usize;
+        let summary_crc = u32_at(footer + RECORD_HEAD + 16);
         let summary_from = if summary_start == 0 {
             footer
         } else {
             summary_start
         };
-        if summary_from > footer || summary_from < MAGIC.len() + 13 {
+        if summary_from > footer || summary_from < MAGIC.len() + DATA_END_LEN {
             return bad(format!("summary start {summary_start} out of the file"));
         }
         if summary_crc != 0 {
-            let got = crc32fast::hash(&b[summary_from..footer + 25]);
+            // The summary CRC covers the summary section and the footer up to the CRC itself.
+            let got = crc32fast::hash(&b[summary_from..footer + RECORD_HEAD + 16]);
             if got != summary_crc {
                 return bad(format!(
                     "summary section CRC {got:#010x}, stored {summary_crc:#010x}"
                 ));
             }
         }
-        let data_end = summary_from - 13;
-        if b[data_end] != 0x0F || u64_at(data_end + 1) != 4 {
+        let data_end = summary_from - DATA_END_LEN;
+        if b[data_end] != op::DATA_END || u64_at(data_end + 1) != DATA_END_CONTENT {
             return bad(format!("no data end record at byte {data_end}"));
         }
-        let data_crc = u32_at(data_end + 9);
+        let data_crc = u32_at(data_end + RECORD_HEAD);
         if data_crc != 0 {
             let got = crc32fast::hash(&b[..data_end]);
             if got != data_crc {

@@ -19,12 +19,18 @@ import zlib
 from typing import Dict, Iterable, Iterator, List, Optional, Union
 
 import numpy as np
+from mcap.opcode import Opcode
 from mcap.reader import NonSeekingReader, make_reader
 
 from .schema import FRAME_SCHEMA, POINTS_SCHEMA, FrameSchema, fields
 
-_OP_CHUNK = 0x06
-_OP_MESSAGE = 0x05
+# The MCAP spec's record layout: opcode (1 byte), content length (u64 little-endian), content.
+_RECORD_HEAD = 1 + 8
+# Chunk content before its compression string: message start and end time, uncompressed size
+# (u64 each), uncompressed CRC (u32), compression string length (u32).
+_CHUNK_HEAD = struct.Struct("<QQQII")
+# Message content before its data: channel id (u16), sequence (u32), log and publish time (u64).
+_MESSAGE_HEAD = struct.Struct("<HIQQ")
 METADATA_NAME = "kitti2pgm"
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -186,11 +192,11 @@ class ShardReader:
         Message layouts, so that an uncompressed chunk is never copied)."""
         start, length = index.chunk_start_offset, index.chunk_length
         m = self._map
-        if start + length > len(m) or m[start] != _OP_CHUNK:
+        if start + length > len(m) or m[start] != Opcode.CHUNK:
             raise ValueError(f"no chunk record at byte {start} (truncated or corrupted shard?)")
-        pos = start + 9
-        _t0, _t1, usize, ucrc, clen = struct.unpack_from("<QQQIi", m, pos)
-        pos += 8 + 8 + 8 + 4 + 4
+        pos = start + _RECORD_HEAD
+        _t0, _t1, usize, ucrc, clen = _CHUNK_HEAD.unpack_from(m, pos)
+        pos += _CHUNK_HEAD.size
         compression = bytes(m[pos:pos + clen]).decode()
         pos += clen
         (rlen,) = struct.unpack_from("<Q", m, pos)
@@ -219,14 +225,14 @@ class ShardReader:
         while p < end:
             op = data[p]
             (n,) = struct.unpack_from("<Q", data, p + 1)
-            body = data[p + 9:p + 9 + n]
-            if op == _OP_MESSAGE:
-                (channel,) = struct.unpack_from("<H", body, 0)
+            body = data[p + _RECORD_HEAD:p + _RECORD_HEAD + n]
+            if op == Opcode.MESSAGE:
+                channel = _MESSAGE_HEAD.unpack_from(body, 0)[0]
                 if channel in self._frame_channels:
                     if found is not None:
                         raise ValueError("more than one frame in the chunk")
-                    found = body[22:]
-            p += 9 + n
+                    found = body[_MESSAGE_HEAD.size:]
+            p += _RECORD_HEAD + n
         if found is None:
             raise ValueError("no frame message in the chunk")
         return found

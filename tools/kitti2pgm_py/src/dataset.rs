@@ -52,26 +52,10 @@ impl Dataset {
         sampling: &str,
         all_frames: bool,
     ) -> PyResult<Dataset> {
-        let source = match source {
-            None => None,
-            Some("raw") => Some(Layout::Raw),
-            Some("semantickitti") | Some("sequences") => Some(Layout::Sequence),
-            Some("object") => Some(Layout::Object),
-            Some(s) => {
-                return Err(PyValueError::new_err(format!(
-                    "source must be 'raw', 'semantickitti' or 'object', not {s:?}"
-                )))
-            }
-        };
-        let sampling = match sampling {
-            "nearest" => Sampling::Nearest,
-            "bilinear" => Sampling::Bilinear,
-            s => {
-                return Err(PyValueError::new_err(format!(
-                    "sampling must be 'nearest' or 'bilinear', not {s:?}"
-                )))
-            }
-        };
+        let source = source
+            .map(|s| crate::named::<Layout>("source", s))
+            .transpose()?;
+        let sampling = crate::named::<Sampling>("sampling", sampling)?;
         let selection = if all_frames {
             FrameSelection::All
         } else {
@@ -127,11 +111,7 @@ impl Dataset {
     /// "raw", "semantickitti" or "object".
     #[getter]
     fn layout(&self) -> &'static str {
-        match self.plan.layout() {
-            Layout::Raw => "raw",
-            Layout::Sequence => "semantickitti",
-            Layout::Object => "object",
-        }
+        self.plan.layout().as_str()
     }
 
     /// The class map the labels use (a dict).

@@ -43,15 +43,7 @@ pub(crate) fn spec_of(
     fov_down_deg: f64,
     row_mode: &str,
 ) -> PyResult<PgmSpec> {
-    let row_mode = match row_mode {
-        "rings" => RowMode::Rings,
-        "elevation" => RowMode::Elevation,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "row_mode must be 'rings' or 'elevation', not {other:?}"
-            )))
-        }
-    };
+    let row_mode = named::<RowMode>("row_mode", row_mode)?;
     let spec = PgmSpec {
         rows,
         cols,
@@ -67,6 +59,19 @@ pub(crate) fn spec_of(
 /// Ring (laser) index of every point of a scan from its order: an (N,) uint8 array, or None
 /// when the scan does not show exactly 64 rings (the converter then bins by elevation).
 /// `points`: (N, 3+) float32, in the order of the `.bin` file.
+/// A library enum from its name, as the CLI spells it (`FromStr`: names and aliases); a
+/// `ValueError` naming the argument and the names otherwise.
+pub(crate) fn named<T: std::str::FromStr<Err = kitti2pgm::Error>>(
+    arg: &str,
+    value: &str,
+) -> PyResult<T> {
+    value.parse().map_err(|e: kitti2pgm::Error| {
+        let e = e.to_string();
+        let names = e.strip_prefix("invalid option: ").unwrap_or(&e);
+        PyValueError::new_err(format!("{arg} must be a known name: {names}"))
+    })
+}
+
 #[pyfunction]
 fn rings<'py>(
     py: Python<'py>,

@@ -156,7 +156,7 @@ def test_readers():
         k2.read_scan(REPO / "nothing.bin")
     with pytest.raises(KeyError):
         k2.Dataset(RAW).load("2011_09_26_0001_9999999999")
-    with pytest.raises(ValueError, match="source must be"):
+    with pytest.raises(ValueError, match="source must be a known name"):
         k2.Dataset(RAW, source="lidar")
 
 
