@@ -36,6 +36,58 @@ pub enum Error {
         /// What is wrong, with the values that disagree.
         message: String,
     },
+    /// An array of another element type than the reader takes.
+    #[error("{}: dtype {found}, expected {expected}", path.display())]
+    Dtype {
+        /// The `.npy` file.
+        path: PathBuf,
+        /// The dtype the file holds, as NumPy describes it (`'<i8'`).
+        found: String,
+        /// The dtype wanted, in words and as NumPy writes it.
+        expected: &'static str,
+    },
+    /// A label that is not a class id of the class map.
+    #[error("{}: {what} has label {value}, not a class id of {map} (0-{max}){}", path.display(), hint.map(|h| format!("; {h}")).unwrap_or_default())]
+    NotAClass {
+        /// The file holding it.
+        path: PathBuf,
+        /// Which element (`point 17`, `cell (3, 4)`).
+        what: String,
+        /// The value found.
+        value: u64,
+        /// The class map's name.
+        map: String,
+        /// Its largest class id.
+        max: usize,
+        /// What the reader of the message may have meant, when known.
+        hint: Option<&'static str>,
+    },
+    /// A ground-truth frame without a prediction.
+    #[error("{}: no prediction for ground-truth frame {frame}{}", root.display(), expected.as_ref().map(|e| format!(": expected {e}")).unwrap_or_default())]
+    MissingPrediction {
+        /// The predictions searched.
+        root: PathBuf,
+        /// The frame id.
+        frame: String,
+        /// Where its prediction was looked for, when there is one place.
+        expected: Option<String>,
+    },
+    /// Work that needs the raw scans, asked for without them.
+    #[error("{frame}: {what} needs the raw scans")]
+    NeedsScans {
+        /// The frame id it was needed for.
+        frame: String,
+        /// What needs them.
+        what: &'static str,
+    },
+    /// The output of an unfinished or inconsistent conversion, refused.
+    #[error("{}: {problem}; finish the conversion (run it again), or read what is there on purpose", path.display())]
+    Unfinished {
+        /// The converted data.
+        path: PathBuf,
+        /// What is unfinished or inconsistent.
+        problem: String,
+    },
     /// A required key is missing from a calibration file.
     #[error("{}: missing key `{key}`", path.display())]
     MissingKey {

@@ -38,10 +38,16 @@ fn main() -> ExitCode {
                 }
             }
             eprintln!("kitti2pgm: error: {e:#}");
+            if let Some(hint) = commands::hint(&e) {
+                eprintln!("kitti2pgm: hint: {hint}");
+            }
             // Options out of range or contradicting each other are usage errors, as clap's.
-            let usage = e
-                .chain()
-                .any(|c| matches!(c.downcast_ref(), Some(kitti2pgm::Error::Config(_))));
+            let usage = e.chain().any(|c| {
+                matches!(
+                    c.downcast_ref(),
+                    Some(kitti2pgm::Error::Config(_) | kitti2pgm::Error::NeedsScans { .. })
+                )
+            });
             if usage {
                 ExitCode::from(2)
             } else {

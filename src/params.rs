@@ -186,7 +186,9 @@ impl ConvertParams {
         let zero =
             |s: &Option<ShardParams>| s.as_ref().is_some_and(|s| s.frames_per_shard == Some(0));
         if zero(&self.shards) || zero(&self.point_shards) {
-            return Err(Error::Config("--shard-frames must be at least 1".into()));
+            return Err(Error::Config(
+                "shards need at least 1 frame each (frames per shard: 0)".into(),
+            ));
         }
         Ok(())
     }

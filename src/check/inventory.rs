@@ -257,7 +257,7 @@ fn compare_images(drive: &Drive, r: &DriveRead, c: &mut Collector) {
             &drive.dir,
             None,
             None,
-            "no camera-2 images: colour (--rgb) is not possible".into(),
+            "no camera-2 images: no colour channels for these scans".into(),
         );
     }
 }

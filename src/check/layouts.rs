@@ -32,7 +32,7 @@ pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
         r.calib = read_or_note(c, C::Calibration, &date, Calibration::read_dir(&date));
     } else if !r.scans.is_empty() {
         c.add(C::Inventory, S::Note, &date, None, None,
-            format!("no {CAM_TO_CAM} / {VELO_TO_CAM} beside the drive: colour (--rgb) and the camera checks are not possible"));
+            format!("no {CAM_TO_CAM} / {VELO_TO_CAM} beside the drive: no colour channels, no camera checks"));
     }
     let ts = drive.scan_timestamps_path();
     if ts.is_file() {
@@ -111,7 +111,7 @@ fn coverage_raw(drive: &Drive, r: &DriveRead, annotated: &[u32], c: &mut Collect
         let beyond: Vec<u32> = scans.iter().copied().filter(|&f| f > last).collect();
         if let Some(&first) = beyond.first() {
             c.add(C::Coverage, S::Warning, &drive.tracklets_path(), Some(first), None,
-                format!("the annotation ends at frame {last}, but {} scans follow: frames {} (every point background if converted with --frames all)",
+                format!("the annotation ends at frame {last}, but {} scans follow: frames {} (all background if every scan is converted)",
                     beyond.len(), frame_ranges(&beyond)));
         }
     }

@@ -33,6 +33,19 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
     }
 }
 
+/// The option that answers a library error, for the line after it: the library names no flag.
+pub fn hint(e: &anyhow::Error) -> Option<&'static str> {
+    use kitti2pgm::Error;
+    e.chain().find_map(|c| match c.downcast_ref::<Error>()? {
+        Error::MissingPrediction { .. } => {
+            Some("--missing-as-background scores frames without a prediction as all background")
+        }
+        Error::NeedsScans { .. } => Some("pass the dataset root with --raw ROOT"),
+        Error::Unfinished { .. } => Some("--partial reads it anyway (and the report says PARTIAL)"),
+        _ => None,
+    })
+}
+
 /// Options shared by every subcommand.
 pub struct Global {
     /// Worker threads (0 = all cores).

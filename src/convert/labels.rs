@@ -108,7 +108,7 @@ pub fn frame_labels(
             }
             if map.learning_map.is_empty() {
                 return Err(Error::Config(format!(
-                    "{}: per-point labels need a class map with a learning_map (--class-map semantic-kitti.yaml); {} has none",
+                    "{}: per-point labels need a class map with a learning_map (a semantic-kitti.yaml); {} has none",
                     path.display(),
                     map.name
                 )));

@@ -85,10 +85,11 @@ pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
     let shape = npy.shape().to_vec();
     let dtype = npy.dtype().descr();
     if dtype != "'<f4'" {
-        return Err(Error::format(
-            path,
-            format!("dtype {dtype}, expected float32 ('<f4')"),
-        ));
+        return Err(Error::Dtype {
+            path: path.into(),
+            found: dtype,
+            expected: "float32 ('<f4')",
+        });
     }
     let fortran = npy.order() == npyz::Order::Fortran;
     let n = npy.len() as usize;

@@ -42,7 +42,7 @@ pub fn write(path: &Path, frame: &PgmFrame, sync: bool) -> Result<()> {
 pub fn read(path: &Path) -> Result<PgmFile> {
     let (shape, data) = match npy::read_f32(path) {
         Ok(v) => v,
-        Err(Error::Format { message, .. }) if message.starts_with("dtype") => {
+        Err(Error::Dtype { .. }) => {
             let a = npy::read_any(path)?;
             (a.shape, a.data.into_iter().map(|v| v as f32).collect())
         }

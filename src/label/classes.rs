@@ -372,15 +372,14 @@ impl ClassMap {
         if self.contains(value) {
             Ok(value as ClassId)
         } else {
-            Err(Error::format(
-                path,
-                format!(
-                    "{} has label {value}, not a class id of {} (0-{})",
-                    what(),
-                    self.name,
-                    self.len() - 1
-                ),
-            ))
+            Err(Error::NotAClass {
+                path: path.into(),
+                what: what(),
+                value,
+                map: self.name.clone(),
+                max: self.len() - 1,
+                hint: None,
+            })
         }
     }
 

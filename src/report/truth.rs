@@ -147,11 +147,9 @@ impl GroundTruth {
         if let Some(problem) = super::completeness::problem(&gt)? {
             match completeness {
                 Completeness::Require => {
-                    return Err(Error::Input {
+                    return Err(Error::Unfinished {
                         path: path.into(),
-                        message: format!(
-                            "{problem}; finish the conversion (run it again), or read what is there on purpose (--partial)"
-                        ),
+                        problem,
                     })
                 }
                 Completeness::AllowPartial => gt.partial = Some(problem),

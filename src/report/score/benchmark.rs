@@ -26,15 +26,14 @@ use crate::report::truth::GroundTruth;
 fn classes(path: &Path, raw_ids: bool, map: &ClassMap) -> Result<Vec<ClassId>> {
     if !raw_ids {
         return label_file::read_classes(path, map).map_err(|e| match e {
-            Error::Format { path, line, message } if message.contains("not a class id") => {
-                Error::Format {
-                    path,
-                    line,
-                    message: format!(
-                        "{message}; raw SemanticKITTI ids (the benchmark's) are read from sequences/<NN>/predictions/<frame6>.label, class ids from convert's labels/<NN>/<frame6>.label"
-                    ),
-                }
-            }
+            Error::NotAClass { path, what, value, map, max, .. } => Error::NotAClass {
+                path,
+                what,
+                value,
+                map,
+                max,
+                hint: Some("raw SemanticKITTI ids (the benchmark's) are read from sequences/<NN>/predictions/<frame6>.label, class ids from convert's labels/<NN>/<frame6>.label"),
+            },
             other => other,
         });
     }
@@ -80,9 +79,13 @@ fn score_one(
         }
         None if opts.missing_as_background => None,
         None => {
-            return Err(Error::Input {
-                path: preds.root.clone(),
-                message: format!("no prediction for ground-truth frame {id}: expected PRED/sequences/{:02}/predictions/{:06}.label (use --missing-as-background to score it as {})", id.drive, id.frame, map.name(map.background)),
+            return Err(Error::MissingPrediction {
+                root: preds.root.clone(),
+                frame: id.to_string(),
+                expected: Some(format!(
+                    "PRED/sequences/{:02}/predictions/{:06}.label",
+                    id.drive, id.frame
+                )),
             })
         }
     };

@@ -30,9 +30,10 @@ pub fn score_frame(
     let pred_file = preds.files.get(id);
     let pred_shard = preds.in_shard.get(id);
     if pred_file.is_none() && pred_shard.is_none() && !opts.missing_as_background {
-        return Err(Error::Input {
-            path: preds.root.clone(),
-            message: format!("no prediction for ground-truth frame {id} (use --missing-as-background to score it as background)"),
+        return Err(Error::MissingPrediction {
+            root: preds.root.clone(),
+            frame: id.to_string(),
+            expected: None,
         });
     }
     let missing = pred_file.is_none() && pred_shard.is_none();
@@ -43,15 +44,13 @@ pub fn score_frame(
     // The projection and the points' ranges, kept for the kNN (--unproject knn).
     let mut scan_cells: Option<(crate::project::Projection, Vec<f32>)> = None;
     if needs_scan {
-        let raw = opts.raw.as_ref().ok_or_else(|| {
-            Error::Config(format!(
-                "{id}: {} needs the raw scans: pass --raw RAW_ROOT",
-                if opts.protocol == Protocol::Points {
-                    "the point protocol"
-                } else {
-                    "scoring .label predictions per cell"
-                }
-            ))
+        let raw = opts.raw.as_ref().ok_or_else(|| Error::NeedsScans {
+            frame: id.to_string(),
+            what: if opts.protocol == Protocol::Points {
+                "the point protocol"
+            } else {
+                "scoring .label predictions per cell"
+            },
         })?;
         let drive = raw_drive(raw, id)?;
         let scan = Scan::read(&drive.scan_path(id.frame))?;
