@@ -137,25 +137,14 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         let ranked = worst(&scores, n, map);
         std::fs::create_dir_all(&a.worst_dir)
             .with_context(|| format!("creating {}", a.worst_dir.display()))?;
-        let ids: BTreeSet<FrameId> = ranked
-            .iter()
-            .map(|(i, _)| {
-                scores[*i]
-                    .id
-                    .parse()
-                    .expect("ids come from the ground truth")
-            })
-            .collect();
+        let ids: BTreeSet<FrameId> = ranked.iter().map(|(i, _)| scores[*i].id.clone()).collect();
         let (_, mut maps) = pool
             .install(|| score(&gt, Some(&ids), &preds, &opts, &ids, &|_| {}))
             .with_context(context)?;
         let shape = (gt.params.spec.rows, gt.params.spec.cols);
         for (rank, (i, m)) in ranked.iter().enumerate() {
-            let id: FrameId = scores[*i]
-                .id
-                .parse()
-                .expect("ids come from the ground truth");
-            let frame_maps = maps.remove(&id).expect("asked for");
+            let id = &scores[*i].id;
+            let frame_maps = maps.remove(id).expect("asked for");
             let img = frame_chart(&id.to_string(), &frame_maps, shape, Some(*m), map);
             png::write(&a.worst_dir.join(format!("{:03}_{id}.png", rank + 1)), &img)?;
         }
@@ -318,7 +307,7 @@ fn table(r: &ScoreReport, map: &ClassMap, full_confusion: bool) -> String {
         }
         let _ = writeln!(t, " {:>8} {:>10}", "mIoU*", "elements");
         for p in pf {
-            let _ = write!(t, "{:<28}", p.id);
+            let _ = write!(t, "{:<28}", p.id.to_string());
             for name in &r.miou_classes {
                 let _ = write!(t, " {:>11}", f(p.iou[name]));
             }

@@ -109,7 +109,7 @@ fn score_one(
         }
     }
     Ok(FrameScore {
-        id: id.to_string(),
+        id: id.clone(),
         confusion: c,
         missing: pred.is_none(),
     })

@@ -13,6 +13,98 @@ use crate::project::unproject::{unproject, Method, PointsInMap};
 use crate::project::{project_with_point_cells, EMPTY};
 use crate::report::truth::GroundTruth;
 
+/// Where a scan's points fall in the map, for the point protocol and per-point predictions.
+#[derive(Default)]
+struct ScanCells {
+    /// (cell, file index) of each point in the field of view.
+    point_cells: Vec<(u32, u32)>,
+    /// The file index of each cell's point (`u32::MAX` for an empty cell).
+    cell_winner_file: Vec<u32>,
+    /// The projection and the points' ranges, kept for the kNN.
+    knn: Option<(crate::project::Projection, Vec<f32>)>,
+}
+
+/// Projects the frame's scan with the ground truth's map.
+fn scan_cells(gt: &GroundTruth, id: &FrameId, opts: &ScoreOptions) -> Result<ScanCells> {
+    let raw = opts.raw.as_ref().ok_or_else(|| Error::NeedsScans {
+        frame: id.to_string(),
+        what: if opts.protocol == Protocol::Points {
+            "the point protocol"
+        } else {
+            "scoring .label predictions per cell"
+        },
+    })?;
+    let drive = raw_drive(raw, id)?;
+    let scan = Scan::read(&drive.scan_path(id.frame))?;
+    let proj = project_with_point_cells(&scan.points, &gt.params.spec);
+    let file_idx = scan.file_indices();
+    let cell_winner_file = proj
+        .cell_point
+        .iter()
+        .map(|&p| {
+            if p == EMPTY {
+                u32::MAX
+            } else {
+                file_idx[p as usize]
+            }
+        })
+        .collect();
+    let point_cells = proj
+        .point_cell
+        .iter()
+        .zip(&file_idx)
+        .filter(|(c, _)| **c != EMPTY)
+        .map(|(c, f)| (*c, *f))
+        .collect();
+    // The points' ranges only where the kNN compares them.
+    let knn = matches!(opts.unproject, Method::Knn(_)).then(|| {
+        let range = scan.points.iter().map(crate::project::norm).collect();
+        (proj, range)
+    });
+    Ok(ScanCells {
+        point_cells,
+        cell_winner_file,
+        knn,
+    })
+}
+
+/// The predicted class of every cell: a map prediction, a shard's, per-point labels taken at
+/// each cell's point, or background when the prediction is missing.
+fn predicted_cells(
+    preds: &Predictions,
+    id: &FrameId,
+    gt: &GroundTruth,
+    scan: &ScanCells,
+) -> Result<Vec<u8>> {
+    let (map, spec) = (&gt.params.class_map, &gt.params.spec);
+    let shape = (spec.rows, spec.cols);
+    Ok(match (preds.files.get(id), preds.points) {
+        (None, _) => match preds.in_shard.get(id) {
+            Some(&(k, chunk)) => preds.shard_prediction(k, chunk, id, shape, map)?,
+            None => vec![0; shape.0 * shape.1],
+        },
+        (Some(p), false) => read_cell_prediction(p, shape, map)?.labels,
+        (Some(p), true) => {
+            let pl = label_file::read_classes(p, map)?;
+            let winners = scan.cell_winner_file.iter().filter(|&&f| f != u32::MAX);
+            let n = winners.map(|&f| f as usize + 1).max().unwrap_or(0);
+            if pl.len() < n {
+                return Err(Error::format(
+                    p,
+                    format!(
+                        "{} point labels, but the scan has at least {n} points",
+                        pl.len()
+                    ),
+                ));
+            }
+            scan.cell_winner_file
+                .iter()
+                .map(|&f| if f == u32::MAX { 0 } else { pl[f as usize] })
+                .collect()
+        }
+    })
+}
+
 /// Scores one frame against its ground truth (`u8::MAX` in empty cells); the point protocol
 /// reads the `.label` files of the ground truth's convert folder.
 pub fn score_frame(
@@ -23,93 +115,22 @@ pub fn score_frame(
     opts: &ScoreOptions,
     want_maps: bool,
 ) -> Result<(FrameScore, Option<FrameMaps>)> {
-    let spec = &gt.params.spec;
     let map = &gt.params.class_map;
-    let (rows, cols) = (spec.rows, spec.cols);
-    let cells = rows * cols;
-    let pred_file = preds.files.get(id);
-    let pred_shard = preds.in_shard.get(id);
-    if pred_file.is_none() && pred_shard.is_none() && !opts.missing_as_background {
+    let missing = !preds.files.contains_key(id) && !preds.in_shard.contains_key(id);
+    if missing && !opts.missing_as_background {
         return Err(Error::MissingPrediction {
             root: preds.root.clone(),
             frame: id.to_string(),
             expected: None,
         });
     }
-    let missing = pred_file.is_none() && pred_shard.is_none();
     let needs_scan = opts.protocol == Protocol::Points || (preds.points && !missing);
-    // Per point: (cell, file index) of each point in the field of view, from the scan.
-    let mut point_cells: Vec<(u32, u32)> = Vec::new();
-    let mut cell_winner_file: Vec<u32> = Vec::new();
-    // The projection and the points' ranges, kept for the kNN (--unproject knn).
-    let mut scan_cells: Option<(crate::project::Projection, Vec<f32>)> = None;
-    if needs_scan {
-        let raw = opts.raw.as_ref().ok_or_else(|| Error::NeedsScans {
-            frame: id.to_string(),
-            what: if opts.protocol == Protocol::Points {
-                "the point protocol"
-            } else {
-                "scoring .label predictions per cell"
-            },
-        })?;
-        let drive = raw_drive(raw, id)?;
-        let scan = Scan::read(&drive.scan_path(id.frame))?;
-        let proj = project_with_point_cells(&scan.points, spec);
-        let file_idx = scan.file_indices();
-        cell_winner_file = proj
-            .cell_point
-            .iter()
-            .map(|&p| {
-                if p == EMPTY {
-                    u32::MAX
-                } else {
-                    file_idx[p as usize]
-                }
-            })
-            .collect();
-        point_cells = proj
-            .point_cell
-            .iter()
-            .zip(&file_idx)
-            .filter(|(c, _)| **c != EMPTY)
-            .map(|(c, f)| (*c, *f))
-            .collect();
-        // The points' ranges only where the kNN compares them.
-        if matches!(opts.unproject, Method::Knn(_)) {
-            let range = scan.points.iter().map(crate::project::norm).collect();
-            scan_cells = Some((proj, range));
-        }
-    }
-    // Predicted class per cell.
-    let pred_cells: Vec<u8> = match (pred_file, preds.points) {
-        (None, _) => match pred_shard {
-            Some(&(k, chunk)) => preds.shard_prediction(k, chunk, id, (rows, cols), map)?,
-            None => vec![0; cells],
-        },
-        (Some(p), false) => read_cell_prediction(p, (rows, cols), map)?.labels,
-        (Some(p), true) => {
-            let pl = label_file::read_classes(p, map)?;
-            let n = cell_winner_file
-                .iter()
-                .filter(|&&f| f != u32::MAX)
-                .map(|&f| f as usize + 1)
-                .max()
-                .unwrap_or(0);
-            if pl.len() < n {
-                return Err(Error::format(
-                    p,
-                    format!(
-                        "{} point labels, but the scan has at least {n} points",
-                        pl.len()
-                    ),
-                ));
-            }
-            cell_winner_file
-                .iter()
-                .map(|&f| if f == u32::MAX { 0 } else { pl[f as usize] })
-                .collect()
-        }
+    let scan = if needs_scan {
+        scan_cells(gt, id, opts)?
+    } else {
+        ScanCells::default()
     };
+    let pred_cells = predicted_cells(preds, id, gt, &scan)?;
     let mut c = Confusion::new(map.len());
     match opts.protocol {
         Protocol::Cells => {
@@ -119,78 +140,7 @@ pub fn score_frame(
                 }
             }
         }
-        Protocol::Points => {
-            let gt_dir = gt.dir.as_ref().ok_or_else(|| {
-                Error::Config("the point protocol needs a convert output folder as ground truth (its .label files)".into())
-            })?;
-            let lp = gt_dir.label_path(id);
-            let gt_points = label_file::read_classes(&lp, map)?;
-            let pred_points = match (pred_file, preds.points) {
-                (Some(p), true) => Some(label_file::read_classes(p, map)?),
-                _ => None,
-            };
-            // Map predictions reach the points by the chosen method (kept points, in the
-            // order of point_cells).
-            let carried: Option<Vec<u8>> = match (&pred_points, &opts.unproject, &scan_cells) {
-                (None, Method::Knn(_), Some((proj, range))) => {
-                    let m = PointsInMap {
-                        rows,
-                        cols,
-                        point_cell: &proj.point_cell,
-                        point_range: range,
-                        cell_range: &proj.cell_range,
-                    };
-                    Some(
-                        unproject(&m, &pred_cells, &opts.unproject, map)?
-                            .into_iter()
-                            .flatten()
-                            .collect(),
-                    )
-                }
-                _ => None,
-            };
-            for (k, &(cell, fi)) in point_cells.iter().enumerate() {
-                let t = *gt_points.get(fi as usize).ok_or_else(|| {
-                    Error::format(
-                        &lp,
-                        format!(
-                            "{} point labels, but the scan has point {fi}",
-                            gt_points.len()
-                        ),
-                    )
-                })?;
-                let p = match &pred_points {
-                    Some(pp) => *pp.get(fi as usize).ok_or_else(|| {
-                        Error::format(
-                            pred_file.expect("present"),
-                            format!("{} point labels, but the scan has point {fi}", pp.len()),
-                        )
-                    })?,
-                    None => match &carried {
-                        Some(c) => c[k],
-                        None => pred_cells[cell as usize],
-                    },
-                };
-                if map.is_scored(t) {
-                    c.count(t, p);
-                }
-            }
-            // SemanticKITTI's benchmark scores every point of the scan: map predictions leave
-            // the points outside the map unlabeled (the background class), and they count.
-            if id.layout == Layout::Sequence && pred_points.is_none() {
-                let mut inside = vec![false; gt_points.len()];
-                for &(_, fi) in &point_cells {
-                    if let Some(v) = inside.get_mut(fi as usize) {
-                        *v = true;
-                    }
-                }
-                for (t, _) in gt_points.iter().zip(&inside).filter(|(_, i)| !**i) {
-                    if map.is_scored(*t) {
-                        c.count(*t, map.background);
-                    }
-                }
-            }
-        }
+        Protocol::Points => count_points(&mut c, gt, id, preds, opts, &scan, &pred_cells)?,
     }
     let maps = want_maps.then_some(FrameMaps {
         truth,
@@ -198,12 +148,104 @@ pub fn score_frame(
     });
     Ok((
         FrameScore {
-            id: id.to_string(),
+            id: id.clone(),
             confusion: c,
             missing,
         },
         maps,
     ))
+}
+
+/// The point protocol: every point in the map against its `.label` truth; a SemanticKITTI
+/// frame's points outside the map count as background.
+fn count_points(
+    c: &mut Confusion,
+    gt: &GroundTruth,
+    id: &FrameId,
+    preds: &Predictions,
+    opts: &ScoreOptions,
+    scan: &ScanCells,
+    pred_cells: &[u8],
+) -> Result<()> {
+    let map = &gt.params.class_map;
+    let gt_dir = gt.dir.as_ref().ok_or_else(|| {
+        Error::Config(
+            "the point protocol needs a convert output folder as ground truth (its .label files)"
+                .into(),
+        )
+    })?;
+    let lp = gt_dir.label_path(id);
+    let gt_points = label_file::read_classes(&lp, map)?;
+    let pred_file = preds.files.get(id).filter(|_| preds.points);
+    let pred_points = pred_file
+        .map(|p| label_file::read_classes(p, map))
+        .transpose()?;
+    // Map predictions reach the points by the chosen method (kept points, in the order of
+    // point_cells).
+    let carried = match (&pred_points, &scan.knn) {
+        (None, Some((proj, range))) => Some(carry(gt, proj, range, pred_cells, opts)?),
+        _ => None,
+    };
+    let short = |file: &Path, n: usize, fi: u32| {
+        Error::format(
+            file,
+            format!("{n} point labels, but the scan has point {fi}"),
+        )
+    };
+    for (k, &(cell, fi)) in scan.point_cells.iter().enumerate() {
+        let t = *gt_points
+            .get(fi as usize)
+            .ok_or_else(|| short(&lp, gt_points.len(), fi))?;
+        let p = match (&pred_points, pred_file, &carried) {
+            (Some(pp), Some(file), _) => *pp
+                .get(fi as usize)
+                .ok_or_else(|| short(file, pp.len(), fi))?,
+            (_, _, Some(c)) => c[k],
+            _ => pred_cells[cell as usize],
+        };
+        if map.is_scored(t) {
+            c.count(t, p);
+        }
+    }
+    // SemanticKITTI's benchmark scores every point of the scan: map predictions leave the
+    // points outside the map unlabeled (the background class), and they count.
+    if id.layout == Layout::Sequence && pred_points.is_none() {
+        let mut inside = vec![false; gt_points.len()];
+        for &(_, fi) in &scan.point_cells {
+            if let Some(v) = inside.get_mut(fi as usize) {
+                *v = true;
+            }
+        }
+        for (t, _) in gt_points.iter().zip(&inside).filter(|(_, i)| !**i) {
+            if map.is_scored(*t) {
+                c.count(*t, map.background);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A map prediction carried to the points in the map by the kNN.
+fn carry(
+    gt: &GroundTruth,
+    proj: &crate::project::Projection,
+    range: &[f32],
+    pred_cells: &[u8],
+    opts: &ScoreOptions,
+) -> Result<Vec<u8>> {
+    let m = PointsInMap {
+        rows: gt.params.spec.rows,
+        cols: gt.params.spec.cols,
+        point_cell: &proj.point_cell,
+        point_range: range,
+        cell_range: &proj.cell_range,
+    };
+    Ok(
+        unproject(&m, pred_cells, &opts.unproject, &gt.params.class_map)?
+            .into_iter()
+            .flatten()
+            .collect(),
+    )
 }
 
 /// The drive of a frame under `raw` (a KITTI raw root, date folder or drive folder; a

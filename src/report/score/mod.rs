@@ -58,7 +58,7 @@ pub struct ScoreOptions {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FrameScore {
     /// Frame id.
-    pub id: String,
+    pub id: FrameId,
     /// Its confusion matrix.
     pub confusion: Confusion,
     /// Whether its prediction was missing (scored as background).
@@ -127,7 +127,7 @@ pub struct ScoreReport {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FramePerf {
     /// Frame id.
-    pub id: String,
+    pub id: FrameId,
     /// IoU per class (`null` when absent).
     pub iou: BTreeMap<String, Option<f64>>,
     /// Mean over the mIoU classes present (`null` when none is).
