@@ -46,101 +46,112 @@ pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
         });
     }
     let canonical = root.canonicalize().map_err(|e| Error::io(root, e))?;
-    let has_scans = |d: &Path| d.join("velodyne").is_dir();
-    let sequences = || -> Result<Vec<Drive>> {
-        if has_scans(&canonical) {
-            return Ok(Drive::sequence(&canonical).into_iter().collect());
-        }
-        let dir = if canonical.join("sequences").is_dir() {
-            canonical.join("sequences")
-        } else {
-            canonical.clone()
-        };
-        Ok(crate::fs::sorted_dir(&dir)?
-            .into_iter()
-            .filter(|p| has_scans(p))
-            .filter_map(|p| Drive::sequence(&p))
-            .collect())
-    };
-    let object = || -> Vec<Drive> {
-        if has_scans(&canonical) && !canonical.join("labels").is_dir() {
-            return vec![Drive::object_split(&canonical)];
-        }
-        ["training", "testing"]
-            .iter()
-            .map(|s| canonical.join(s))
-            .find(|d| has_scans(d))
-            .map(|d| Drive::object_split(&d))
-            .into_iter()
-            .collect()
-    };
     let none = |what: &str| Error::Input {
         path: root.into(),
         message: format!("no {what} found here"),
     };
+    let found = |drives: Vec<Drive>| Discovery {
+        drives,
+        problems: Vec::new(),
+    };
     match source {
         Some(Layout::Sequence) => {
-            let drives = sequences()?;
-            return if drives.is_empty() {
-                Err(none(
+            let drives = sequences(&canonical)?;
+            if drives.is_empty() {
+                return Err(none(
                     "SemanticKITTI / odometry sequence (sequences/<NN>/velodyne/)",
-                ))
-            } else {
-                Ok(Discovery {
-                    drives,
-                    problems: Vec::new(),
-                })
-            };
+                ));
+            }
+            Ok(found(drives))
         }
         Some(Layout::Object) => {
-            let drives = object();
-            return if drives.is_empty() {
-                Err(none(
+            let drives = object_splits(&canonical);
+            if drives.is_empty() {
+                return Err(none(
                     "KITTI object split (training/ or testing/ with velodyne/)",
-                ))
-            } else {
-                Ok(Discovery {
-                    drives,
-                    problems: Vec::new(),
-                })
-            };
-        }
-        Some(Layout::Raw) => {}
-        None => {
-            let raw_like = Drive::from_dir(&canonical).is_some()
-                || is_date(file_name(&canonical))
-                || crate::fs::sorted_dir(&canonical)?
-                    .iter()
-                    .any(|p| p.is_dir() && is_date(file_name(p)));
-            if !raw_like {
-                let seqs = sequences()?;
-                if !seqs.is_empty() {
-                    return Ok(Discovery {
-                        drives: seqs,
-                        problems: Vec::new(),
-                    });
-                }
-                let objs = object();
-                if !objs.is_empty() {
-                    return Ok(Discovery {
-                        drives: objs,
-                        problems: Vec::new(),
-                    });
-                }
+                ));
             }
+            Ok(found(drives))
         }
+        Some(Layout::Raw) => raw_drives(root, &canonical),
+        None if !raw_like(&canonical)? => {
+            let seqs = sequences(&canonical)?;
+            if !seqs.is_empty() {
+                return Ok(found(seqs));
+            }
+            let objs = object_splits(&canonical);
+            if !objs.is_empty() {
+                return Ok(found(objs));
+            }
+            raw_drives(root, &canonical)
+        }
+        None => raw_drives(root, &canonical),
     }
+}
+
+fn has_scans(d: &Path) -> bool {
+    d.join("velodyne").is_dir()
+}
+
+/// Whether `dir` is a raw drive, a date folder, or holds date folders.
+fn raw_like(dir: &Path) -> Result<bool> {
+    Ok(Drive::from_dir(dir).is_some()
+        || is_date(file_name(dir))
+        || crate::fs::sorted_dir(dir)?
+            .iter()
+            .any(|p| p.is_dir() && is_date(file_name(p))))
+}
+
+/// The sequences at `dir`: itself when it holds `velodyne/`, else `sequences/<NN>` (or `<NN>`)
+/// folders with scans.
+fn sequences(dir: &Path) -> Result<Vec<Drive>> {
+    if has_scans(dir) {
+        return Ok(Drive::sequence(dir).into_iter().collect());
+    }
+    let parent = if dir.join("sequences").is_dir() {
+        dir.join("sequences")
+    } else {
+        dir.to_path_buf()
+    };
+    Ok(crate::fs::sorted_dir(&parent)?
+        .into_iter()
+        .filter(|p| has_scans(p))
+        .filter_map(|p| Drive::sequence(&p))
+        .collect())
+}
+
+/// The object split at `dir`: itself when it holds `velodyne/` (and no `labels/`, which a
+/// sequence has), else `training/` or, without it, `testing/`.
+fn object_splits(dir: &Path) -> Vec<Drive> {
+    if has_scans(dir) && !dir.join("labels").is_dir() {
+        return vec![Drive::object_split(dir)];
+    }
+    ["training", "testing"]
+        .iter()
+        .map(|s| dir.join(s))
+        .find(|d| has_scans(d))
+        .map(|d| Drive::object_split(&d))
+        .into_iter()
+        .collect()
+}
+
+fn not_utf8(p: &Path) -> bool {
+    p.file_name().is_some_and(|n| n.to_str().is_none())
+}
+
+/// The raw drives at `canonical` (a drive, a date folder, or a root of date folders), and the
+/// folders that could not be read as such.
+fn raw_drives(root: &Path, canonical: &Path) -> Result<Discovery> {
     let mut found = Discovery::default();
-    if let Some(d) = Drive::from_dir(&canonical) {
+    if let Some(d) = Drive::from_dir(canonical) {
         found.drives.push(d);
         return Ok(found);
     }
-    let not_utf8 = |p: &Path| p.file_name().is_some_and(|n| n.to_str().is_none());
     let mut date_dirs = Vec::new();
-    if is_date(file_name(&canonical)) {
-        date_dirs.push(canonical.clone());
+    if is_date(file_name(canonical)) {
+        date_dirs.push(canonical.to_path_buf());
     } else {
-        for p in crate::fs::sorted_dir(&canonical)? {
+        for p in crate::fs::sorted_dir(canonical)? {
             if p.is_dir() && is_date(file_name(&p)) {
                 date_dirs.push(p);
             } else if p.is_dir() && not_utf8(&p) {
@@ -151,27 +162,7 @@ pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
         }
     }
     for d in date_dirs {
-        let entries = match crate::fs::sorted_dir(&d) {
-            Ok(e) => e,
-            Err(e) => {
-                found.problems.push((d, e.to_string()));
-                continue;
-            }
-        };
-        for p in entries {
-            if !p.is_dir() {
-                continue;
-            }
-            if let Some(drive) = Drive::from_dir(&p) {
-                found.drives.push(drive);
-            } else if not_utf8(&p) {
-                found.problems.push((
-                    p,
-                    "folder name is not valid UTF-8 (a drive folder is <date>_drive_<NNNN>_sync)"
-                        .into(),
-                ));
-            }
-        }
+        drives_of_day(d, &mut found);
     }
     if found.drives.is_empty() && found.problems.is_empty() {
         return Err(Error::Input {
@@ -182,4 +173,26 @@ pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
     }
     found.drives.sort();
     Ok(found)
+}
+
+/// The drive folders of one date folder, into `found`.
+fn drives_of_day(d: PathBuf, found: &mut Discovery) {
+    let entries = match crate::fs::sorted_dir(&d) {
+        Ok(e) => e,
+        Err(e) => {
+            found.problems.push((d, e.to_string()));
+            return;
+        }
+    };
+    for p in entries.into_iter().filter(|p| p.is_dir()) {
+        if let Some(drive) = Drive::from_dir(&p) {
+            found.drives.push(drive);
+        } else if not_utf8(&p) {
+            found.problems.push((
+                p,
+                "folder name is not valid UTF-8 (a drive folder is <date>_drive_<NNNN>_sync)"
+                    .into(),
+            ));
+        }
+    }
 }

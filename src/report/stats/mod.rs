@@ -207,14 +207,9 @@ fn shares(a: &ClassCounts, map: &ClassMap) -> PerClass<f64> {
         .collect()
 }
 
-/// Computes the report. `splits` empty means one split `all` over every frame.
-pub fn stats(
-    gt: &GroundTruth,
-    splits: &[SplitFrames],
-    raw: Option<&Path>,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<Stats> {
-    let map = &gt.params.class_map;
+/// The splits to report: `splits`, or one split `all` over every frame; each list checked to
+/// name converted frames only, and not all empty.
+fn checked_splits(gt: &GroundTruth, splits: &[SplitFrames]) -> Result<Vec<SplitFrames>> {
     let splits: Vec<SplitFrames> = if splits.is_empty() {
         vec![SplitFrames {
             name: "all".into(),
@@ -244,6 +239,137 @@ pub fn stats(
             message: "the split lists are empty".into(),
         });
     }
+    Ok(splits)
+}
+
+/// One split's totals, added in frame order.
+fn split_acc(
+    gt: &GroundTruth,
+    s: &SplitFrames,
+    per_frame: &BTreeMap<FrameId, Acc>,
+    inputs: usize,
+) -> Result<Acc> {
+    let mut acc = Acc::new(gt.params.spec.rows, gt.params.class_map.len(), inputs);
+    let mut sorted: Vec<&FrameId> = s.frames.iter().collect();
+    sorted.sort();
+    for id in sorted {
+        let a = per_frame.get(id).ok_or_else(|| Error::Input {
+            path: gt.path.clone(),
+            message: format!("frame {id} is listed, but no map of it was found"),
+        })?;
+        if a.sum.len() != acc.sum.len() {
+            return Err(Error::Input {
+                path: gt.path.clone(),
+                message: format!("frame {id} has {} input channels, the map {} (mixed 6- and 9-channel outputs?)", a.sum.len(), acc.sum.len()),
+            });
+        }
+        acc.add(a);
+    }
+    Ok(acc)
+}
+
+/// A split's figures from its totals.
+fn split_stats(
+    gt: &GroundTruth,
+    acc: &Acc,
+    inputs: &[String],
+    tracklets: Option<TrackletStats>,
+) -> SplitStats {
+    let map = &gt.params.class_map;
+    let (rows, cols) = (gt.params.spec.rows, gt.params.spec.cols);
+    let filled = acc.cells.total();
+    let per_row = (acc.frames * cols as u64).max(1) as f64;
+    let mut mean = BTreeMap::new();
+    let mut std = BTreeMap::new();
+    for (j, name) in inputs.iter().enumerate() {
+        let n = filled.max(1) as f64;
+        let m = acc.sum[j] / n;
+        mean.insert(name.clone(), m);
+        std.insert(name.clone(), (acc.sum_sq[j] / n - m * m).max(0.0).sqrt());
+    }
+    SplitStats {
+        frames: acc.frames,
+        cells: map.keyed(&acc.cells.0),
+        points: acc.points_known.then(|| map.keyed(&acc.points.0)),
+        frames_with: map.keyed(&acc.frames_with.0),
+        share_of_labelled_cells: shares(&acc.cells, map),
+        share_of_labelled_points: acc.points_known.then(|| shares(&acc.points, map)),
+        fill_ratio: filled as f64 / (acc.frames * (rows * cols) as u64).max(1) as f64,
+        row_fill: acc.row_filled.iter().map(|&r| r as f64 / per_row).collect(),
+        rgb_coverage: gt
+            .params
+            .channels()
+            .has_rgb()
+            .then(|| acc.rgb_cells as f64 / filled.max(1) as f64),
+        channel_mean: mean,
+        channel_std: std,
+        tracklets,
+    }
+}
+
+/// Each class's share per split, of what `get` counts.
+fn split_share(
+    accs: &[(String, Acc)],
+    map: &ClassMap,
+    get: &dyn Fn(&Acc) -> &ClassCounts,
+) -> PerClass<BTreeMap<String, f64>> {
+    map.ids()
+        .map(|c| {
+            let total: u64 = accs.iter().map(|(_, a)| get(a).get(c)).sum();
+            let m = accs
+                .iter()
+                .map(|(n, a)| {
+                    let v = if total == 0 {
+                        0.0
+                    } else {
+                        get(a).get(c) as f64 / total as f64
+                    };
+                    (n.clone(), v)
+                })
+                .collect();
+            (map.name(c).to_string(), m)
+        })
+        .collect()
+}
+
+/// Loss weights from a split's labelled cells: inverse frequency scaled so that the most
+/// frequent labelled class (car on KITTI) gets 1, and its square root.
+fn class_weights(map: &ClassMap, base_name: &str, base: &Acc) -> ClassWeights {
+    let total = base.cells.total().max(1) as f64;
+    let inv: Vec<f64> = map
+        .ids()
+        .map(|c| {
+            let f = base.cells.get(c) as f64 / total;
+            if f > 0.0 && map.is_scored(c) {
+                1.0 / f
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let most = map
+        .labelled()
+        .into_iter()
+        .filter(|&c| inv[c as usize] > 0.0)
+        .max_by_key(|&c| base.cells.get(c));
+    let scale = most.map_or(1.0, |c| inv[c as usize]);
+    ClassWeights {
+        from_split: base_name.to_string(),
+        inverse_frequency: inv.iter().map(|w| w / scale).collect(),
+        sqrt_inverse_frequency: inv.iter().map(|w| (w / scale).sqrt()).collect(),
+        reference: map.reference_weights.clone(),
+    }
+}
+
+/// Computes the report. `splits` empty means one split `all` over every frame.
+pub fn stats(
+    gt: &GroundTruth,
+    splits: &[SplitFrames],
+    raw: Option<&Path>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Stats> {
+    let map = &gt.params.class_map;
+    let splits = checked_splits(gt, splits)?;
     let wanted: BTreeSet<FrameId> = splits
         .iter()
         .flat_map(|s| s.frames.iter().cloned())
@@ -261,83 +387,19 @@ pub fn stats(
         .map(String::from)
         .collect();
     let (rows, cols) = (gt.params.spec.rows, gt.params.spec.cols);
-    let has_rgb = channels.has_rgb();
     let mut accs = Vec::new();
     let mut out_splits = BTreeMap::new();
     for s in &splits {
-        let mut acc = Acc::new(rows, map.len(), inputs.len());
-        let mut sorted: Vec<&FrameId> = s.frames.iter().collect();
-        sorted.sort();
-        for id in sorted {
-            let a = per_frame.get(id).ok_or_else(|| Error::Input {
-                path: gt.path.clone(),
-                message: format!("frame {id} is listed, but no map of it was found"),
-            })?;
-            if a.sum.len() != acc.sum.len() {
-                return Err(Error::Input {
-                    path: gt.path.clone(),
-                    message: format!("frame {id} has {} input channels, the map {} (mixed 6- and 9-channel outputs?)", a.sum.len(), acc.sum.len()),
-                });
-            }
-            acc.add(a);
-        }
-        let filled = acc.cells.total();
-        let per_row = (acc.frames * cols as u64).max(1) as f64;
-        let mut mean = BTreeMap::new();
-        let mut std = BTreeMap::new();
-        for (j, name) in inputs.iter().enumerate() {
-            let n = filled.max(1) as f64;
-            let m = acc.sum[j] / n;
-            mean.insert(name.clone(), m);
-            std.insert(name.clone(), (acc.sum_sq[j] / n - m * m).max(0.0).sqrt());
-        }
-        let tracklets = match raw {
-            Some(r) => Some(tracklet_stats(r, &s.frames, map)?),
-            None => None,
-        };
-        out_splits.insert(
-            s.name.clone(),
-            SplitStats {
-                frames: acc.frames,
-                cells: map.keyed(&acc.cells.0),
-                points: acc.points_known.then(|| map.keyed(&acc.points.0)),
-                frames_with: map.keyed(&acc.frames_with.0),
-                share_of_labelled_cells: shares(&acc.cells, map),
-                share_of_labelled_points: acc.points_known.then(|| shares(&acc.points, map)),
-                fill_ratio: filled as f64 / (acc.frames * (rows * cols) as u64).max(1) as f64,
-                row_fill: acc.row_filled.iter().map(|&r| r as f64 / per_row).collect(),
-                rgb_coverage: has_rgb.then(|| acc.rgb_cells as f64 / filled.max(1) as f64),
-                channel_mean: mean,
-                channel_std: std,
-                tracklets,
-            },
-        );
+        let acc = split_acc(gt, s, &per_frame, inputs.len())?;
+        let tracklets = raw.map(|r| tracklet_stats(r, &s.frames, map)).transpose()?;
+        out_splits.insert(s.name.clone(), split_stats(gt, &acc, &inputs, tracklets));
         accs.push((s.name.clone(), acc));
     }
-    let split_share = |get: &dyn Fn(&Acc) -> &ClassCounts| -> PerClass<BTreeMap<String, f64>> {
-        map.ids()
-            .map(|c| {
-                let total: u64 = accs.iter().map(|(_, a)| get(a).get(c)).sum();
-                let m = accs
-                    .iter()
-                    .map(|(n, a)| {
-                        let v = if total == 0 {
-                            0.0
-                        } else {
-                            get(a).get(c) as f64 / total as f64
-                        };
-                        (n.clone(), v)
-                    })
-                    .collect();
-                (map.name(c).to_string(), m)
-            })
-            .collect()
-    };
-    let class_split_share = split_share(&|a| &a.cells);
+    let class_split_share = split_share(&accs, map, &|a| &a.cells);
     let class_split_share_points = accs
         .iter()
         .all(|(_, a)| a.points_known)
-        .then(|| split_share(&|a| &a.points));
+        .then(|| split_share(&accs, map, &|a| &a.points));
     // Constants come from `train` when there is one, else from the first split.
     let (base_name, base) = accs.iter().find(|(n, _)| n == "train").unwrap_or(&accs[0]);
     let bs = &out_splits[base_name];
@@ -347,31 +409,7 @@ pub fn stats(
         mean: inputs.iter().map(|c| bs.channel_mean[c]).collect(),
         std: inputs.iter().map(|c| bs.channel_std[c]).collect(),
     };
-    let total = base.cells.total().max(1) as f64;
-    let inv: Vec<f64> = map
-        .ids()
-        .map(|c| {
-            let f = base.cells.get(c) as f64 / total;
-            if f > 0.0 && map.is_scored(c) {
-                1.0 / f
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    // The most frequent labelled class gets weight 1 (car on KITTI).
-    let most = map
-        .labelled()
-        .into_iter()
-        .filter(|&c| inv[c as usize] > 0.0)
-        .max_by_key(|&c| base.cells.get(c));
-    let scale = most.map_or(1.0, |c| inv[c as usize]);
-    let class_weights = ClassWeights {
-        from_split: base_name.clone(),
-        inverse_frequency: inv.iter().map(|w| w / scale).collect(),
-        sqrt_inverse_frequency: inv.iter().map(|w| (w / scale).sqrt()).collect(),
-        reference: map.reference_weights.clone(),
-    };
+    let class_weights = class_weights(map, base_name, base);
     let convert_summary = match dir {
         Some(d) => summary::read(&d.summary_path())?,
         None => None,
