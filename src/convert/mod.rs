@@ -163,6 +163,100 @@ impl Run<'_> {
     }
 }
 
+/// The summary a run starts from: its parameters and what the plan found.
+fn started_summary(plan: &Plan, opts: &ConvertOptions) -> ConvertSummary {
+    let names = |v: &[std::path::PathBuf]| -> Vec<String> {
+        v.iter().map(|p| p.to_string_lossy().into_owned()).collect()
+    };
+    ConvertSummary {
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        params: opts.params.clone(),
+        source: plan.layout(),
+        map_origin: opts.map_origin.clone(),
+        drives: (plan.drives.len() + plan.failed.len()) as u64,
+        frames_planned: plan.jobs.len() as u64,
+        frames_skipped: plan.skipped.clone(),
+        not_frames: names(&plan.not_frames),
+        labels_without_scan: names(&plan.labels_without_scan),
+        unknown_object_types: plan.unknown_object_types.clone(),
+        ..Default::default()
+    }
+}
+
+/// The shard outputs: maps first (the primary pass, which counts the frames), then points.
+fn write_shards(
+    plan: &Plan,
+    opts: &ConvertOptions,
+    run: &Run,
+    pool: &rayon::ThreadPool,
+) -> Result<()> {
+    use crate::format::shard::ShardKind;
+    let params = &opts.params;
+    let passes = [
+        (ShardKind::Maps, &params.shards, true),
+        (
+            ShardKind::Points,
+            &params.point_shards,
+            params.shards.is_none(),
+        ),
+    ];
+    for (kind, sh, primary) in passes {
+        if let Some(sh) = sh {
+            let pass = shards::Pass { kind, primary };
+            pool.install(|| shards::convert_to_shards(plan, opts, sh, pass, run))?;
+        }
+    }
+    Ok(())
+}
+
+/// The per-frame outputs (`.npy`, `.label`), frames in parallel; a frame the journal proves
+/// finished with these parameters is kept.
+fn write_frames(plan: &Plan, opts: &ConvertOptions, run: &Run, pool: &rayon::ThreadPool) {
+    let one = |&(d, frame): &(usize, u32)| {
+        let dp = &plan.drives[d];
+        if run.journal.frame_is_complete(dp, frame, opts) {
+            return run.kept(1, resume::KEPT);
+        }
+        let id = dp.drive.frame_id(frame);
+        let written =
+            convert_frame(dp, frame, opts).and_then(|r| run.journal.record(&id).map(|()| r));
+        match written {
+            Ok(r) => run.done(&r),
+            Err(e) => {
+                // Whatever is left under the frame's names was not made by this run. (A
+                // failure to remove them leaves files the journal does not list, which the
+                // readers refuse.)
+                let _ = resume::remove_frame_files(&id, opts);
+                run.failed(id.to_string(), 1, e)
+            }
+        }
+    };
+    if opts.threads == 1 {
+        plan.jobs.iter().for_each(one);
+    } else {
+        pool.install(|| plan.jobs.par_iter().for_each(one));
+    }
+}
+
+/// Removes the shards this run did not write or keep (another cut of the frames, frames that
+/// now fail): they would be read as part of the data.
+fn remove_unproduced_shards(opts: &ConvertOptions, run: &Run) -> Result<()> {
+    let produced =
+        std::mem::take(&mut *run.shards.lock().expect("no panic while holding the lock"));
+    for dir in [opts.out.shards_dir(), opts.out.points_dir()] {
+        if !dir.is_dir() {
+            continue;
+        }
+        for p in crate::format::layout::list_shards(&dir)? {
+            if !produced.contains(&p) {
+                std::fs::remove_file(&p).map_err(|source| Error::Write { path: p, source })?;
+                run.totals().summary.stale_removed += 1;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Converts every frame of `plan`, calling `progress` after each one (from worker threads).
 /// Fails as a whole only when the output folder cannot be created.
 pub fn convert(
@@ -177,7 +271,6 @@ pub fn convert(
     let _lock = resume::lock(&opts.out)?;
     let leftovers_removed = resume::remove_leftovers(&opts.out)?;
     let journal = resume::Journal::start(opts)?;
-    let stale_removed = journal.stale_removed;
     if params.npy {
         create_dir(&opts.out.lidar_dir())?;
     }
@@ -190,27 +283,9 @@ pub fn convert(
     let run = Run {
         totals: Mutex::new(Totals {
             summary: ConvertSummary {
-                version: env!("CARGO_PKG_VERSION").to_string(),
-                params: params.clone(),
-                source: plan.layout(),
-                map_origin: opts.map_origin.clone(),
-                drives: (plan.drives.len() + plan.failed.len()) as u64,
-                frames_planned: plan.jobs.len() as u64,
-                frames_skipped: plan.skipped.clone(),
-                not_frames: plan
-                    .not_frames
-                    .iter()
-                    .map(|p| p.to_string_lossy().into_owned())
-                    .collect(),
-                labels_without_scan: plan
-                    .labels_without_scan
-                    .iter()
-                    .map(|p| p.to_string_lossy().into_owned())
-                    .collect(),
-                unknown_object_types: plan.unknown_object_types.clone(),
                 leftovers_removed,
-                stale_removed,
-                ..Default::default()
+                stale_removed: journal.stale_removed,
+                ..started_summary(plan, opts)
             },
             points: ClassCounts::zeros(n),
             cells: ClassCounts::zeros(n),
@@ -230,63 +305,12 @@ pub fn convert(
         .num_threads(opts.threads)
         .build()
         .map_err(|e| Error::Config(format!("cannot start {} threads: {e}", opts.threads)))?;
-    use crate::format::shard::ShardKind;
     if params.shards.is_some() || params.point_shards.is_some() {
-        let passes = [
-            (ShardKind::Maps, &params.shards, true),
-            (
-                ShardKind::Points,
-                &params.point_shards,
-                params.shards.is_none(),
-            ),
-        ];
-        for (kind, sh, primary) in passes {
-            if let Some(sh) = sh {
-                let pass = shards::Pass { kind, primary };
-                pool.install(|| shards::convert_to_shards(plan, opts, sh, pass, &run))?;
-            }
-        }
+        write_shards(plan, opts, &run, &pool)?;
     } else {
-        let one = |&(d, frame): &(usize, u32)| {
-            let dp = &plan.drives[d];
-            if run.journal.frame_is_complete(dp, frame, opts) {
-                return run.kept(1, resume::KEPT);
-            }
-            let id = dp.drive.frame_id(frame);
-            let written =
-                convert_frame(dp, frame, opts).and_then(|r| run.journal.record(&id).map(|()| r));
-            match written {
-                Ok(r) => run.done(&r),
-                Err(e) => {
-                    // Whatever is left under the frame's names was not made by this run.
-                    // (A failure to remove them leaves files the journal does not list, which
-                    // the readers refuse.)
-                    let _ = resume::remove_frame_files(&id, opts);
-                    run.failed(id.to_string(), 1, e)
-                }
-            }
-        };
-        if opts.threads == 1 {
-            plan.jobs.iter().for_each(one);
-        } else {
-            pool.install(|| plan.jobs.par_iter().for_each(one));
-        }
+        write_frames(plan, opts, &run, &pool);
     }
-    // Shards this run did not write or keep (another cut of the frames, frames that now fail)
-    // would be read as part of the data: remove them.
-    let produced =
-        std::mem::take(&mut *run.shards.lock().expect("no panic while holding the lock"));
-    for dir in [opts.out.shards_dir(), opts.out.points_dir()] {
-        if !dir.is_dir() {
-            continue;
-        }
-        for p in crate::format::layout::list_shards(&dir)? {
-            if !produced.contains(&p) {
-                std::fs::remove_file(&p).map_err(|source| Error::Write { path: p, source })?;
-                run.totals().summary.stale_removed += 1;
-            }
-        }
-    }
+    remove_unproduced_shards(opts, &run)?;
     run.journal.finish()?;
     let s = run
         .totals
