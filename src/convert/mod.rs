@@ -25,6 +25,7 @@ use crate::format::layout::OutputDir;
 use crate::format::summary::{self, ConvertSummary};
 use crate::label::ClassCounts;
 use crate::params::ConvertParams;
+use crate::plan::SkipReason;
 use crate::plan::{FrameFailure, Plan};
 pub use frame::{convert_frame, process, produce, write_frame_files, Converted, FrameReport};
 
@@ -130,11 +131,11 @@ impl Run<'_> {
     }
 
     /// Frames left as an earlier run wrote them.
-    pub(crate) fn kept(&self, n: u64, why: &str) {
+    pub(crate) fn kept(&self, n: u64, why: SkipReason) {
         (self.progress)(FrameOutcome::Skipped(n));
         let mut t = self.totals();
         t.summary.resumed_frames += n;
-        *t.summary.frames_skipped.entry(why.into()).or_default() += n;
+        *t.summary.frames_skipped.entry(why).or_default() += n;
     }
 
     /// A shard written, or kept as it was, by this run.
@@ -215,7 +216,7 @@ fn write_frames(plan: &Plan, opts: &ConvertOptions, run: &Run, pool: &rayon::Thr
     let one = |&(d, frame): &(usize, u32)| {
         let dp = &plan.drives[d];
         if run.journal.frame_is_complete(dp, frame, opts) {
-            return run.kept(1, resume::KEPT);
+            return run.kept(1, SkipReason::Kept);
         }
         let id = dp.drive.frame_id(frame);
         let written =

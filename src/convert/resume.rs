@@ -30,9 +30,6 @@ use crate::kitti::FrameId;
 use crate::params::ConvertParams;
 use crate::plan::DrivePlan;
 
-/// Why a frame is skipped on resume (the summary's `frames_skipped` key).
-pub const KEPT: &str = "already converted by an earlier run with the same parameters";
-
 /// Name of the lock file in the output folder.
 pub const LOCK_FILE: &str = ".kitti2pgm.lock";
 

@@ -84,7 +84,7 @@ pub(crate) fn convert_to_shards(
         if !opts.overwrite && others_present && intact() {
             run.produced(&path);
             if pass.primary {
-                run.kept(ids.len() as u64, "already in a complete, intact shard");
+                run.kept(ids.len() as u64, crate::plan::SkipReason::InIntactShard);
             }
             run.totals().summary.shards_skipped += 1;
             return;

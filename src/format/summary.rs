@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::params::ConvertParams;
-use crate::plan::FrameFailure;
+use crate::plan::{FrameFailure, SkipReason};
 use crate::project::ProjectionStats;
 
 /// Totals of a conversion.
@@ -50,7 +50,7 @@ pub struct ConvertSummary {
     /// Frames that failed (a failed drive counts all its scans).
     pub frames_failed: u64,
     /// Frames left out by the selection, by reason.
-    pub frames_skipped: BTreeMap<String, u64>,
+    pub frames_skipped: BTreeMap<SkipReason, u64>,
     /// Each failure, sorted by frame id.
     pub failures: Vec<FrameFailure>,
     /// Files in velodyne folders that are not scans (skipped).

@@ -22,7 +22,28 @@ use crate::kitti::timestamps::{self, Timestamp};
 use crate::kitti::tracklets::{ObjectType, Tracklets};
 use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::label::{tracklet_boxes, ClassMap, LabelBox};
-pub use selection::FrameSelection;
+pub use selection::{FrameSelection, SkipReason};
+
+/// Each recording day's calibration, read once (or why it could not be).
+struct DayCalibrations(BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>>);
+
+impl DayCalibrations {
+    fn new() -> Self {
+        DayCalibrations(BTreeMap::new())
+    }
+
+    /// The calibration of the day folder `date_dir`.
+    fn of(&mut self, date_dir: &Path) -> std::result::Result<Arc<Calibration>, String> {
+        self.0
+            .entry(date_dir.to_path_buf())
+            .or_insert_with(|| {
+                Calibration::read_dir(date_dir)
+                    .map(Arc::new)
+                    .map_err(|e| e.to_string())
+            })
+            .clone()
+    }
+}
 
 /// One drive, read and ready.
 #[derive(Debug, Clone)]
@@ -148,7 +169,7 @@ pub struct Plan {
     /// (index into `drives`, frame) to convert, in frame-id order.
     pub jobs: Vec<(usize, u32)>,
     /// Frames not converted by the selection, by reason.
-    pub skipped: BTreeMap<String, u64>,
+    pub skipped: BTreeMap<SkipReason, u64>,
     /// Drives that could not be read, with their frames.
     pub failed: Vec<FrameFailure>,
     /// Files in velodyne folders that are not `<frame10>.bin` scans: skipped, and named.
@@ -206,8 +227,7 @@ impl Plan {
             labels_without_scan: Vec::new(),
             unknown_object_types: BTreeMap::new(),
         };
-        let mut calibs: BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>> =
-            BTreeMap::new();
+        let mut calibs = DayCalibrations::new();
         let found = discover_as(root, source)?;
         for (path, why) in found.problems {
             plan.failed.push(FrameFailure {
@@ -217,95 +237,89 @@ impl Plan {
             });
         }
         for drive in found.drives {
-            let frames = match drive.scan_listing() {
-                Ok(listing) => {
-                    plan.not_frames.extend(listing.not_frames);
-                    match drive.labels_without_scan(&listing.frames) {
-                        Ok(extra) => plan.labels_without_scan.extend(extra),
-                        Err(e) => plan.failed.push(FrameFailure {
-                            what: drive.name(),
-                            frames: 0,
-                            error: e.to_string(),
-                        }),
-                    }
-                    listing.frames
-                }
-                // The drive cannot be listed: a failure (its frames are unknown, counted as 0).
-                Err(e) => {
-                    plan.failed.push(FrameFailure {
-                        what: drive.name(),
-                        frames: 0,
-                        error: e.to_string(),
-                    });
-                    continue;
-                }
+            let Some(frames) = plan.list_frames(&drive) else {
+                continue;
             };
-            let raw = drive.layout == Layout::Raw;
-            let calib = if raw {
-                let date_dir = drive.date_dir();
-                calibs
-                    .entry(date_dir.clone())
-                    .or_insert_with(|| {
-                        Calibration::read_dir(&date_dir)
-                            .map(Arc::new)
-                            .map_err(|e| e.to_string())
-                    })
-                    .clone()
-                    .map(Some)
-            } else {
-                Ok(None)
-            };
+            let calib = (drive.layout == Layout::Raw).then(|| calibs.of(&drive.date_dir()));
             // A raw day without a readable calibration still converts without colour.
             let (calib, calib_error) = match calib {
-                Ok(c) => (c, None),
-                Err(e) => (None, Some(e)),
+                Some(Ok(c)) => (Some(c), None),
+                Some(Err(e)) => (None, Some(e)),
+                None => (None, None),
             };
-            let loaded = DrivePlan::load(drive.clone(), calib)
-                .map(|dp| DrivePlan { calib_error, ..dp })
-                .map_err(|e| e.to_string());
-            let dp = match loaded {
-                Ok(dp) => dp,
-                Err(error) => {
-                    plan.failed.push(FrameFailure {
-                        what: drive.name(),
-                        frames: frames.len() as u64,
-                        error,
-                    });
-                    continue;
-                }
-            };
-            for t in &dp.tracklets.tracklets {
-                if let ObjectType::Other(name) = &t.object_type {
-                    *plan.unknown_object_types.entry(name.clone()).or_default() += 1;
-                }
+            let loaded =
+                DrivePlan::load(drive.clone(), calib).map(|dp| DrivePlan { calib_error, ..dp });
+            match loaded {
+                Ok(dp) => plan.add_drive(dp, &frames, selection),
+                Err(e) => plan.failed.push(FrameFailure {
+                    what: drive.name(),
+                    frames: frames.len() as u64,
+                    error: e.to_string(),
+                }),
             }
-            let index = plan.drives.len();
-            let has_file = dp.drive.tracklets_path().exists();
-            for &f in &frames {
-                if !raw || selection.keeps(&dp.tracklets, f) {
-                    plan.jobs.push((index, f));
-                } else {
-                    let why = if has_file {
-                        "no tracklet pose at the frame"
-                    } else {
-                        "drive has no tracklet_labels.xml"
-                    };
-                    *plan.skipped.entry(why.into()).or_default() += 1;
-                }
-            }
-            let with_scan: std::collections::BTreeSet<u32> = frames.iter().copied().collect();
-            let missing = (0..dp.tracklets.end_frame())
-                .filter(|f| dp.tracklets.count_at(*f) > 0 && !with_scan.contains(f))
-                .count() as u64;
-            if missing > 0 {
-                *plan
-                    .skipped
-                    .entry("annotated frame without a velodyne scan".into())
-                    .or_default() += missing;
-            }
-            plan.drives.push(dp);
         }
         Ok(plan)
+    }
+
+    /// A drive's scans; files that are not scans and label files without a scan are noted.
+    /// `None` (and the drive failed) when its folder cannot be listed.
+    fn list_frames(&mut self, drive: &Drive) -> Option<Vec<u32>> {
+        let listing = match drive.scan_listing() {
+            Ok(l) => l,
+            Err(e) => {
+                self.failed.push(FrameFailure {
+                    what: drive.name(),
+                    frames: 0,
+                    error: e.to_string(),
+                });
+                return None;
+            }
+        };
+        self.not_frames.extend(listing.not_frames);
+        match drive.labels_without_scan(&listing.frames) {
+            Ok(extra) => self.labels_without_scan.extend(extra),
+            Err(e) => self.failed.push(FrameFailure {
+                what: drive.name(),
+                frames: 0,
+                error: e.to_string(),
+            }),
+        }
+        Some(listing.frames)
+    }
+
+    /// Adds a loaded drive: its frames the selection keeps become jobs, the others are
+    /// counted by reason, with the annotated frames that have no scan.
+    fn add_drive(&mut self, dp: DrivePlan, frames: &[u32], selection: FrameSelection) {
+        for t in &dp.tracklets.tracklets {
+            if let ObjectType::Other(name) = &t.object_type {
+                *self.unknown_object_types.entry(name.clone()).or_default() += 1;
+            }
+        }
+        let index = self.drives.len();
+        let raw = dp.drive.layout == Layout::Raw;
+        let why = if dp.drive.tracklets_path().exists() {
+            SkipReason::NoPose
+        } else {
+            SkipReason::NoTrackletFile
+        };
+        for &f in frames {
+            if !raw || selection.keeps(&dp.tracklets, f) {
+                self.jobs.push((index, f));
+            } else {
+                *self.skipped.entry(why).or_default() += 1;
+            }
+        }
+        let with_scan: std::collections::BTreeSet<u32> = frames.iter().copied().collect();
+        let missing = (0..dp.tracklets.end_frame())
+            .filter(|f| dp.tracklets.count_at(*f) > 0 && !with_scan.contains(f))
+            .count() as u64;
+        if missing > 0 {
+            *self
+                .skipped
+                .entry(SkipReason::AnnotatedWithoutScan)
+                .or_default() += missing;
+        }
+        self.drives.push(dp);
     }
 
     /// The layout of the plan's drives (raw when it has none).

@@ -21,3 +21,45 @@ impl FrameSelection {
         self == FrameSelection::All || tracklets.count_at(frame) > 0
     }
 }
+
+/// Why frames were not converted by a run (the summary's `frames_skipped` keys: the serde
+/// names, in their alphabetical order, so that the JSON reads as before the enum).
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
+pub enum SkipReason {
+    /// The journal proves the frame was written with the same parameters (a re-run).
+    #[serde(rename = "already converted by an earlier run with the same parameters")]
+    Kept,
+    /// The frame's shard is complete and intact (a re-run).
+    #[serde(rename = "already in a complete, intact shard")]
+    InIntactShard,
+    /// A tracklet pose names a frame whose scan is missing.
+    #[serde(rename = "annotated frame without a velodyne scan")]
+    AnnotatedWithoutScan,
+    /// The drive has no tracklets (annotated frames only).
+    #[serde(rename = "drive has no tracklet_labels.xml")]
+    NoTrackletFile,
+    /// No tracklet pose at the frame (annotated frames only).
+    #[serde(rename = "no tracklet pose at the frame")]
+    NoPose,
+}
+
+impl SkipReason {
+    /// The reason in words (its JSON key).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SkipReason::Kept => "already converted by an earlier run with the same parameters",
+            SkipReason::InIntactShard => "already in a complete, intact shard",
+            SkipReason::AnnotatedWithoutScan => "annotated frame without a velodyne scan",
+            SkipReason::NoTrackletFile => "drive has no tracklet_labels.xml",
+            SkipReason::NoPose => "no tracklet pose at the frame",
+        }
+    }
+}
+
+impl std::fmt::Display for SkipReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
