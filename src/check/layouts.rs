@@ -117,6 +117,62 @@ fn coverage_raw(drive: &Drive, r: &DriveRead, annotated: &[u32], c: &mut Collect
     }
 }
 
+/// A sequence's `poses.txt` and `times.txt`, each compared with the scans (up to `last`).
+fn read_sequence_poses(drive: &Drive, r: &mut DriveRead, c: &mut Collector, last: Option<u32>) {
+    let pose_path = drive.dir.join("poses.txt");
+    if pose_path.is_file() {
+        r.poses = read_or_note(c, C::Read, &pose_path, poses::read(&pose_path));
+        r.inventory.poses = r.poses.as_ref().map(Vec::len);
+    }
+    let times = drive.dir.join("times.txt");
+    if times.is_file() {
+        r.inventory.timestamps = read_or_note(c, C::Read, &times, poses::count_lines(&times));
+    }
+    for (what, n, path) in [
+        ("poses", r.inventory.poses, &pose_path),
+        ("times", r.inventory.timestamps, &times),
+    ] {
+        if let (Some(n), Some(last)) = (n, last) {
+            if n as u32 <= last {
+                c.add(
+                    C::Inventory,
+                    S::Warning,
+                    path,
+                    Some(n as u32),
+                    None,
+                    format!("{n} {what} for scans up to frame {last}"),
+                );
+            }
+        }
+    }
+}
+
+/// Label files whose size is not 4 bytes per point of their scan (from the sizes alone).
+fn label_counts(drive: &Drive, r: &DriveRead, c: &mut Collector) {
+    for &f in &r.label_frames {
+        let Some(&points) = r.scans.get(&f) else {
+            continue;
+        };
+        let path = drive.point_labels_path(f);
+        if let Ok(m) = std::fs::metadata(&path) {
+            let n = m.len() as usize / 4;
+            if m.len() % 4 != 0 || n != points {
+                c.add(
+                    C::LabelCount,
+                    S::Error,
+                    &path,
+                    Some(f),
+                    None,
+                    format!(
+                        "{} bytes = {n} labels for a scan of {points} points",
+                        m.len()
+                    ),
+                );
+            }
+        }
+    }
+}
+
 pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let calib = drive.calib_path(0);
     if calib.is_file() {
@@ -132,32 +188,7 @@ pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector)
         );
     }
     let scans: Vec<u32> = r.scans.keys().copied().collect();
-    let pose_path = drive.dir.join("poses.txt");
-    if pose_path.is_file() {
-        r.poses = read_or_note(c, C::Read, &pose_path, poses::read(&pose_path));
-        r.inventory.poses = r.poses.as_ref().map(Vec::len);
-    }
-    let times = drive.dir.join("times.txt");
-    if times.is_file() {
-        r.inventory.timestamps = read_or_note(c, C::Read, &times, poses::count_lines(&times));
-    }
-    for (what, n, path) in [
-        ("poses", r.inventory.poses, &pose_path),
-        ("times", r.inventory.timestamps, &times),
-    ] {
-        if let (Some(n), Some(&last)) = (n, scans.last()) {
-            if n as u32 <= last {
-                c.add(
-                    C::Inventory,
-                    S::Warning,
-                    path,
-                    Some(n as u32),
-                    None,
-                    format!("{n} {what} for scans up to frame {last}"),
-                );
-            }
-        }
-    }
+    read_sequence_poses(drive, r, c, scans.last().copied());
     let labels = drive.dir.join("labels");
     if !labels.is_dir() {
         c.add(
@@ -188,28 +219,7 @@ pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector)
         "scans have no label file",
     );
     extra_labels(drive, &scans, c);
-    for &f in &r.label_frames {
-        let Some(&points) = r.scans.get(&f) else {
-            continue;
-        };
-        let path = drive.point_labels_path(f);
-        if let Ok(m) = std::fs::metadata(&path) {
-            let n = m.len() as usize / 4;
-            if m.len() % 4 != 0 || n != points {
-                c.add(
-                    C::LabelCount,
-                    S::Error,
-                    &path,
-                    Some(f),
-                    None,
-                    format!(
-                        "{} bytes = {n} labels for a scan of {points} points",
-                        m.len()
-                    ),
-                );
-            }
-        }
-    }
+    label_counts(drive, r, c);
 }
 
 fn extra_labels(drive: &Drive, scans: &[u32], c: &mut Collector) {

@@ -50,6 +50,43 @@ fn read_labels(path: &std::path::Path, map: &ClassMap) -> FileLabels {
     out
 }
 
+/// One finding per instance id that carries several raw ids in the sequence.
+fn instance_classes(
+    c: &mut Collector,
+    labels: &std::path::Path,
+    instances: &BTreeMap<u32, BTreeMap<u32, (usize, u32)>>,
+) {
+    for (inst, ids) in instances.iter().filter(|(_, ids)| ids.len() > 1) {
+        let (&first_id, &(_, frame)) = ids.iter().next().expect("two or more");
+        let parts: Vec<String> = ids
+            .iter()
+            .map(|(id, (k, f))| format!("{id} ({k} points from frame {f})"))
+            .collect();
+        let moving = |i: &u32| MOVING_IDS.contains(i);
+        let why = if ids.keys().any(moving) && !ids.keys().all(moving) {
+            ": moving in some scans, static in others"
+        } else {
+            ""
+        };
+        let object = ObjectRef {
+            index: *inst,
+            kind: first_id.to_string(),
+        };
+        c.add(
+            C::InstanceClasses,
+            S::Warning,
+            labels,
+            Some(frame),
+            Some(object),
+            format!(
+                "instance {inst} carries {} raw ids in this sequence{why}: {}",
+                ids.len(),
+                parts.join(", ")
+            ),
+        );
+    }
+}
+
 /// Label ids and instance classes of a sequence's label files; returns the labelled points
 /// per class of each frame (for the balance check), ignored classes left out.
 pub(crate) fn check_labels(r: &DriveRead, c: &mut Collector) -> Vec<(u32, BTreeMap<String, u64>)> {
@@ -106,35 +143,7 @@ pub(crate) fn check_labels(r: &DriveRead, c: &mut Collector) -> Vec<(u32, BTreeM
             }
         }
     }
-    for (inst, ids) in instances.iter().filter(|(_, ids)| ids.len() > 1) {
-        let (&first_id, &(_, frame)) = ids.iter().next().expect("two or more");
-        let parts: Vec<String> = ids
-            .iter()
-            .map(|(id, (k, f))| format!("{id} ({k} points from frame {f})"))
-            .collect();
-        let moving_static = ids.keys().any(|i| MOVING_IDS.contains(i))
-            && ids.keys().any(|i| !MOVING_IDS.contains(i));
-        let why = if moving_static {
-            ": moving in some scans, static in others"
-        } else {
-            ""
-        };
-        c.add(
-            C::InstanceClasses,
-            S::Warning,
-            &drive.dir.join("labels"),
-            Some(frame),
-            Some(ObjectRef {
-                index: *inst,
-                kind: first_id.to_string(),
-            }),
-            format!(
-                "instance {inst} carries {} raw ids in this sequence{why}: {}",
-                ids.len(),
-                parts.join(", ")
-            ),
-        );
-    }
+    instance_classes(c, &drive.dir.join("labels"), &instances);
     files
         .into_iter()
         .map(|(f, mut l)| {
@@ -153,6 +162,32 @@ fn cell(p: &Point3, size: f32) -> (i32, i32, i32) {
     )
 }
 
+/// A moving-class instance of scan `frame` that lies on the previous scan's points.
+struct Still {
+    frame: u32,
+    instance: u32,
+    raw_id: u32,
+    share: f64,
+}
+
+/// An instance needs this many points to be judged.
+const MIN_MOVING_POINTS: usize = 20;
+
+/// The velodyne pose of each scan: `Tr⁻¹ · P · Tr` (poses.txt gives camera-0 poses).
+fn velo_poses(
+    poses: &[crate::geom::Matrix3x4],
+    velo_to_cam: &crate::geom::Matrix3x4,
+) -> Option<Vec<na::Matrix4<f64>>> {
+    let homogeneous = |m: &crate::geom::Matrix3x4| {
+        let mut h = na::Matrix4::identity();
+        h.fixed_view_mut::<3, 4>(0, 0).copy_from(m);
+        h
+    };
+    let tr = homogeneous(velo_to_cam);
+    let tr_inv = tr.try_inverse()?;
+    Some(poses.iter().map(|p| tr_inv * homogeneous(p) * tr).collect())
+}
+
 /// Moving-class instances whose points lie on the previous scan's points (poses applied).
 pub(crate) fn moving_static(r: &DriveRead, c: &mut Collector) {
     let drive = r.drive();
@@ -163,84 +198,91 @@ pub(crate) fn moving_static(r: &DriveRead, c: &mut Collector) {
         }
         return;
     };
-    let mut tr = na::Matrix4::identity();
-    tr.fixed_view_mut::<3, 4>(0, 0)
-        .copy_from(&calib.velo_to_cam);
-    let Some(tr_inv) = tr.try_inverse() else {
+    let Some(velo) = velo_poses(poses, &calib.velo_to_cam) else {
         return;
     };
-    let velo_pose = |f: u32| -> Option<na::Matrix4<f64>> {
-        let p = poses.get(f as usize)?;
-        let mut m = na::Matrix4::identity();
-        m.fixed_view_mut::<3, 4>(0, 0).copy_from(p);
-        Some(tr_inv * m * tr)
-    };
     let (still, share) = (c.t().moving_still_m as f32, c.t().moving_still_share);
+    let labelled = |f: u32| r.label_frames.binary_search(&f).is_ok() && r.scans.contains_key(&f);
     let pairs: Vec<u32> = r
         .label_frames
         .iter()
         .copied()
-        .filter(|f| {
-            *f > 0
-                && r.label_frames.binary_search(&(f - 1)).is_ok()
-                && r.scans.contains_key(f)
-                && r.scans.contains_key(&(f - 1))
-        })
+        .filter(|&f| f > 0 && labelled(f) && labelled(f - 1))
         .collect();
-    let found: Vec<Vec<(u32, u32, u32, f64)>> = pairs
+    let found: Vec<Vec<Still>> = pairs
         .par_iter()
         .map(|&f| {
-            let (Some(a), Some(b)) = (velo_pose(f - 1), velo_pose(f)) else {
+            let (Some(a), Some(b)) = (velo.get(f as usize - 1), velo.get(f as usize)) else {
                 return Vec::new();
             };
             let Some(a_inv) = a.try_inverse() else {
                 return Vec::new();
             };
-            let to_prev = (a_inv * b).cast::<f32>();
-            let (Ok(prev), Ok(cur), Ok(labels)) = (
-                Scan::read(&drive.scan_path(f - 1)),
-                Scan::read(&drive.scan_path(f)),
-                label_file::read_raw(&drive.point_labels_path(f)),
-            ) else {
-                return Vec::new();
-            };
-            if cur.file_len != labels.len() {
-                return Vec::new();
-            }
-            let mut grid: HashMap<(i32, i32, i32), Vec<Point3>> = HashMap::new();
-            for p in &prev.points {
-                grid.entry(cell(p, still)).or_default().push(*p);
-            }
-            let index = cur.file_indices();
-            let mut per: BTreeMap<(u32, u32), (usize, usize)> = BTreeMap::new();
-            for (p, &i) in cur.points.iter().zip(&index) {
-                let v = labels[i as usize];
-                let (id, inst) = (v & 0xffff, v >> 16);
-                if !MOVING_IDS.contains(&id) {
-                    continue;
-                }
-                let q = Point3::from((to_prev * p.to_homogeneous()).xyz());
-                let (x, y, z) = cell(&q, still);
-                let near = (-1..=1).any(|dx| {
-                    (-1..=1).any(|dy| {
-                        (-1..=1).any(|dz| {
-                            grid.get(&(x + dx, y + dy, z + dz))
-                                .is_some_and(|v| v.iter().any(|o| (o - q).norm() <= still))
-                        })
-                    })
-                });
-                let e = per.entry((inst, id)).or_default();
-                e.0 += 1;
-                e.1 += near as usize;
-            }
-            per.into_iter()
-                .filter(|(_, (n, near))| *n >= 20 && *near as f64 >= share * *n as f64)
-                .map(|((inst, id), (n, near))| (f, inst, id, near as f64 / n as f64))
-                .collect()
+            still_instances(r, f, &(a_inv * b).cast::<f32>(), still, share)
         })
         .collect();
-    for (f, inst, id, s) in found.into_iter().flatten() {
-        c.add(C::MovingStatic, S::Warning, &drive.point_labels_path(f), Some(f), Some(ObjectRef { index: inst, kind: id.to_string() }),
-            format!("labelled moving (raw id {id}), but {:.0}% of its points lie within {still} m of the previous scan's points, poses applied: it did not move", s * 100.0));
+    for s in found.into_iter().flatten() {
+        c.add(C::MovingStatic, S::Warning, &drive.point_labels_path(s.frame), Some(s.frame),
+            Some(ObjectRef { index: s.instance, kind: s.raw_id.to_string() }),
+            format!("labelled moving (raw id {}), but {:.0}% of its points lie within {still} m of the previous scan's points, poses applied: it did not move", s.raw_id, s.share * 100.0));
     }
+}
+
+/// The moving instances of scan `f` whose points, carried by `to_prev` into scan f-1's frame,
+/// lie within `still` metres of its points for at least `share` of them. Unreadable files
+/// judge nothing (the read check names them).
+fn still_instances(
+    r: &DriveRead,
+    f: u32,
+    to_prev: &na::Matrix4<f32>,
+    still: f32,
+    share: f64,
+) -> Vec<Still> {
+    let drive = r.drive();
+    let (Ok(prev), Ok(cur), Ok(labels)) = (
+        Scan::read(&drive.scan_path(f - 1)),
+        Scan::read(&drive.scan_path(f)),
+        label_file::read_raw(&drive.point_labels_path(f)),
+    ) else {
+        return Vec::new();
+    };
+    if cur.file_len != labels.len() {
+        return Vec::new();
+    }
+    let mut grid: HashMap<(i32, i32, i32), Vec<Point3>> = HashMap::new();
+    for p in &prev.points {
+        grid.entry(cell(p, still)).or_default().push(*p);
+    }
+    let near = |q: &Point3| {
+        let (x, y, z) = cell(q, still);
+        (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dz| {
+                    grid.get(&(x + dx, y + dy, z + dz))
+                        .is_some_and(|v| v.iter().any(|o| (o - q).norm() <= still))
+                })
+            })
+        })
+    };
+    // (instance, raw id) -> (points, points near the previous scan's)
+    let mut per: BTreeMap<(u32, u32), (usize, usize)> = BTreeMap::new();
+    for (p, &i) in cur.points.iter().zip(&cur.file_indices()) {
+        let v = labels[i as usize];
+        let (id, inst) = (v & 0xffff, v >> 16);
+        if MOVING_IDS.contains(&id) {
+            let q = Point3::from((to_prev * p.to_homogeneous()).xyz());
+            let e = per.entry((inst, id)).or_default();
+            e.0 += 1;
+            e.1 += near(&q) as usize;
+        }
+    }
+    per.into_iter()
+        .filter(|(_, (n, k))| *n >= MIN_MOVING_POINTS && *k as f64 >= share * *n as f64)
+        .map(|((instance, raw_id), (n, k))| Still {
+            frame: f,
+            instance,
+            raw_id,
+            share: k as f64 / n as f64,
+        })
+        .collect()
 }
