@@ -14,6 +14,7 @@ import argparse
 import json
 import sys
 
+from .config import TrainConfig
 from .names import INPUTS, MODELS
 
 
@@ -32,55 +33,57 @@ def parser() -> argparse.ArgumentParser:
                    help="shards folder (train-*.mcap, val-*.mcap) or a convert output folder; map shards (OUT/shards) "
                         "or point shards (OUT/points: projected on the fly, see --augment)")
     t.add_argument("--train-shards", help="explicit train shards (glob) instead of <shards>/train-*.mcap")
-    t.add_argument("--model", choices=sorted(MODELS), default="squeezeseg")
-    t.add_argument("--input", choices=sorted(INPUTS), default="xyzdi",
+    t.add_argument("--model", choices=sorted(MODELS))
+    t.add_argument("--input", choices=sorted(INPUTS),
                    help="xyzdi (LiDAR), xyzdirgb (early fusion), xyzdi+dirgb (mid fusion)")
     t.add_argument("--out", required=True, help="run directory (never overwritten; see --resume)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     t.add_argument("--stats", help="kitti2pgm stats --json output: normalisation and class weights")
-    t.add_argument("--class-weights", choices=["sqrt", "inverse", "reference", "squeezeseg", "uniform"], default="sqrt",
+    t.add_argument("--class-weights", choices=["sqrt", "inverse", "reference", "squeezeseg", "uniform"],
                    help="with --stats: sqrt or plain inverse frequency; reference = the class map's own weights "
                         "(SqueezeSeg's [1/15, 1, 10, 10] for the paper's map; used without --stats; squeezeseg is "
                         "an alias); uniform = no weighting")
-    t.add_argument("--steps", type=int, default=50_000, help="training steps (the paper's schedule)")
-    t.add_argument("--batch", type=int, default=32, help="frames per step (per process with torchrun)")
-    t.add_argument("--lr", type=float, default=0.01, help="SGD learning rate at step 0")
-    t.add_argument("--momentum", type=float, default=0.9, help="SGD momentum")
-    t.add_argument("--weight-decay", type=float, default=1e-4, help="SGD weight decay")
-    t.add_argument("--lr-halve-every", type=int, default=10_000, help="halve the learning rate every N steps")
+    t.add_argument("--steps", type=int, help="training steps (the paper's schedule)")
+    t.add_argument("--batch", type=int, help="frames per step (per process with torchrun)")
+    t.add_argument("--lr", type=float, help="SGD learning rate at step 0")
+    t.add_argument("--momentum", type=float, help="SGD momentum")
+    t.add_argument("--weight-decay", type=float, help="SGD weight decay")
+    t.add_argument("--lr-halve-every", type=int, help="halve the learning rate every N steps")
     t.add_argument("--no-flip", dest="flip", action="store_false", help="no random left-right flip")
-    t.add_argument("--augment", default="",
+    t.add_argument("--augment",
                    help="with point shards (convert --format points): 3D augmentation per sample before the "
                         "ring-exact projection (native module kitti2pgm), any of rotate,scale,jitter,drop,flip "
                         "(flip: the random mirror, done in 3D); seeded by --seed, the step and the sample")
-    t.add_argument("--rotate-deg", type=float, default=180.0, help="--augment rotate: uniform in [-D, D] about z")
-    t.add_argument("--scale-range", type=float, nargs=2, default=[0.95, 1.05], metavar=("LOW", "HIGH"),
+    t.add_argument("--rotate-deg", type=float, help="--augment rotate: uniform in [-D, D] about z")
+    t.add_argument("--scale-range", type=float, nargs=2, metavar=("LOW", "HIGH"),
                    help="--augment scale: uniform factor")
-    t.add_argument("--jitter", type=float, default=0.01, help="--augment jitter: standard deviation of the bell-shaped, bounded (3.46 x) noise on x, y, z, metres")
-    t.add_argument("--drop", type=float, default=0.1, help="--augment drop: probability of dropping a point")
-    t.add_argument("--dropout", type=float, default=0.5, help="dropout before the classifier")
+    t.add_argument("--jitter", type=float, help="--augment jitter: standard deviation of the bell-shaped, bounded (3.46 x) noise on x, y, z, metres")
+    t.add_argument("--drop", type=float, help="--augment drop: probability of dropping a point")
+    t.add_argument("--dropout", type=float, help="dropout before the classifier")
     t.add_argument("--crf", action="store_true", help="SqueezeSeg's recurrent CRF on the logits")
-    t.add_argument("--width-mult", type=float, default=1.0, help="channel width multiplier (1 = the paper's)")
-    t.add_argument("--seed", type=int, default=0, help="seed of the weights, batches and augmentation")
-    t.add_argument("--workers", type=int, default=2, help="DataLoader worker processes reading the shards (0 = in the training process)")
-    t.add_argument("--device", default="auto", help="auto, cpu or cuda")
-    t.add_argument("--amp", action=argparse.BooleanOptionalAction, default=None,
+    t.add_argument("--width-mult", type=float, help="channel width multiplier (1 = the paper's)")
+    t.add_argument("--seed", type=int, help="seed of the weights, batches and augmentation")
+    t.add_argument("--workers", type=int, help="DataLoader worker processes reading the shards (0 = in the training process)")
+    t.add_argument("--device", help="auto, cpu or cuda")
+    t.add_argument("--amp", action=argparse.BooleanOptionalAction,
                    help="bf16 autocast of the forward pass (default: on with CUDA, off on CPU)")
-    t.add_argument("--channels-last", action=argparse.BooleanOptionalAction, default=None,
+    t.add_argument("--channels-last", action=argparse.BooleanOptionalAction,
                    help="channels-last memory format (default: on with CUDA)")
     t.add_argument("--compile", action="store_true", help="torch.compile the model")
-    t.add_argument("--data-on-gpu", choices=["auto", "on", "off"], default="auto",
+    t.add_argument("--data-on-gpu", choices=["auto", "on", "off"],
                    help="load the decoded train split onto the device once and batch, flip and normalise there "
                         "(auto: on CUDA when it takes at most half the free memory; on also works on CPU); "
                         "otherwise DataLoader workers with pinned memory and prefetching")
-    t.add_argument("--log-every", type=int, default=50, help="a log.csv row and a progress line every N steps")
-    t.add_argument("--val-every", type=int, default=0,
+    t.add_argument("--log-every", type=int, help="a log.csv row and a progress line every N steps")
+    t.add_argument("--val-every", type=int,
                    help="every N steps, predict the val shards, log the IoUs to val.csv (and TensorBoard) and keep "
                         "the best model in best.pt (which evaluate then uses)")
     t.add_argument("--val-shards", help="explicit val shards (glob) instead of <shards>/val-*.mcap")
-    t.add_argument("--checkpoint-every", type=int, default=1000, help="checkpoint.pt written every N steps")
+    t.add_argument("--checkpoint-every", type=int, help="checkpoint.pt written every N steps")
     t.add_argument("--tensorboard", action="store_true", help="also log to <out>/tensorboard")
-    t.add_argument("--stop-after", type=int, default=0, help=argparse.SUPPRESS)
+    t.add_argument("--stop-after", type=int, help=argparse.SUPPRESS)
+    # One copy of the defaults: the typed configuration's.
+    t.set_defaults(**TrainConfig.defaults())
     e = sub.add_parser("evaluate", help="predict the val shards, write predictions/<id>.npy, print IoUs",
                        formatter_class=_Help)
     e.add_argument("--run", required=True, help="the run directory (train --out)")
@@ -120,13 +123,11 @@ def main(argv=None) -> int:
     if argv and argv[0].startswith("--") and argv[0] not in ("--help", "-h"):
         argv = ["train"] + argv
     args = parser().parse_args(argv)
-    if getattr(args, "class_weights", None) == "squeezeseg":
-        args.class_weights = "reference"
     from kitti2pgm_data import ShardError
     try:
         if args.command == "train":
             from .train import train
-            r = train(args)
+            r = train(TrainConfig.from_args(args))
             print(f"trained to step {r['step']}, last loss {r['loss']:.4f}; run in {args.out}")
         elif args.command == "export":
             if not args.out and not args.torchscript:

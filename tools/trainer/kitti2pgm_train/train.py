@@ -14,12 +14,14 @@ import csv
 import json
 import os
 import time
+from dataclasses import dataclass
 
 import torch
 
 from kitti2pgm_data import class_map, read_metadata
 
 from . import __version__
+from .config import TrainConfig
 from .common import Progress, atomic_save, say, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
 from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames, class_weights, collate, find_shards,
                    load_stats)
@@ -47,139 +49,219 @@ def use_device_data(mode: str, data: FrameSet, device: torch.device) -> bool:
     return DeviceFrames.bytes_needed(data) <= free // 2
 
 
-def train(args) -> dict:
-    rank, world, local_rank = dist_info()
+@dataclass
+class TrainData:
+    """The dataset role: the train frames and what was read with them."""
+
+    paths: list
+    meta: dict
+    classes: dict
+    norm: Normaliser
+    weights: list
+    data: FrameSet
+
+
+def load_train_data(cfg: TrainConfig) -> TrainData:
+    """The train shards, their class map and metadata, the normalisation and class weights."""
+    stats = load_stats(cfg.stats)
+    norm = Normaliser.from_stats(stats)
+    paths = find_shards(cfg.train_shards) if cfg.train_shards else find_shards(cfg.shards, "train")
+    classes = class_map(paths[0])
+    augment = Augmentation.parse(cfg.augment, cfg.rotate_deg, tuple(cfg.scale_range), cfg.jitter, cfg.drop)
+    return TrainData(paths=paths, meta=read_metadata(paths[0]), classes=classes, norm=norm,
+                     weights=class_weights(stats, cfg.class_weights, classes),
+                     data=open_frames(paths, cfg.input, norm, augment, cfg.seed))
+
+
+def build_model(cfg: TrainConfig, n_classes: int, device, channels_last: bool, dist) -> torch.nn.Module:
+    """The model role: the network on its device (wrapped for several processes)."""
+    model = SegNet(cfg.model, cfg.input, n_classes, width_mult=cfg.width_mult, dropout=cfg.dropout,
+                   crf=cfg.crf).to(device)
+    if channels_last:
+        model = model.to(memory_format=torch.channels_last)
+    rank, world, local_rank = dist
     if world > 1:
-        torch.distributed.init_process_group("nccl" if torch.cuda.is_available() and args.device != "cpu" else "gloo")
-    device = pick_device(args.device, local_rank)
-    run = args.out
-    ckpt_path = os.path.join(run, "checkpoint.pt")
-    if args.tensorboard:
-        import importlib.util
-        if importlib.util.find_spec("tensorboard") is None:
-            raise ModuleNotFoundError("no tensorboard", name="tensorboard")
+        ids = [local_rank] if device.type == "cuda" else None
+        model = torch.nn.parallel.DistributedDataParallel(model, device_ids=ids)
+    return model
+
+
+def open_run_dir(cfg: TrainConfig, rank: int) -> bool:
+    """Checks the run directory: a new run, or ``--resume`` of one with a checkpoint. Returns
+    whether to resume (a run that stopped before its first checkpoint starts again)."""
+    run, ckpt = cfg.out, os.path.join(cfg.out, "checkpoint.pt")
     started = os.path.exists(os.path.join(run, "config.json"))
-    if started and not os.path.exists(ckpt_path):
-        # A run that stopped before its first checkpoint left nothing to continue: start it again.
+    resume = cfg.resume
+    if started and not os.path.exists(ckpt):
         if rank == 0:
             say(f"{run}: the run there stopped before its first checkpoint; starting it again")
             for name in ("config.json", "log.csv", "val.csv"):
                 if os.path.exists(os.path.join(run, name)):
                     os.remove(os.path.join(run, name))
-        started, args.resume = False, False
-    if started and not args.resume:
+        started, resume = False, False
+    if started and not resume:
         raise FileExistsError(f"{run} already holds a run: pass --resume to continue it, or choose another --out")
-    if args.resume and not started:
-        raise FileNotFoundError(f"{ckpt_path}: no run to resume in {run}")
+    if resume and not started:
+        raise FileNotFoundError(f"{ckpt}: no run to resume in {run}")
+    return resume
+
+
+def write_config(cfg: TrainConfig, td: TrainData, world: int, speed: dict) -> None:
+    """``config.json``: the configuration and everything the run was made from."""
+    config = {
+        "args": cfg.to_dict(), "git_commit": git_commit(), "trainer_version": __version__,
+        "kitti2pgm_version": td.meta["version"], "shard_params": td.meta["params"], "class_map": td.classes,
+        "train_shards": td.paths, "frames": len(td.data), "channels": td.data.channels,
+        "normalisation": {"source": td.norm.source, "mean": td.norm.mean, "std": td.norm.std},
+        "class_weights": td.weights, "world_size": world,
+        "on_the_fly": isinstance(td.data, PointFrameSet),
+        "augmentation": vars(td.data.augment) if isinstance(td.data, PointFrameSet) else None,
+        "speed": speed,
+    }
+    with open(os.path.join(cfg.out, "config.json"), "w") as f:
+        json.dump(config, f, indent=2)
+
+
+def batch_stream(cfg: TrainConfig, data: FrameSet, device, on_device: bool, start: int, dist):
+    """The batches of steps ``start`` to ``cfg.steps``, the same whatever the workers."""
+    rank, world, _ = dist
+    sampler = StepBatches(len(data), cfg.batch, start, cfg.steps, cfg.seed, cfg.flip, rank, world)
+    if on_device:
+        resident = DeviceFrames(data, device)
+        return (resident.batch(keys) for keys in sampler)
+    return iter(torch.utils.data.DataLoader(
+        TorchFrames(data),
+        batch_sampler=sampler,
+        collate_fn=collate,
+        num_workers=cfg.workers,
+        pin_memory=device.type == "cuda",
+        prefetch_factor=4 if cfg.workers > 0 else None,
+        persistent_workers=cfg.workers > 0,
+        # Its own generator: the loader's worker seed must not consume the global RNG that
+        # dropout draws from, or a resumed run would diverge.
+        generator=torch.Generator().manual_seed(cfg.seed),
+    ))
+
+
+class Logs:
+    """The task's records: ``log.csv``, ``val.csv`` and TensorBoard (rank 0 only)."""
+
+    def __init__(self, cfg: TrainConfig, classes: dict, rank: int, validating: bool):
+        self.log = self.val = self.tb = None
+        if rank != 0:
+            return
+        self.log, self.writer = self._csv(os.path.join(cfg.out, "log.csv"),
+                                          ["step", "loss", "lr", "frames_per_s", "data_wait_share"])
+        if validating:
+            self.val, self.val_writer = self._csv(os.path.join(cfg.out, "val.csv"),
+                                                  ["step", "miou"] + [c["name"] for c in classes["classes"]])
+        if cfg.tensorboard:
+            from torch.utils.tensorboard import SummaryWriter
+            self.tb = SummaryWriter(os.path.join(cfg.out, "tensorboard"))
+
+    @staticmethod
+    def _csv(path: str, header: list):
+        new = not os.path.exists(path)
+        f = open(path, "a", newline="")
+        w = csv.writer(f)
+        if new:
+            w.writerow(header)
+        return f, w
+
+    def step(self, done: int, loss: float, lr: float, fps: float, wait_share: float) -> None:
+        self.writer.writerow([done, f"{loss:.6f}", f"{lr:.6g}", f"{fps:.2f}", f"{wait_share:.4f}"])
+        self.log.flush()
+        if self.tb:
+            self.tb.add_scalar("loss", loss, done)
+            self.tb.add_scalar("lr", lr, done)
+
+    def validation(self, done: int, conf: Confusion) -> None:
+        miou = conf.miou()
+        ious = (conf.iou(c) for c in range(conf.k))
+        self.val_writer.writerow([done, f"{miou:.6f}"] + ["" if v is None else f"{v:.6f}" for v in ious])
+        self.val.flush()
+        if self.tb:
+            self.tb.add_scalar("val/miou", miou, done)
+
+    def close(self) -> None:
+        for f in (self.log, self.val):
+            if f:
+                f.close()
+
+
+def validate(net, val_data: FrameSet, classes: dict, device, batch: int) -> Confusion:
+    """The val frames predicted by ``net`` (left in training mode afterwards)."""
+    net.eval()
+    conf = Confusion(classes)
+    for _ in predict(net, val_data, device, batch, conf):
+        pass
+    net.train()
+    return conf
+
+
+def train(cfg: TrainConfig) -> dict:
+    """Trains as ``cfg`` says (a new run, or ``cfg.resume``); returns the last step and loss."""
+    dist = dist_info()
+    rank, world, local_rank = dist
+    if world > 1:
+        torch.distributed.init_process_group("nccl" if torch.cuda.is_available() and cfg.device != "cpu" else "gloo")
+    device = pick_device(cfg.device, local_rank)
+    run, ckpt_path = cfg.out, os.path.join(cfg.out, "checkpoint.pt")
+    if cfg.tensorboard:
+        import importlib.util
+        if importlib.util.find_spec("tensorboard") is None:
+            raise ModuleNotFoundError("no tensorboard", name="tensorboard")
+    resume = open_run_dir(cfg, rank)
     if world > 1:
         torch.distributed.barrier()  # every rank has checked the run directory before rank 0 writes it
     os.makedirs(run, exist_ok=True)
     if device.type == "cpu":
         torch.use_deterministic_algorithms(True)
-    seed_everything(args.seed + rank)
-    stats = load_stats(args.stats)
-    norm = Normaliser.from_stats(stats)
-    train_paths = find_shards(args.shards, "train") if not args.train_shards else find_shards(args.train_shards)
-    meta = read_metadata(train_paths[0])
-    classes = class_map(train_paths[0])
-    weights = class_weights(stats, args.class_weights, classes)
-    augment = Augmentation.parse(args.augment, args.rotate_deg, tuple(args.scale_range), args.jitter, args.drop)
-    data = open_frames(train_paths, args.input, norm, augment, args.seed)
-    amp = resolve_flag(args.amp, device)
-    channels_last = resolve_flag(args.channels_last, device)
-    on_device = use_device_data(args.data_on_gpu, data, device)
-    model = SegNet(args.model, args.input, len(classes["classes"]), width_mult=args.width_mult,
-                   dropout=args.dropout, crf=args.crf).to(device)
-    if channels_last:
-        model = model.to(memory_format=torch.channels_last)
-    if world > 1:
-        model = torch.nn.parallel.DistributedDataParallel(model, device_ids=[local_rank] if device.type == "cuda" else None)
-    opt = torch.optim.SGD(model.parameters(), lr=args.lr, momentum=args.momentum, weight_decay=args.weight_decay)
-    start = 0
-    if args.resume:
+    seed_everything(cfg.seed + rank)
+    td = load_train_data(cfg)
+    amp, channels_last = resolve_flag(cfg.amp, device), resolve_flag(cfg.channels_last, device)
+    on_device = use_device_data(cfg.data_on_gpu, td.data, device)
+    model = build_model(cfg, len(td.classes["classes"]), device, channels_last, dist)
+    net = model.module if world > 1 else model
+    opt = torch.optim.SGD(model.parameters(), lr=cfg.lr, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
+    start, best, ck = 0, float("-inf"), None
+    if resume:
         ck = torch.load(ckpt_path, map_location=device, weights_only=False)
-        (model.module if world > 1 else model).load_state_dict(ck["model"])
+        net.load_state_dict(ck["model"])
         opt.load_state_dict(ck["optimizer"])
         start = ck["step"]
         torch.set_rng_state(ck["torch_rng"])
-    if rank == 0 and not args.resume:
-        config = {
-            "args": vars(args), "git_commit": git_commit(), "trainer_version": __version__,
-            "kitti2pgm_version": meta["version"], "shard_params": meta["params"], "class_map": classes,
-            "train_shards": train_paths, "frames": len(data), "channels": data.channels,
-            "normalisation": {"source": norm.source, "mean": norm.mean, "std": norm.std},
-            "class_weights": weights, "world_size": world,
-            "on_the_fly": isinstance(data, PointFrameSet),
-            "augmentation": vars(augment) if isinstance(data, PointFrameSet) else None,
-            "speed": {"amp_bf16": amp, "channels_last": channels_last, "compile": args.compile,
-                      "data_on_device": on_device},
-        }
-        with open(os.path.join(run, "config.json"), "w") as f:
-            json.dump(config, f, indent=2)
-    weight = torch.tensor(weights, dtype=torch.float32, device=device)
-    log_path = os.path.join(run, "log.csv")
-    new_log = not os.path.exists(log_path)
-    log = open(log_path, "a", newline="") if rank == 0 else None
-    writer = csv.writer(log) if log else None
-    if writer and new_log:
-        writer.writerow(["step", "loss", "lr", "frames_per_s", "data_wait_share"])
-    tb = None
-    if rank == 0 and args.tensorboard:
-        from torch.utils.tensorboard import SummaryWriter
-        tb = SummaryWriter(os.path.join(run, "tensorboard"))
+    elif rank == 0:
+        write_config(cfg, td, world, {"amp_bf16": amp, "channels_last": channels_last, "compile": cfg.compile,
+                                      "data_on_device": on_device})
+    weight = torch.tensor(td.weights, dtype=torch.float32, device=device)
+    val_data = None
+    if cfg.val_every and rank == 0:
+        val_paths = find_shards(cfg.val_shards or cfg.shards, None if cfg.val_shards else "val")
+        val_data = open_frames(val_paths, cfg.input, td.norm)
+        if ck:
+            best = ck.get("best_miou", best)
+    logs = Logs(cfg, td.classes, rank, val_data is not None)
     model.train()
     if rank == 0:
-        say(f"training {args.model} ({args.input}) on {len(data)} frames of {len(train_paths)} shard(s), "
-            f"{len(classes['classes'])} classes, device {device}{' x ' + str(world) if world > 1 else ''}; "
-            f"steps {start}..{args.steps} of {args.batch} frames; run in {run}")
-    progress = Progress(args.steps, "training", start) if rank == 0 else None
-    t_last, frames_since = time.perf_counter(), 0
-    loss_value = float("nan")
-    sampler = StepBatches(len(data), args.batch, start, args.steps, args.seed, args.flip, rank, world)
-    if on_device:
-        resident = DeviceFrames(data, device)
-        batches = (resident.batch(keys) for keys in sampler)
-    else:
-        batches = iter(torch.utils.data.DataLoader(
-            TorchFrames(data),
-            batch_sampler=sampler,
-            collate_fn=collate,
-            num_workers=args.workers,
-            pin_memory=device.type == "cuda",
-            prefetch_factor=4 if args.workers > 0 else None,
-            persistent_workers=args.workers > 0,
-            # Its own generator: the loader's worker seed must not consume the global RNG that
-            # dropout draws from, or a resumed run would diverge.
-            generator=torch.Generator().manual_seed(args.seed),
-        ))
-    forward = torch.compile(model) if args.compile else model
-    val_data, best = None, float("-inf")
-    if args.val_every and rank == 0:
-        val_paths = find_shards(args.val_shards or args.shards, None if args.val_shards else "val")
-        val_data = open_frames(val_paths, args.input, norm)
-        if args.resume:
-            best = ck.get("best_miou", best)
-    val_log = None
-    if val_data is not None:
-        val_path = os.path.join(run, "val.csv")
-        new_val = not os.path.exists(val_path)
-        val_log = open(val_path, "a", newline="")
-        val_writer = csv.writer(val_log)
-        if new_val:
-            val_writer.writerow(["step", "miou"] + [c["name"] for c in classes["classes"]])
-    done = start
-    wait = 0.0  # seconds spent waiting for batches since the last log line
-    for step in range(start, args.steps):
+        say(f"training {cfg.model} ({cfg.input}) on {len(td.data)} frames of {len(td.paths)} shard(s), "
+            f"{len(td.classes['classes'])} classes, device {device}{' x ' + str(world) if world > 1 else ''}; "
+            f"steps {start}..{cfg.steps} of {cfg.batch} frames; run in {run}")
+    progress = Progress(cfg.steps, "training", start) if rank == 0 else None
+    batches = batch_stream(cfg, td.data, device, on_device, start, dist)
+    forward = torch.compile(model) if cfg.compile else model
+    memory = torch.channels_last if channels_last else torch.contiguous_format
+    t_last, frames_since, wait = time.perf_counter(), 0, 0.0
+    loss_value, done = float("nan"), start
+    for step in range(start, cfg.steps):
         t_wait = time.perf_counter()
         batch = next(batches, None)
         if batch is None:
             break
         wait += time.perf_counter() - t_wait
-        lr = lr_at(step, args.lr, args.lr_halve_every)
+        lr = lr_at(step, cfg.lr, cfg.lr_halve_every)
         for g in opt.param_groups:
             g["lr"] = lr
-        idx = batch["id"]
-        memory = torch.channels_last if channels_last else torch.contiguous_format
         inputs = [x.to(device, non_blocking=True).contiguous(memory_format=memory) for x in batch["inputs"]]
         mask, label = batch["mask"].to(device, non_blocking=True), batch["label"].to(device, non_blocking=True)
         with torch.autocast(device_type=device.type, dtype=torch.bfloat16, enabled=amp):
@@ -190,52 +272,31 @@ def train(args) -> dict:
         loss.backward()
         opt.step()
         loss_value = loss.detach().item()
-        frames_since += len(idx) * world
+        frames_since += len(batch["id"]) * world
         done = step + 1
-        if rank == 0 and (done % args.log_every == 0 or done == args.steps):
+        if rank == 0 and (done % cfg.log_every == 0 or done == cfg.steps):
             now = time.perf_counter()
-            fps = frames_since / max(now - t_last, 1e-9)
-            share = wait / max(now - t_last, 1e-9)
-            writer.writerow([done, f"{loss_value:.6f}", f"{lr:.6g}", f"{fps:.2f}", f"{share:.4f}"])
-            log.flush()
-            if tb:
-                tb.add_scalar("loss", loss_value, done)
-                tb.add_scalar("lr", lr, done)
-            t_last, frames_since, wait = now, 0, 0.0
+            elapsed = max(now - t_last, 1e-9)
+            logs.step(done, loss_value, lr, frames_since / elapsed, wait / elapsed)
             if progress:
-                progress.line(done, f"loss {loss_value:.4f}, {fps:.1f} frames/s, lr {lr:.3g}")
+                progress.line(done, f"loss {loss_value:.4f}, {frames_since / elapsed:.1f} frames/s, lr {lr:.3g}")
+            t_last, frames_since, wait = now, 0, 0.0
         if progress:
             progress.update(done, f"loss {loss_value:.4f}")
-        if val_data is not None and (done % args.val_every == 0 or done == args.steps):
-            net = model.module if world > 1 else model
-            net.eval()
-            conf = Confusion(classes)
-            for _ in predict(net, val_data, device, args.batch, conf):
-                pass
-            net.train()
-            miou = conf.miou()
-            val_writer.writerow([done, f"{miou:.6f}"] + ["" if v is None else f"{v:.6f}" for v in
-                                                          (conf.iou(c) for c in range(conf.k))])
-            val_log.flush()
-            if tb:
-                tb.add_scalar("val/miou", miou, done)
-            if miou > best:
-                best = miou
-                atomic_save({"model": net.state_dict(), "step": done, "miou": miou}, os.path.join(run, "best.pt"))
-        if rank == 0 and (done % args.checkpoint_every == 0 or done == args.steps):
-            atomic_save({"model": (model.module if world > 1 else model).state_dict(), "optimizer": opt.state_dict(),
-                         "step": done, "torch_rng": torch.get_rng_state(), "args": vars(args),
-                         "best_miou": best}, ckpt_path)
-        if args.stop_after and done - start >= args.stop_after:
+        if val_data is not None and (done % cfg.val_every == 0 or done == cfg.steps):
+            conf = validate(net, val_data, td.classes, device, cfg.batch)
+            logs.validation(done, conf)
+            if conf.miou() > best:
+                best = conf.miou()
+                atomic_save({"model": net.state_dict(), "step": done, "miou": best}, os.path.join(run, "best.pt"))
+        if rank == 0 and (done % cfg.checkpoint_every == 0 or done == cfg.steps):
+            atomic_save({"model": net.state_dict(), "optimizer": opt.state_dict(), "step": done,
+                         "torch_rng": torch.get_rng_state(), "args": cfg.to_dict(), "best_miou": best}, ckpt_path)
+        if cfg.stop_after and done - start >= cfg.stop_after:
             break  # a deliberate interruption (tests of --resume)
     if progress:
         progress.close()
-    if log:
-        log.close()
-    if val_log:
-        val_log.close()
+    logs.close()
     if world > 1:
         torch.distributed.destroy_process_group()
     return {"step": done, "loss": loss_value}
-
-

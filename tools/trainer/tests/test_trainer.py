@@ -118,9 +118,9 @@ def test_resume_gives_the_uninterrupted_result(converted, tmp_path):
     ck = torch.load(resumed / "checkpoint.pt", weights_only=False)
     assert ck["step"] == 3 or ck["step"] == 2  # stopped mid-run
     with pytest.raises(FileExistsError):
-        from kitti2pgm_train.cli import parser
+        from kitti2pgm_train.config import TrainConfig
         from kitti2pgm_train.train import train
-        train(parser().parse_args(["train", "--shards", str(shards), "--out", str(resumed)]))
+        train(TrainConfig(shards=str(shards), out=str(resumed)))
     _train(resumed, shards, 6, extra + ["--resume"])
     a = torch.load(straight / "checkpoint.pt", weights_only=False)["model"]
     b = torch.load(resumed / "checkpoint.pt", weights_only=False)["model"]
@@ -343,3 +343,22 @@ def test_evaluate_per_point_equals_kitti2pgm_score(converted, tmp_path, kitti2pg
                                  str(sk_run / "point_predictions"), "--json").stdout)
     assert ev["points"]["confusion"] == bench["confusion"]["m"]
     assert abs(ev["points"]["miou"] - bench["miou"]) < 1e-9
+
+
+def test_the_configuration_is_typed_and_has_one_set_of_defaults(tmp_path):
+    from kitti2pgm_train.cli import parser
+    from kitti2pgm_train.config import TrainConfig
+    ns = parser().parse_args(["train", "--shards", "s", "--out", "o"])
+    cfg = TrainConfig.from_args(ns)
+    # The command line's defaults are the configuration's.
+    assert cfg == TrainConfig(shards="s", out="o")
+    assert cfg.steps == 50_000 and cfg.flip and cfg.amp is None and cfg.scale_range == [0.95, 1.05]
+    ns = parser().parse_args(["train", "--shards", "s", "--out", "o", "--no-flip", "--class-weights", "squeezeseg",
+                              "--amp", "--scale-range", "0.9", "1.1"])
+    cfg = TrainConfig.from_args(ns)
+    assert (cfg.flip, cfg.class_weights, cfg.amp, cfg.scale_range) == (False, "reference", True, [0.9, 1.1])
+    # Saved and read back whole; keys of other versions are ignored.
+    assert TrainConfig.from_saved({**cfg.to_dict(), "command": "train"}) == cfg
+    for bad in ({"steps": 0}, {"log_every": 0}, {"workers": -1}):
+        with pytest.raises(ValueError, match="must be"):
+            TrainConfig(shards="s", out="o", **bad)

@@ -1,0 +1,95 @@
+"""A training run's configuration: one typed object, built from the command line, saved in the
+run's ``config.json`` (under ``args``) and read back by ``evaluate``, ``export`` and
+``--resume``. Its defaults are the command line's (``cli.py`` takes them from here)."""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import MISSING, asdict, dataclass, field, fields
+from typing import List, Optional
+
+
+@dataclass
+class TrainConfig:
+    """Everything ``train`` is told. Field names are the ``train`` options' (dashes as
+    underscores)."""
+
+    # Data.
+    shards: str
+    out: str
+    train_shards: Optional[str] = None
+    val_shards: Optional[str] = None
+    stats: Optional[str] = None
+    class_weights: str = "sqrt"
+    workers: int = 2
+    data_on_gpu: str = "auto"
+    # Model.
+    model: str = "squeezeseg"
+    input: str = "xyzdi"
+    width_mult: float = 1.0
+    dropout: float = 0.5
+    crf: bool = False
+    # Optimisation (the paper's schedule).
+    steps: int = 50_000
+    batch: int = 32
+    lr: float = 0.01
+    momentum: float = 0.9
+    weight_decay: float = 1e-4
+    lr_halve_every: int = 10_000
+    seed: int = 0
+    # Augmentation.
+    flip: bool = True
+    augment: str = ""
+    rotate_deg: float = 180.0
+    scale_range: List[float] = field(default_factory=lambda: [0.95, 1.05])
+    jitter: float = 0.01
+    drop: float = 0.1
+    # Device and speed.
+    device: str = "auto"
+    amp: Optional[bool] = None
+    channels_last: Optional[bool] = None
+    compile: bool = False
+    # Run bookkeeping.
+    resume: bool = False
+    log_every: int = 50
+    val_every: int = 0
+    checkpoint_every: int = 1000
+    tensorboard: bool = False
+    stop_after: int = 0
+
+    def __post_init__(self):
+        # SqueezeSeg's own weights are the class map's reference weights.
+        if self.class_weights == "squeezeseg":
+            self.class_weights = "reference"
+        for name in ("steps", "batch", "log_every", "checkpoint_every"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"--{name.replace('_', '-')} must be at least 1, not {getattr(self, name)}")
+        for name in ("workers", "val_every", "stop_after", "lr_halve_every"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"--{name.replace('_', '-')} must be 0 or more, not {getattr(self, name)}")
+
+    @classmethod
+    def from_args(cls, ns: argparse.Namespace) -> "TrainConfig":
+        """From the parsed ``train`` options."""
+        return cls(**{f.name: getattr(ns, f.name) for f in fields(cls)})
+
+    @classmethod
+    def from_saved(cls, saved: dict) -> "TrainConfig":
+        """From a run's ``config.json`` ``args`` (keys of other versions ignored)."""
+        names = {f.name for f in fields(cls)}
+        return cls(**{k: v for k, v in saved.items() if k in names})
+
+    def to_dict(self) -> dict:
+        """What ``config.json`` and the checkpoints store."""
+        return asdict(self)
+
+    @staticmethod
+    def defaults() -> dict:
+        """The options' defaults (every field but the required ``shards`` and ``out``)."""
+        out = {}
+        for f in fields(TrainConfig):
+            if f.default is not MISSING:
+                out[f.name] = f.default
+            elif f.default_factory is not MISSING:
+                out[f.name] = f.default_factory()
+        return out
