@@ -199,6 +199,22 @@ def validate(net, val_data: FrameSet, classes: dict, device, batch: int) -> Conf
     return conf
 
 
+def train_step(forward, opt, batch: dict, lr: float, weight, device, memory, amp: bool) -> float:
+    """One SGD step on a batch at learning rate ``lr``; returns the loss."""
+    for g in opt.param_groups:
+        g["lr"] = lr
+    inputs = [x.to(device, non_blocking=True).contiguous(memory_format=memory) for x in batch["inputs"]]
+    mask, label = batch["mask"].to(device, non_blocking=True), batch["label"].to(device, non_blocking=True)
+    with torch.autocast(device_type=device.type, dtype=torch.bfloat16, enabled=amp):
+        logits = forward(inputs, mask=mask, xyz=batch["xyz"].to(device))
+    # The loss in float32 whatever the forward pass ran in.
+    loss = masked_loss(logits.float(), label, mask, weight)
+    opt.zero_grad(set_to_none=True)
+    loss.backward()
+    opt.step()
+    return loss.detach().item()
+
+
 def train(cfg: TrainConfig) -> dict:
     """Trains as ``cfg`` says (a new run, or ``cfg.resume``); returns the last step and loss."""
     dist = dist_info()
@@ -260,18 +276,7 @@ def train(cfg: TrainConfig) -> dict:
             break
         wait += time.perf_counter() - t_wait
         lr = lr_at(step, cfg.lr, cfg.lr_halve_every)
-        for g in opt.param_groups:
-            g["lr"] = lr
-        inputs = [x.to(device, non_blocking=True).contiguous(memory_format=memory) for x in batch["inputs"]]
-        mask, label = batch["mask"].to(device, non_blocking=True), batch["label"].to(device, non_blocking=True)
-        with torch.autocast(device_type=device.type, dtype=torch.bfloat16, enabled=amp):
-            logits = forward(inputs, mask=mask, xyz=batch["xyz"].to(device))
-        # The loss in float32 whatever the forward pass ran in.
-        loss = masked_loss(logits.float(), label, mask, weight)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
-        loss_value = loss.detach().item()
+        loss_value = train_step(forward, opt, batch, lr, weight, device, memory, amp)
         frames_since += len(batch["id"]) * world
         done = step + 1
         if rank == 0 and (done % cfg.log_every == 0 or done == cfg.steps):
