@@ -98,9 +98,7 @@ pub fn run(a: CheckArgs, g: &Global) -> anyhow::Result<Outcome> {
     }
     let root = a.root.clone().expect("clap requires ROOT without --list");
     let pb = progress::bar(0, g.progress, "checking scans");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(g.threads)
-        .build()?;
+    let pool = g.pool()?;
     let report = pool.install(|| check(&root, &opts, &|n| pb.inc(n)))?;
     pb.finish_and_clear();
     let drawn = match &a.pictures {

@@ -23,7 +23,7 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
     match args.command {
         Command::Check(a) => check::run(a, &global),
         Command::Convert(a) => convert::run(a, &global),
-        Command::Preview(a) => preview::run(a),
+        Command::Preview(a) => preview::run(a, &global),
         Command::Split(a) => split::run(a),
         Command::Stats(a) => stats::run(a, &global),
         Command::Score(a) => score::run(a, &global),
@@ -44,6 +44,16 @@ pub fn hint(e: &anyhow::Error) -> Option<&'static str> {
         Error::Unfinished { .. } => Some("--partial reads it anyway (and the report says PARTIAL)"),
         _ => None,
     })
+}
+
+impl Global {
+    /// The worker pool of `--threads`: every command's parallel work runs in it (`convert`
+    /// hands the count to the library, which builds the same pool).
+    pub fn pool(&self) -> anyhow::Result<rayon::ThreadPool> {
+        Ok(rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads)
+            .build()?)
+    }
 }
 
 /// Options shared by every subcommand.

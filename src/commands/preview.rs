@@ -65,20 +65,15 @@ fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome>
     Ok(Outcome::Ok)
 }
 
-pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
+pub fn run(a: PreviewArgs, g: &super::Global) -> anyhow::Result<Outcome> {
     if let Some(raw) = a.raw.clone() {
         return run_points(&a, &raw);
     }
-    let is_npy = |p: &std::path::Path| p.is_file() && p.extension().is_some_and(|e| e == "npy");
-    let single_file = a.inputs.len() == 1
-        && is_npy(&a.inputs[0])
-        && a.out
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
     let png_named = a
         .out
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let single_file = a.inputs.len() == 1 && is_npy(&a.inputs[0]) && png_named;
     if png_named && !single_file {
         bail!(
             "{}: several frames make several pictures: give a folder for --out (a .png name takes one .npy)",
@@ -88,82 +83,23 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
     if !single_file {
         std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     }
-    let (written, failed) = (std::cell::Cell::new(0usize), std::cell::Cell::new(0usize));
-    let report = |r: anyhow::Result<()>| match r {
-        Ok(()) => written.set(written.get() + 1),
-        Err(e) => {
-            eprintln!("kitti2pgm: {e:#}");
-            failed.set(failed.get() + 1);
-        }
-    };
+    let pool = g.pool()?;
+    let (mut written, mut failed) = (0usize, 0usize);
     for input in &a.inputs {
-        if is_npy(input) {
-            report((|| {
-                let map = class_map(input)?;
-                let out = |stem: &std::ffi::OsStr| {
-                    if single_file {
-                        a.out.clone()
-                    } else {
-                        a.out.join(stem).with_extension("png")
-                    }
-                };
-                // A prediction (H x W labels, H x W x K scores): its labels alone.
-                if let Some(shape) = prediction_shape(input, &map)? {
-                    let p = read_cell_prediction(input, shape, &map)?;
-                    let stem = input.file_stem().context("input has no file name")?;
-                    png::write(&out(stem), &render_labels(&p.labels, shape, &map))?;
-                    return Ok(());
+        let (w, f) = if is_npy(input) {
+            match preview_npy(input, &a, single_file) {
+                Ok(()) => (1, 0),
+                Err(e) => {
+                    eprintln!("kitti2pgm: {e:#}");
+                    (0, 1)
                 }
-                let f = pgm::read(input)?;
-                let stem = input.file_stem().context("input has no file name")?;
-                let id = stem.to_string_lossy().parse().unwrap_or_default();
-                let frame = MapFrame::from_pgm(id, f, &map, input)?;
-                let out = if single_file {
-                    a.out.clone()
-                } else {
-                    a.out.join(stem).with_extension("png")
-                };
-                png::write(&out, &render(&frame, &map)?)?;
-                Ok(())
-            })());
-            continue;
-        }
-        let gt = match GroundTruth::open_with(input, super::completeness(a.partial)) {
-            Ok(gt) => {
-                if let Some(p) = &gt.partial {
-                    eprintln!("kitti2pgm: PARTIAL: {p}");
-                }
-                gt
             }
-            Err(e) => {
-                report(Err(e.into()));
-                continue;
-            }
+        } else {
+            pool.install(|| preview_folder(input, &a))
         };
-        let map = &gt.params.class_map;
-        let drawn = std::sync::atomic::AtomicUsize::new(0);
-        let results = gt.map_frames(
-            None,
-            &|f| {
-                let img = render(&f, map)?;
-                png::write(&a.out.join(format!("{}.png", f.id)), &img)?;
-                drawn.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                Ok(())
-            },
-            &|_| {},
-        );
-        // Each picture written counts, also when a later frame of the folder failed.
-        let drawn = drawn.into_inner();
-        if let Err(e) = results {
-            eprintln!(
-                "kitti2pgm: {e:#} ({drawn} previews of {} written)",
-                input.display()
-            );
-            failed.set(failed.get() + 1);
-        }
-        written.set(written.get() + drawn);
+        written += w;
+        failed += f;
     }
-    let (written, failed) = (written.get(), failed.get());
     if written == 0 {
         bail!("no preview written");
     }
@@ -172,12 +108,74 @@ pub fn run(a: PreviewArgs) -> anyhow::Result<Outcome> {
             "kitti2pgm: {written} previews written into {}, {failed} inputs failed",
             a.out.display()
         );
+        return Ok(Outcome::Partial);
     }
-    Ok(if failed > 0 {
-        Outcome::Partial
+    Ok(Outcome::Ok)
+}
+
+fn is_npy(p: &std::path::Path) -> bool {
+    p.is_file() && p.extension().is_some_and(|e| e == "npy")
+}
+
+/// One `.npy`: a converted frame, or a prediction (H x W labels, H x W x K scores) drawn as its
+/// labels alone.
+fn preview_npy(input: &std::path::Path, a: &PreviewArgs, single_file: bool) -> anyhow::Result<()> {
+    let map = class_map(input)?;
+    let stem = input.file_stem().context("input has no file name")?;
+    let out = if single_file {
+        a.out.clone()
     } else {
-        Outcome::Ok
-    })
+        a.out.join(stem).with_extension("png")
+    };
+    if let Some(shape) = prediction_shape(input, &map)? {
+        let p = read_cell_prediction(input, shape, &map)?;
+        png::write(&out, &render_labels(&p.labels, shape, &map))?;
+        return Ok(());
+    }
+    let f = pgm::read(input)?;
+    let id = stem.to_string_lossy().parse().unwrap_or_default();
+    let frame = MapFrame::from_pgm(id, f, &map, input)?;
+    png::write(&out, &render(&frame, &map)?)?;
+    Ok(())
+}
+
+/// Every frame of converted data (a convert folder, lidar_2d, shards), in parallel: (pictures
+/// written, 1 when the input failed). Each picture written counts, also when a later frame
+/// failed.
+fn preview_folder(input: &std::path::Path, a: &PreviewArgs) -> (usize, usize) {
+    let gt = match GroundTruth::open_with(input, super::completeness(a.partial)) {
+        Ok(gt) => gt,
+        Err(e) => {
+            eprintln!("kitti2pgm: {:#}", anyhow::Error::from(e));
+            return (0, 1);
+        }
+    };
+    if let Some(p) = &gt.partial {
+        eprintln!("kitti2pgm: PARTIAL: {p}");
+    }
+    let map = &gt.params.class_map;
+    let drawn = std::sync::atomic::AtomicUsize::new(0);
+    let results = gt.map_frames(
+        None,
+        &|f| {
+            let img = render(&f, map)?;
+            png::write(&a.out.join(format!("{}.png", f.id)), &img)?;
+            drawn.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            Ok(())
+        },
+        &|_| {},
+    );
+    let drawn = drawn.into_inner();
+    match results {
+        Ok(_) => (drawn, 0),
+        Err(e) => {
+            eprintln!(
+                "kitti2pgm: {e:#} ({drawn} previews of {} written)",
+                input.display()
+            );
+            (drawn, 1)
+        }
+    }
 }
 
 /// The map shape of a `.npy` that holds a prediction (H x W labels, or H x W x K scores of the

@@ -85,9 +85,7 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         ..opts
     };
     let map = &gt.params.class_map;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(g.threads)
-        .build()?;
+    let pool = g.pool()?;
     let context = || format!("scoring {} against {}", a.pred.display(), a.gt.display());
     let total = only.as_ref().map_or(gt.frames.len(), |o| o.len());
     let pb = progress::bar(total as u64, g.progress, "scoring");

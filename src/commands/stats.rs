@@ -61,9 +61,7 @@ pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
         splits.iter().map(|s| s.frames.len()).sum()
     };
     let pb = progress::bar(total as u64, g.progress, "reading");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(g.threads)
-        .build()?;
+    let pool = g.pool()?;
     let s = pool
         .install(|| stats(&gt, &splits, a.raw.as_deref(), &|n| pb.inc(n)))
         .with_context(|| format!("statistics of {}", a.dir.display()))?;

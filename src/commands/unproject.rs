@@ -127,9 +127,7 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
     };
     let total = opts.only.as_ref().map_or(gt.frames.len(), |o| o.len());
     let pb = progress::bar(total as u64, g.progress, "unprojecting");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(g.threads)
-        .build()?;
+    let pool = g.pool()?;
     let s = pool.install(|| unproject_all(&gt, &preds, &opts, &|n| pb.inc(n)))?;
     pb.finish_and_clear();
     if a.json {

@@ -22,14 +22,14 @@ use crate::format::shard::{
 };
 use crate::kitti::FrameId;
 use crate::params::ShardParams;
-use crate::plan::split::assign;
+use crate::plan::split::{assign, Split};
 use crate::plan::{DrivePlan, Plan};
 use crate::project::rings;
 
 /// The frames of one shard.
 #[derive(Debug, Clone)]
 struct ShardPlan {
-    split: String,
+    split: Split,
     index: usize,
     jobs: Vec<(usize, u32)>,
 }
@@ -43,10 +43,10 @@ pub(crate) struct Pass {
 }
 
 impl Pass {
-    fn path(&self, opts: &ConvertOptions, split: &str, index: usize) -> std::path::PathBuf {
+    fn path(&self, opts: &ConvertOptions, split: Split, index: usize) -> std::path::PathBuf {
         match self.kind {
-            ShardKind::Maps => opts.out.shard_path(split, index),
-            ShardKind::Points => opts.out.points_path(split, index),
+            ShardKind::Maps => opts.out.shard_path(split.as_str(), index),
+            ShardKind::Points => opts.out.points_path(split.as_str(), index),
         }
     }
 }
@@ -66,7 +66,7 @@ pub(crate) fn convert_to_shards(
     })?;
     let drives: Vec<String> = plan.drives.iter().map(|d| d.drive.name()).collect();
     shards.par_iter().for_each(|sp| {
-        let path = pass.path(opts, &sp.split, sp.index);
+        let path = pass.path(opts, sp.split, sp.index);
         let ids: Vec<String> = sp
             .jobs
             .iter()
@@ -95,7 +95,7 @@ pub(crate) fn convert_to_shards(
             drives: drives.clone(),
             frames: ids,
             failed: Vec::new(),
-            split: sp.split.clone(),
+            split: sp.split,
             content: pass.kind,
         };
         let frames = sp.jobs.len() as u64;
@@ -155,25 +155,25 @@ fn plan_shards(
         ShardKind::Points => sh.frames_per_point_shard(map.rgb.is_some()),
     };
     let mut out = Vec::new();
-    for split in ["train", "val", "test"] {
+    for split in Split::ALL.iter().copied() {
         let jobs: Vec<(usize, u32)> = plan
             .jobs
             .iter()
             .copied()
             .filter(|&(d, f)| {
                 let which = if !labelled(&(d, f)) {
-                    "test"
+                    Split::Test
                 } else if val.contains(&plan.drives[d].drive.frame_id(f)) {
-                    "val"
+                    Split::Val
                 } else {
-                    "train"
+                    Split::Train
                 };
                 which == split
             })
             .collect();
         for (index, chunk) in jobs.chunks(per_shard).enumerate() {
             out.push(ShardPlan {
-                split: split.into(),
+                split,
                 index,
                 jobs: chunk.to_vec(),
             });
@@ -189,7 +189,7 @@ fn shard_frame(
     f: u32,
     opts: &ConvertOptions,
     sh: &ShardParams,
-    split: &str,
+    split: Split,
     pass: Pass,
     journal: &super::resume::Journal,
 ) -> Result<(Produced, Vec<u8>, u64)> {
@@ -205,7 +205,7 @@ fn shard_frame(
                 &dp.drive.name(),
                 f,
                 ts.unwrap_or(0),
-                split,
+                split.as_str(),
             );
             (p, msg.encode_to_vec())
         }
@@ -227,7 +227,7 @@ fn shard_frame(
                 &dp.drive.name(),
                 f,
                 ts.unwrap_or(0),
-                split,
+                split.as_str(),
             );
             (produce_from(l, opts, sh.viz), msg.encode_to_vec())
         }
@@ -261,7 +261,7 @@ fn write_shard(
     type Done = Vec<Result<(Produced, Vec<u8>, u64)>>;
     let produce_batch = |jobs: &[(usize, u32)]| -> Done {
         jobs.par_iter()
-            .map(|&(d, f)| shard_frame(&plan.drives[d], f, opts, sh, &sp.split, pass, &run.journal))
+            .map(|&(d, f)| shard_frame(&plan.drives[d], f, opts, sh, sp.split, pass, &run.journal))
             .collect()
     };
     // Appends a finished batch in frame order (sequential: the writer compresses here).

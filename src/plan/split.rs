@@ -27,6 +27,27 @@ pub const SQUEEZESEG_VAL: [u32; 8] = [64, 70, 79, 84, 86, 87, 91, 93];
 /// A drive key: (date, number).
 pub type DriveKey = (String, u32);
 
+/// Which part of the data a frame is in.
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Split {
+    /// Trained on.
+    #[default]
+    Train,
+    /// Validated on.
+    Val,
+    /// Without labels (SemanticKITTI test sequences, object `testing/`).
+    Test,
+}
+
+crate::named_enum!(Split, "split", [
+    Train => "train" [] "trained on",
+    Val => "val" [] "validated on",
+    Test => "test" [] "without labels",
+]);
+
 /// How drives are assigned to val.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum SplitRule {

@@ -28,7 +28,7 @@ fn point_shards_hold_the_converters_points_and_labels() {
         let shard = Shard::open_verified(&path).unwrap();
         let md = shard.metadata().unwrap();
         assert_eq!(md.content, ShardKind::Points);
-        assert_eq!(md.split, split);
+        assert_eq!(md.split.as_str(), split);
         for p in shard.points().unwrap() {
             seen += 1;
             let (date, drive, frame) = (&p.id[..10], &p.id[11..15], &p.id[16..]);

@@ -78,7 +78,7 @@ fn shards_hold_exactly_the_npy_frames() {
     assert_eq!(vf[0].split, "val");
     let md = train.metadata().unwrap();
     assert_eq!(md.version, env!("CARGO_PKG_VERSION"));
-    assert_eq!(md.split, "train");
+    assert_eq!(md.split, kitti2pgm::plan::split::Split::Train);
     assert_eq!(
         md.drives,
         ["2011_09_26_drive_0001_sync", "2011_09_26_drive_0052_sync"]

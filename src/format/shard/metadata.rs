@@ -22,8 +22,8 @@ pub struct ShardMetadata {
     pub frames: Vec<String>,
     /// Frames of the plan that failed and are not in the shard.
     pub failed: Vec<String>,
-    /// Split name.
-    pub split: String,
+    /// The split of its frames.
+    pub split: crate::plan::split::Split,
     /// What the shard holds.
     pub content: super::ShardKind,
 }
@@ -40,7 +40,7 @@ impl ShardMetadata {
             ("drives".into(), self.drives.join("\n")),
             ("frames".into(), self.frames.join("\n")),
             ("failed".into(), self.failed.join("\n")),
-            ("split".into(), self.split.clone()),
+            ("split".into(), self.split.to_string()),
             ("content".into(), self.content.name().into()),
             // The topics, so that readers (the Python package) need no copy of them.
             ("frame_topic".into(), super::FRAME_TOPIC.into()),
@@ -71,7 +71,9 @@ impl ShardMetadata {
             drives: list("drives")?,
             frames: list("frames")?,
             failed: list("failed")?,
-            split: get("split")?.clone(),
+            split: get("split")?
+                .parse()
+                .map_err(|e: Error| Error::format(path, format!("metadata `split`: {e}")))?,
             // Shards written before point shards existed hold maps.
             content: match m.get("content").map(String::as_str) {
                 None | Some("maps") => super::ShardKind::Maps,

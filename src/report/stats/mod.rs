@@ -16,7 +16,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::format::summary::{self, ConvertSummary};
-use crate::kitti::tracklets::Tracklets;
+use crate::kitti::tracklets::{Occlusion, PoseState, Tracklets, Truncation};
 use crate::kitti::{discover, FrameId};
 use crate::label::{ClassCounts, ClassMap};
 use crate::report::truth::GroundTruth;
@@ -46,12 +46,12 @@ pub struct TrackletStats {
     pub instances: PerClass<u64>,
     /// Poses at frames of the split, per class.
     pub poses: PerClass<u64>,
-    /// Poses by `state` (all object types).
-    pub state: BTreeMap<String, u64>,
+    /// Poses by `state` (all object types; keys: the enum's names).
+    pub state: BTreeMap<PoseState, u64>,
     /// Poses by `occlusion`.
-    pub occlusion: BTreeMap<String, u64>,
+    pub occlusion: BTreeMap<Occlusion, u64>,
     /// Poses by `truncation`.
-    pub truncation: BTreeMap<String, u64>,
+    pub truncation: BTreeMap<Truncation, u64>,
     /// Poses by object type.
     pub object_types: BTreeMap<String, u64>,
 }
@@ -172,13 +172,9 @@ fn tracklet_stats(raw: &Path, frames: &[FrameId], map: &ClassMap) -> Result<Trac
                 if seen.insert(i) {
                     instances[k] += 1;
                 }
-                *st.state.entry(format!("{:?}", p.state)).or_default() += 1;
-                *st.occlusion
-                    .entry(format!("{:?}", p.occlusion))
-                    .or_default() += 1;
-                *st.truncation
-                    .entry(format!("{:?}", p.truncation))
-                    .or_default() += 1;
+                *st.state.entry(p.state).or_default() += 1;
+                *st.occlusion.entry(p.occlusion).or_default() += 1;
+                *st.truncation.entry(p.truncation).or_default() += 1;
                 *st.object_types
                     .entry(tr.object_type.as_str().to_string())
                     .or_default() += 1;
