@@ -54,6 +54,27 @@ impl FrameReport {
     }
 }
 
+/// Whether a frame keeps what the visualisation topics show (the scan's points with their
+/// classes, the boxes, the camera PNG's bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Viz {
+    /// Not kept.
+    #[default]
+    Off,
+    /// Kept.
+    On,
+}
+
+impl From<bool> for Viz {
+    fn from(on: bool) -> Viz {
+        if on {
+            Viz::On
+        } else {
+            Viz::Off
+        }
+    }
+}
+
 /// The products of one frame, before writing.
 #[derive(Debug, Clone)]
 pub struct Converted {
@@ -65,6 +86,8 @@ pub struct Converted {
     pub point_instance: Vec<u16>,
     /// What was found.
     pub report: FrameReport,
+    /// The visualisation payload, with [`Viz::On`].
+    pub viz: Option<VizFrame>,
 }
 
 /// Projects one labelled scan (no file access but the image, already decoded, if any).
@@ -108,16 +131,8 @@ pub fn process(
         point_instance: scan.to_file_order(&labels.instance, 0),
         pgm,
         report,
+        viz: None,
     }
-}
-
-/// A converted frame with what the shard writer needs beside it.
-#[derive(Debug, Clone)]
-pub struct Produced {
-    /// The products.
-    pub out: Converted,
-    /// Visualisation payload, when asked for.
-    pub viz: Option<VizFrame>,
 }
 
 /// One frame read and labelled: everything projecting it needs.
@@ -151,8 +166,8 @@ impl LoadedFrame {
 }
 
 /// Reads frame `frame` of `dp` as `map` asks: scan, labels and, with colour, the camera image
-/// (checked against the calibrated size). `keep_png` keeps the image's file bytes.
-pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, keep_png: bool) -> Result<LoadedFrame> {
+/// (checked against the calibrated size); with [`Viz::On`] the image's file bytes are kept.
+pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
     let scan = Scan::read(&dp.drive.scan_path(frame))?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
@@ -179,7 +194,7 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, keep_png: bool) -> Resu
                     ));
                 }
             }
-            if keep_png {
+            if viz == Viz::On {
                 png = Some(bytes);
             }
             let proj = CameraProjector {
@@ -199,55 +214,34 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, keep_png: bool) -> Resu
     })
 }
 
-/// Reads and converts one frame (no output written). `want_viz` keeps the scan points, boxes
-/// and camera PNG for the visualisation topics.
-pub fn produce(
-    dp: &DrivePlan,
-    frame: u32,
-    opts: &ConvertOptions,
-    want_viz: bool,
-) -> Result<Produced> {
-    let loaded = load(dp, frame, &opts.params.map, want_viz)?;
-    Ok(produce_from(loaded, opts, want_viz))
-}
-
-/// Converts a loaded frame (no output written); `want_viz` as in [`produce`].
-pub fn produce_from(loaded: LoadedFrame, opts: &ConvertOptions, want_viz: bool) -> Produced {
-    let map = &opts.params.map;
-    let LoadedFrame {
-        id,
-        scan,
-        labels,
-        camera,
-        png,
-    } = loaded;
-    let out = process(
-        &id,
-        &scan,
-        &labels,
-        &map.spec,
-        &map.class_map,
-        camera.as_ref().map(|(p, i)| (p, i)),
-    );
-    let viz = want_viz.then(|| {
-        let file_idx = scan.file_indices();
-        VizFrame {
-            points: scan
-                .points
-                .iter()
-                .enumerate()
-                .map(|(k, p)| {
-                    let class = out.point_class[file_idx[k] as usize];
-                    (*p, scan.reflectance[k], class)
-                })
-                .collect(),
-            boxes: labels.boxes.clone(),
+impl LoadedFrame {
+    /// Projects the frame with `map` (no output written): [`process`], and with [`Viz::On`] the
+    /// visualisation payload.
+    pub fn into_converted(self, map: &MapParams, viz: Viz) -> Converted {
+        let LoadedFrame {
+            id,
+            scan,
+            labels,
+            camera,
             png,
-            camera: map.rgb.map_or(2, |r| r.camera),
-            colours: map.class_map.classes.iter().map(|c| c.colour).collect(),
+        } = self;
+        let camera = camera.as_ref().map(|(p, i)| (p, i));
+        let mut out = process(&id, &scan, &labels, &map.spec, &map.class_map, camera);
+        if viz == Viz::On {
+            let file_idx = scan.file_indices();
+            let points = scan.points.iter().zip(&scan.reflectance).zip(&file_idx);
+            out.viz = Some(VizFrame {
+                points: points
+                    .map(|((p, r), &fi)| (*p, *r, out.point_class[fi as usize]))
+                    .collect(),
+                boxes: labels.boxes.clone(),
+                png,
+                camera: map.rgb.map_or(2, |r| r.camera),
+                colours: map.class_map.classes.iter().map(|c| c.colour).collect(),
+            });
         }
-    });
-    Produced { out, viz }
+        out
+    }
 }
 
 /// Writes a converted frame's `.npy` and `.label` files, as the options ask.
@@ -268,9 +262,11 @@ pub fn write_frame_files(
     Ok(())
 }
 
-/// Reads, converts and writes one frame (`.npy` and `.label` outputs).
+/// Reads, converts and writes one frame (`.npy` and `.label` outputs): [`load`],
+/// [`LoadedFrame::into_converted`], [`write_frame_files`].
 pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Result<FrameReport> {
-    let p = produce(dp, frame, opts, false)?;
-    write_frame_files(dp, frame, &p.out, opts)?;
-    Ok(p.out.report)
+    let map = &opts.params.map;
+    let out = load(dp, frame, map, Viz::Off)?.into_converted(map, Viz::Off);
+    write_frame_files(dp, frame, &out, opts)?;
+    Ok(out.report)
 }

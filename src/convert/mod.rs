@@ -27,7 +27,7 @@ use crate::label::ClassCounts;
 use crate::params::ConvertParams;
 use crate::plan::SkipReason;
 use crate::plan::{FrameFailure, Plan};
-pub use frame::{convert_frame, process, produce, write_frame_files, Converted, FrameReport};
+pub use frame::{convert_frame, load, process, write_frame_files, Converted, FrameReport, Viz};
 
 /// What to convert and where to.
 #[derive(Debug, Clone)]

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use prost::Message as _;
 
-use super::frame::{load, produce, produce_from, write_frame_files, Produced};
+use super::frame::{load, write_frame_files, Converted, Viz};
 use super::{ConvertOptions, FrameOutcome, Run};
 use crate::error::Result;
 use crate::format::create_dir;
@@ -192,16 +192,17 @@ fn shard_frame(
     split: Split,
     pass: Pass,
     journal: &super::resume::Journal,
-) -> Result<(Produced, Vec<u8>, u64)> {
+) -> Result<(Converted, Vec<u8>, u64)> {
     let ts = dp.timestamp(f).map(|t| t.0.max(0) as u64);
     // Without a timestamp, frames are spaced at the scanner's 10 Hz.
     let log_time = ts.unwrap_or(f as u64 * 100_000_000);
+    let (map, viz) = (&opts.params.map, Viz::from(sh.viz));
     let (p, msg) = match pass.kind {
         ShardKind::Maps => {
-            let p = produce(dp, f, opts, sh.viz)?;
+            let p = load(dp, f, map, viz)?.into_converted(map, viz);
             let msg = FrameMsg::from_frame(
-                &p.out.pgm,
-                &p.out.report.id,
+                &p.pgm,
+                &p.report.id,
                 &dp.drive.name(),
                 f,
                 ts.unwrap_or(0),
@@ -210,7 +211,7 @@ fn shard_frame(
             (p, msg.encode_to_vec())
         }
         ShardKind::Points => {
-            let l = load(dp, f, &opts.params.map, sh.viz)?;
+            let l = load(dp, f, map, viz)?;
             let (ring, _) = rings(&l.scan.points);
             let colours = l.point_colours();
             let msg = PointsMsg::build(
@@ -229,11 +230,11 @@ fn shard_frame(
                 ts.unwrap_or(0),
                 split.as_str(),
             );
-            (produce_from(l, opts, sh.viz), msg.encode_to_vec())
+            (l.into_converted(map, viz), msg.encode_to_vec())
         }
     };
     if pass.primary {
-        write_frame_files(dp, f, &p.out, opts)?;
+        write_frame_files(dp, f, &p, opts)?;
         journal.record(&dp.drive.frame_id(f))?;
     }
     Ok((p, msg, log_time))
@@ -258,7 +259,7 @@ fn write_shard(
     let mut writer = ShardWriter::create(path, sh.compression, sh.viz, pass.kind)?;
     let mut reports = Vec::with_capacity(sp.jobs.len());
     let batch = rayon::current_num_threads().max(1) * 2;
-    type Done = Vec<Result<(Produced, Vec<u8>, u64)>>;
+    type Done = Vec<Result<(Converted, Vec<u8>, u64)>>;
     let produce_batch = |jobs: &[(usize, u32)]| -> Done {
         jobs.par_iter()
             .map(|&(d, f)| shard_frame(&plan.drives[d], f, opts, sh, sp.split, pass, &run.journal))
@@ -272,9 +273,9 @@ fn write_shard(
                     Ok((p, msg, log_time)) => {
                         writer.write(&msg, log_time, p.viz.as_ref())?;
                         if pass.primary {
-                            (run.progress)(FrameOutcome::Done(&p.out.report));
+                            (run.progress)(FrameOutcome::Done(&p.report));
                         }
-                        reports.push(p.out.report);
+                        reports.push(p.report);
                     }
                     Err(e) => {
                         let id = plan.drives[d].drive.frame_id(f).to_string();

@@ -1,7 +1,7 @@
 //! PROJECT from memory: `project_cloud` is the conversion's projection, and augmentation keeps
 //! rings and shifts columns exactly.
 
-use kitti2pgm::convert::frame::{load, process};
+use kitti2pgm::convert::frame::{load, process, Viz};
 use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
@@ -57,7 +57,7 @@ fn cloud_projection_is_the_conversion() {
             ..Default::default()
         };
         for &(d, f) in plan.jobs.iter().take(3) {
-            let l = load(&plan.drives[d], f, &map, false).unwrap();
+            let l = load(&plan.drives[d], f, &map, Viz::Off).unwrap();
             let conv = process(
                 &l.id,
                 &l.scan,
@@ -101,7 +101,7 @@ fn rotation_by_one_column_shifts_one_column_and_keeps_rows() {
             spec,
             ..Default::default()
         },
-        false,
+        Viz::Off,
     )
     .unwrap();
     let base = cloud_map(&l, &spec, None);
@@ -164,7 +164,7 @@ fn augmentation_drops_scales_and_refuses_bad_input() {
     let plan = Plan::build(&raw_root(), FrameSelection::Annotated).unwrap();
     let (d, f) = plan.jobs[0];
     let spec = PgmSpec::default();
-    let l = load(&plan.drives[d], f, &MapParams::default(), false).unwrap();
+    let l = load(&plan.drives[d], f, &MapParams::default(), Viz::Off).unwrap();
     let base = cloud_map(&l, &spec, None);
     let aug = Augment {
         drop: 0.5,

@@ -9,7 +9,7 @@ use pyo3::exceptions::{PyIndexError, PyKeyError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use kitti2pgm::convert::frame::load;
+use kitti2pgm::convert::frame::{load, Viz};
 use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::MapParams;
@@ -174,7 +174,7 @@ impl Dataset {
         let (d, f) = self.plan.jobs[k];
         let dp = &self.plan.drives[d];
         let l = py
-            .detach(|| load(dp, f, &self.map, false))
+            .detach(|| load(dp, f, &self.map, Viz::Off))
             .map_err(py_err)?;
         let (ring, _) = py.detach(|| rings(&l.scan.points));
         let colours = py.detach(|| l.point_colours());
@@ -245,7 +245,7 @@ impl Dataset {
         };
         let projected = py
             .detach(|| {
-                let l = load(dp, f, &map, false)?;
+                let l = load(dp, f, &map, Viz::Off)?;
                 let colours = l.point_colours();
                 let valid: Option<Vec<bool>> = colours
                     .as_ref()
