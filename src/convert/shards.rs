@@ -51,6 +51,16 @@ impl Pass {
     }
 }
 
+/// What every shard of a pass shares: the plan, the options, the shard parameters, the pass
+/// and the run's totals and journal.
+struct ShardJob<'a, 'r> {
+    plan: &'a Plan,
+    opts: &'a ConvertOptions,
+    sh: &'a ShardParams,
+    pass: Pass,
+    run: &'a Run<'r>,
+}
+
 /// Writes every shard of the plan for one pass (on the current rayon pool).
 pub(crate) fn convert_to_shards(
     plan: &Plan,
@@ -100,17 +110,14 @@ pub(crate) fn convert_to_shards(
         };
         let frames = sp.jobs.len() as u64;
         let mut failed_alone = 0u64;
-        match write_shard(
+        let job = ShardJob {
             plan,
             opts,
             sh,
-            sp,
-            &path,
-            meta,
             pass,
             run,
-            &mut failed_alone,
-        ) {
+        };
+        match write_shard(&job, sp, &path, meta, &mut failed_alone) {
             // Every frame failed (each reported): no empty shard is left behind.
             Ok(reports) if reports.is_empty() => {}
             Ok(reports) => {
@@ -185,14 +192,12 @@ fn plan_shards(
 /// One frame of a shard: converted, its message encoded; `.npy` / `.label` files written in
 /// the primary pass.
 fn shard_frame(
+    job: &ShardJob<'_, '_>,
     dp: &DrivePlan,
     f: u32,
-    opts: &ConvertOptions,
-    sh: &ShardParams,
     split: Split,
-    pass: Pass,
-    journal: &super::resume::Journal,
 ) -> Result<(Converted, Vec<u8>, u64)> {
+    let (opts, sh, pass) = (job.opts, job.sh, job.pass);
     let ts = dp.timestamp(f).map(|t| t.0.max(0) as u64);
     // Without a timestamp, frames are spaced at the scanner's 10 Hz.
     let log_time = ts.unwrap_or(f as u64 * 100_000_000);
@@ -235,7 +240,7 @@ fn shard_frame(
     };
     if pass.primary {
         write_frame_files(dp, f, &p, opts)?;
-        journal.record(&dp.drive.frame_id(f))?;
+        job.run.journal.record(&dp.drive.frame_id(f))?;
     }
     Ok((p, msg, log_time))
 }
@@ -244,25 +249,21 @@ fn shard_frame(
 /// reported, left out and listed in the shard's metadata. The frames' reports are returned, to
 /// be counted once the shard is in place; a shard none of whose frames converted is not
 /// written.
-#[allow(clippy::too_many_arguments)]
 fn write_shard(
-    plan: &Plan,
-    opts: &ConvertOptions,
-    sh: &ShardParams,
+    job: &ShardJob<'_, '_>,
     sp: &ShardPlan,
     path: &Path,
     mut meta: ShardMetadata,
-    pass: Pass,
-    run: &Run<'_>,
     failed_alone: &mut u64,
 ) -> Result<Vec<super::FrameReport>> {
+    let (plan, sh, pass, run) = (job.plan, job.sh, job.pass, job.run);
     let mut writer = ShardWriter::create(path, sh.compression, sh.viz, pass.kind)?;
     let mut reports = Vec::with_capacity(sp.jobs.len());
     let batch = rayon::current_num_threads().max(1) * 2;
     type Done = Vec<Result<(Converted, Vec<u8>, u64)>>;
     let produce_batch = |jobs: &[(usize, u32)]| -> Done {
         jobs.par_iter()
-            .map(|&(d, f)| shard_frame(&plan.drives[d], f, opts, sh, sp.split, pass, &run.journal))
+            .map(|&(d, f)| shard_frame(job, &plan.drives[d], f, sp.split))
             .collect()
     };
     // Appends a finished batch in frame order (sequential: the writer compresses here).

@@ -66,16 +66,15 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
                 last = Some(p.id);
             }
         }
-        return Ok(info(
-            &shard,
-            summary,
-            metadata,
+        let counted = Counted {
             cells,
             count,
-            (first, last),
-            None,
+            first,
+            last,
+            shape: None,
             points,
-        ));
+        };
+        return Ok(info(&shard, summary, metadata, counted));
     }
     let (mut count, mut first, mut last) = (0u64, None, None);
     for f in shard.frame_iter() {
@@ -96,22 +95,48 @@ pub fn inspect(path: &Path) -> Result<ShardInfo> {
     let shape = first
         .as_ref()
         .map(|f| ([f.height, f.width], f.channels.clone()));
-    let ids = (first.map(|f| f.id), last);
-    Ok(info(&shard, summary, metadata, cells, count, ids, shape, 0))
+    let counted = Counted {
+        cells,
+        count,
+        first: first.map(|f| f.id),
+        last,
+        shape,
+        points: 0,
+    };
+    Ok(info(&shard, summary, metadata, counted))
+}
+
+/// What reading a shard's frames counted.
+struct Counted {
+    /// Labelled cells (points, for a point shard) per class.
+    cells: ClassCounts,
+    /// Frames read.
+    count: u64,
+    /// First frame id.
+    first: Option<String>,
+    /// Last frame id (when more than one).
+    last: Option<String>,
+    /// The first map's rows and columns, and its channels (map shards).
+    shape: Option<([u32; 2], Vec<String>)>,
+    /// Points (point shards).
+    points: u64,
 }
 
 /// The counts of a shard, put together.
-#[allow(clippy::too_many_arguments)]
 fn info(
     shard: &Shard,
     summary: mcap::read::Summary,
     metadata: ShardMetadata,
-    cells: ClassCounts,
-    count: u64,
-    (first, last): (Option<String>, Option<String>),
-    shape: Option<([u32; 2], Vec<String>)>,
-    points: u64,
+    counted: Counted,
 ) -> ShardInfo {
+    let Counted {
+        cells,
+        count,
+        first,
+        last,
+        shape,
+        points,
+    } = counted;
     let map = &metadata.params.map.class_map;
     let mut topics = BTreeMap::new();
     if let Some(stats) = &summary.stats {
