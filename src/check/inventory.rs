@@ -4,15 +4,18 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::{frame_ranges, layouts, CheckName as C, Collector, DriveInventory, Severity as S};
+use super::{
+    frame_ranges, layouts, CheckName as C, Collector, DriveInventory, ObjectRef, Severity as S,
+};
 use crate::error::{Error, Result};
 use crate::geom::Matrix3x4;
 use crate::kitti::calib::{Calibration, FrameCalib};
 use crate::kitti::object::ObjectLabel;
 use crate::kitti::timestamps::Timestamp;
-use crate::kitti::tracklets::Tracklets;
+use crate::kitti::tracklets::{Occlusion, Tracklets};
 use crate::kitti::velodyne::POINT_BYTES;
 use crate::kitti::{discover_as, Drive, Layout};
+use crate::label::LabelBox;
 
 /// A drive's annotations, calibration and file lists, read once.
 #[derive(Debug, Default)]
@@ -39,9 +42,71 @@ pub(crate) struct DriveRead {
     pub images: BTreeMap<u8, Vec<u32>>,
 }
 
+/// A box of one frame: a tracklet's or a `label_2` object's, or a tracklet's carried one frame
+/// past its end (a ghost).
+pub(crate) struct FrameBox {
+    pub object: ObjectRef,
+    pub label_box: LabelBox,
+    /// Carried one frame past the end of its annotation.
+    pub ghost: bool,
+    /// Fully visible by the annotation (tracklet occlusion 0).
+    pub visible: bool,
+}
+
 impl DriveRead {
     pub(crate) fn drive(&self) -> &Drive {
         self.drive.as_ref().expect("set by read_drive")
+    }
+
+    /// The boxes at `frame` (`DontCare` regions left out), with the ghosts of the tracklets
+    /// that ended just before when `ghosts`.
+    pub(crate) fn boxes_at(&self, frame: u32, ghosts: bool) -> Vec<FrameBox> {
+        let mut out = Vec::new();
+        if let Some(t) = &self.tracklets {
+            for (i, tr, p) in t.at(frame) {
+                out.push(FrameBox {
+                    object: ObjectRef {
+                        index: i as u32,
+                        kind: tr.object_type.as_str().into(),
+                    },
+                    label_box: LabelBox::new(i, tr, p, 0),
+                    ghost: false,
+                    visible: p.occlusion == Occlusion::Visible,
+                });
+            }
+            for (i, tr) in t.tracklets.iter().enumerate().filter(|_| ghosts) {
+                if let Some(pose) = super::scans::carried_on(tr, frame) {
+                    out.push(FrameBox {
+                        object: ObjectRef {
+                            index: i as u32,
+                            kind: tr.object_type.as_str().into(),
+                        },
+                        label_box: LabelBox::new(i, tr, &pose, 0),
+                        ghost: true,
+                        visible: false,
+                    });
+                }
+            }
+        }
+        if let Some((objects, calib)) = self.objects.get(&frame) {
+            let rect_to_velo = calib.velo_to_rect().try_inverse().unwrap_or_default();
+            for (i, o) in objects
+                .iter()
+                .enumerate()
+                .filter(|(_, o)| o.kind != "DontCare")
+            {
+                out.push(FrameBox {
+                    object: ObjectRef {
+                        index: i as u32,
+                        kind: o.kind.clone(),
+                    },
+                    label_box: LabelBox::from_object(i, o, &rect_to_velo, 0),
+                    ghost: false,
+                    visible: false,
+                });
+            }
+        }
+        out
     }
 }
 

@@ -106,35 +106,15 @@ fn camera(r: &DriveRead, frame: u32) -> Option<crate::geom::Matrix3x4> {
 /// The boxes at a frame (with the ghosts of annotations that ended just before, when asked):
 /// object index, type, box.
 fn boxes(r: &DriveRead, frame: u32, ghosts: bool) -> Vec<(u32, String, LabelBox)> {
-    let mut out = Vec::new();
-    if let Some(t) = &r.tracklets {
-        for (i, tr, p) in t.at(frame) {
-            out.push((
-                i as u32,
-                tr.object_type.as_str().to_string(),
-                LabelBox::new(i, tr, p, 0),
-            ));
-        }
-        for (i, tr) in t.tracklets.iter().enumerate().filter(|_| ghosts) {
-            if let Some(pose) = super::scans::carried_on(tr, frame) {
-                let kind = format!("{} (ended)", tr.object_type.as_str());
-                out.push((i as u32, kind, LabelBox::new(i, tr, &pose, 0)));
-            }
-        }
-    }
-    if let Some((objects, calib)) = r.objects.get(&frame) {
-        let rect_to_velo = calib.velo_to_rect().try_inverse().unwrap_or_default();
-        for (i, o) in objects
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| o.kind != "DontCare")
-        {
-            out.push((
-                i as u32,
-                o.kind.clone(),
-                LabelBox::from_object(i, o, &rect_to_velo, 0),
-            ));
-        }
-    }
-    out
+    r.boxes_at(frame, ghosts)
+        .into_iter()
+        .map(|b| {
+            let kind = if b.ghost {
+                format!("{} (ended)", b.object.kind)
+            } else {
+                b.object.kind
+            };
+            (b.object.index, kind, b.label_box)
+        })
+        .collect()
 }

@@ -12,7 +12,7 @@ use super::{
     frame_ranges, semantic, CheckName as C, Collector, ObjectRef, Severity as S, Thresholds,
 };
 use crate::geom::{Matrix3x4, Point3, Real};
-use crate::kitti::tracklets::{Occlusion, Pose, Tracklet};
+use crate::kitti::tracklets::{Pose, Tracklet};
 use crate::kitti::velodyne::Scan;
 use crate::kitti::Layout;
 use crate::label::LabelBox;
@@ -183,51 +183,13 @@ fn frame_boxes(r: &DriveRead, f: u32, t: &Thresholds) -> Vec<(LabelBox, BoxSeen)
             ground: None,
         }
     };
-    let mut out = Vec::new();
-    if let Some(tr) = &r.tracklets {
-        for (i, tk, p) in tr.at(f) {
-            let b = LabelBox::new(i, tk, p, 0);
-            let o = ObjectRef {
-                index: i as u32,
-                kind: tk.object_type.as_str().into(),
-            };
-            let s = seen(o, &b, false, p.occlusion == Occlusion::Visible);
-            out.push((b, s));
-        }
-        for (i, tk) in tr.tracklets.iter().enumerate() {
-            let Some(pose) = carried_on(tk, f) else {
-                continue;
-            };
-            let b = LabelBox::new(i, tk, &pose, 0);
-            let o = ObjectRef {
-                index: i as u32,
-                kind: tk.object_type.as_str().into(),
-            };
-            let s = seen(o, &b, true, false);
-            out.push((b, s));
-        }
-    }
-    if let Some((objects, calib)) = r.objects.get(&f) {
-        let rect_to_velo = calib.velo_to_rect().try_inverse().unwrap_or_default();
-        for (i, o) in objects
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| o.kind != "DontCare")
-        {
-            let b = LabelBox::from_object(i, o, &rect_to_velo, 0);
-            let s = seen(
-                ObjectRef {
-                    index: i as u32,
-                    kind: o.kind.clone(),
-                },
-                &b,
-                false,
-                false,
-            );
-            out.push((b, s));
-        }
-    }
-    out
+    r.boxes_at(f, true)
+        .into_iter()
+        .map(|b| {
+            let s = seen(b.object, &b.label_box, b.ghost, b.visible);
+            (b.label_box, s)
+        })
+        .collect()
 }
 
 /// How far from a box's bottom the ground is looked for, metres.

@@ -34,22 +34,23 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
         overlaps_raw(c, t);
         falloff(c, t);
     }
-    for (&frame, (objects, calib)) in &r.objects {
+    for (&frame, (objects, _)) in &r.objects {
         let path = r.drive().object_labels_path(frame);
-        let rect_to_velo = calib.velo_to_rect().try_inverse().unwrap_or_default();
-        let mut boxes = Vec::new();
-        for (i, o) in objects
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| o.kind != "DontCare")
-        {
-            let obj = ObjectRef {
-                index: i as u32,
-                kind: o.kind.clone(),
-            };
-            let [h, w, l] = o.hwl;
-            size(c, &path, Some(frame), Some(obj.clone()), &o.kind, [l, w, h]);
-            boxes.push((obj, LabelBox::from_object(i, o, &rect_to_velo, 0)));
+        let boxes: Vec<(ObjectRef, LabelBox)> = r
+            .boxes_at(frame, false)
+            .into_iter()
+            .map(|b| (b.object, b.label_box))
+            .collect();
+        for (obj, _) in &boxes {
+            let [h, w, l] = objects[obj.index as usize].hwl;
+            size(
+                c,
+                &path,
+                Some(frame),
+                Some(obj.clone()),
+                &obj.kind,
+                [l, w, h],
+            );
         }
         overlaps_at(c, &path, frame, &boxes);
     }
