@@ -19,7 +19,54 @@ use super::completeness;
 
 use super::{progress, Global};
 use crate::cli::ScoreArgs;
+use crate::commands::unproject::MethodArg;
 use crate::Outcome;
+
+/// The frames to score: an ImageSet list, or an ImageSet folder's val.txt (what a model is
+/// evaluated on); `None` for every frame.
+fn only_frames(imageset: Option<&std::path::PathBuf>) -> anyhow::Result<Option<BTreeSet<FrameId>>> {
+    let Some(l) = imageset else { return Ok(None) };
+    let list = if l.is_dir() {
+        l.join("val.txt")
+    } else {
+        l.clone()
+    };
+    if !list.is_file() {
+        anyhow::bail!(
+            "{}: no such frame list (give an ImageSet list such as OUT/ImageSet/val.txt, or the ImageSet folder for its val.txt)",
+            list.display()
+        );
+    }
+    Ok(Some(imageset::read(&list)?.into_iter().collect()))
+}
+
+/// The scoring options: the point protocol for a SemanticKITTI root, `--points` or a
+/// back-projection; map predictions of a SemanticKITTI conversion with the scans at hand are
+/// carried to the points by RangeNet++'s kNN by default, as the benchmark scores points.
+fn options(
+    a: &ScoreArgs,
+    gt: &GroundTruth,
+    preds: &Predictions,
+) -> (ScoreOptions, Option<MethodArg>) {
+    let dataset = matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_));
+    let sequence = gt
+        .frames
+        .iter()
+        .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence);
+    let by_default = sequence && a.raw.is_some() && !a.points && !preds.points && !dataset;
+    let unproject = a.unproject.or(by_default.then_some(MethodArg::Knn));
+    let opts = ScoreOptions {
+        protocol: if a.points || dataset || unproject.is_some() {
+            Protocol::Points
+        } else {
+            Protocol::Cells
+        },
+        missing_as_background: a.missing_as_background,
+        raw: a.raw.clone(),
+        unproject: unproject.map_or(Method::Cell, |m| a.knn.method(m)),
+    };
+    (opts, unproject)
+}
 
 pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     let preds = Predictions::index(&a.pred)?;
@@ -27,63 +74,8 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     if gt.provenance == Provenance::Assumed || gt.partial.is_some() {
         eprintln!("kitti2pgm: {}", gt.provenance_note());
     }
-    // A list, or an ImageSet folder: its val.txt (what a model is evaluated on).
-    let list = a.imageset.as_ref().map(|l| {
-        if l.is_dir() {
-            l.join("val.txt")
-        } else {
-            l.clone()
-        }
-    });
-    if let Some(l) = list.as_ref().filter(|l| !l.is_file()) {
-        anyhow::bail!(
-            "{}: no such frame list (give an ImageSet list such as OUT/ImageSet/val.txt, or the ImageSet folder for its val.txt)",
-            l.display()
-        );
-    }
-    let only: Option<BTreeSet<FrameId>> = list
-        .as_ref()
-        .map(|l| imageset::read(l))
-        .transpose()?
-        .map(|l| l.into_iter().collect());
-    let opts = ScoreOptions {
-        // A SemanticKITTI root is scored per point (the benchmark's protocol).
-        protocol: if a.points || matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_)) {
-            Protocol::Points
-        } else {
-            Protocol::Cells
-        },
-        missing_as_background: a.missing_as_background,
-        raw: a.raw.clone(),
-        unproject: a.unproject.map_or(Method::Cell, |m| a.knn.method(m)),
-    };
-    // Map predictions of a SemanticKITTI conversion, with the scans at hand: scored per point
-    // by default (RangeNet++'s kNN), beside the cells, as the benchmark scores them.
-    let sequence = gt
-        .frames
-        .iter()
-        .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence);
-    let a = ScoreArgs {
-        unproject: a.unproject.or((sequence
-            && a.raw.is_some()
-            && !a.points
-            && !preds.points
-            && !matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_)))
-        .then_some(crate::commands::unproject::MethodArg::Knn)),
-        ..a
-    };
-    let opts = ScoreOptions {
-        unproject: a.unproject.map_or(Method::Cell, |m| a.knn.method(m)),
-        ..opts
-    };
-    let opts = ScoreOptions {
-        protocol: if a.unproject.is_some() {
-            Protocol::Points
-        } else {
-            opts.protocol
-        },
-        ..opts
-    };
+    let only = only_frames(a.imageset.as_ref())?;
+    let (opts, unproject) = options(&a, &gt, &preds);
     let map = &gt.params.class_map;
     let pool = g.pool()?;
     let context = || format!("scoring {} against {}", a.pred.display(), a.gt.display());
@@ -102,7 +94,7 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
             rep.predictions_without_truth.len()
         );
     }
-    if let Some(method) = a.unproject {
+    if let Some(method) = unproject {
         // The same predictions per cell, for the 2D figures beside the 3D ones.
         let cells = ScoreOptions {
             protocol: Protocol::Cells,
@@ -128,24 +120,15 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
     if let Some(p) = &a.confusion {
         png::write(p, &confusion_chart(&rep.confusion, map))?;
     }
-    if a.worst.is_some() && matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_)) {
-        anyhow::bail!("--worst draws maps; a SemanticKITTI root holds points (score a converted folder for pictures)");
-    }
     if let Some(n) = a.worst {
-        let ranked = worst(&scores, n, map);
-        std::fs::create_dir_all(&a.worst_dir)
-            .with_context(|| format!("creating {}", a.worst_dir.display()))?;
-        let ids: BTreeSet<FrameId> = ranked.iter().map(|(i, _)| scores[*i].id.clone()).collect();
-        let (_, mut maps) = pool
-            .install(|| score(&gt, Some(&ids), &preds, &opts, &ids, &|_| {}))
-            .with_context(context)?;
-        let shape = (gt.params.spec.rows, gt.params.spec.cols);
-        for (rank, (i, m)) in ranked.iter().enumerate() {
-            let id = &scores[*i].id;
-            let frame_maps = maps.remove(id).expect("asked for");
-            let img = frame_chart(&id.to_string(), &frame_maps, shape, Some(*m), map);
-            png::write(&a.worst_dir.join(format!("{:03}_{id}.png", rank + 1)), &img)?;
+        if matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_)) {
+            anyhow::bail!("--worst draws maps; a SemanticKITTI root holds points (score a converted folder for pictures)");
         }
+        let worst_maps = |ids: &BTreeSet<FrameId>| {
+            pool.install(|| score(&gt, Some(ids), &preds, &opts, ids, &|_| {}))
+                .with_context(context)
+        };
+        draw_worst(&a, &gt, &scores, n, worst_maps)?;
     }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
@@ -153,6 +136,36 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         print!("{}", table(&rep, map, false));
     }
     Ok(Outcome::Ok)
+}
+
+/// Pictures of the `n` worst frames, ranked, into `--worst-dir`; `maps_of` scores the frames
+/// again keeping their maps.
+fn draw_worst(
+    a: &ScoreArgs,
+    gt: &GroundTruth,
+    scores: &[kitti2pgm::report::score::FrameScore],
+    n: usize,
+    maps_of: impl Fn(
+        &BTreeSet<FrameId>,
+    ) -> anyhow::Result<(
+        Vec<kitti2pgm::report::score::FrameScore>,
+        std::collections::BTreeMap<FrameId, kitti2pgm::report::score::FrameMaps>,
+    )>,
+) -> anyhow::Result<()> {
+    let map = &gt.params.class_map;
+    let ranked = worst(scores, n, map);
+    std::fs::create_dir_all(&a.worst_dir)
+        .with_context(|| format!("creating {}", a.worst_dir.display()))?;
+    let ids: BTreeSet<FrameId> = ranked.iter().map(|(i, _)| scores[*i].id.clone()).collect();
+    let (_, mut maps) = maps_of(&ids)?;
+    let shape = (gt.params.spec.rows, gt.params.spec.cols);
+    for (rank, (i, m)) in ranked.iter().enumerate() {
+        let id = &scores[*i].id;
+        let frame_maps = maps.remove(id).expect("asked for");
+        let img = frame_chart(&id.to_string(), &frame_maps, shape, Some(*m), map);
+        png::write(&a.worst_dir.join(format!("{:03}_{id}.png", rank + 1)), &img)?;
+    }
+    Ok(())
 }
 
 /// The width of the class column: the longest class name, at least "class".
