@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::Context;
 use kitti2pgm::draw::charts::balance_chart;
 use kitti2pgm::format::{imageset, png};
-use kitti2pgm::report::stats::{stats, SplitFrames, Stats};
+use kitti2pgm::report::stats::{stats, SplitFrames, SplitStats, Stats};
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
 use super::completeness;
@@ -79,7 +79,6 @@ pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
 
 fn table(s: &Stats, chart: Option<&Path>) -> String {
     let mut t = String::new();
-    let names = &s.split_order;
     let _ = writeln!(
         t,
         "maps {}x{}, channels {}",
@@ -87,40 +86,66 @@ fn table(s: &Stats, chart: Option<&Path>) -> String {
         s.cols,
         s.channels.join(",")
     );
+    split_rows(&mut t, s);
+    if s.split_order.len() > 1 {
+        let _ = writeln!(t, "\nshare of each class's cells per split");
+        let map = &s.class_map;
+        for c in map.labelled().into_iter().map(|c| map.name(c)) {
+            let shares: Vec<String> = s
+                .split_order
+                .iter()
+                .map(|n| format!("{n} {:.1}%", 100.0 * s.class_split_share[c][n]))
+                .collect();
+            let _ = writeln!(t, "  {c:<12} {}", shares.join("  "));
+        }
+    }
+    constants(&mut t, s);
+    if let Some(cs) = &s.convert_summary {
+        let _ = writeln!(
+            t,
+            "\nconversion: {} collisions, {} ring fallbacks",
+            cs.projection.collisions, cs.projection.ring_fallbacks
+        );
+    }
+    if let Some(p) = chart {
+        let _ = writeln!(t, "\nchart: {}", p.display());
+    }
+    t
+}
+
+/// The per-split table: a column per split, a row per figure.
+fn split_rows(t: &mut String, s: &Stats) {
+    let names = &s.split_order;
     let _ = write!(t, "\n{:<32}", "");
     for n in names {
         let _ = write!(t, "{n:>14}");
     }
     let _ = writeln!(t);
-    let row = |t: &mut String, label: &str, f: &dyn Fn(&str) -> String| {
+    let row = |t: &mut String, label: &str, f: &dyn Fn(&SplitStats) -> String| {
         let _ = write!(t, "{label:<32}");
         for n in names {
-            let _ = write!(t, "{:>14}", f(n));
+            let _ = write!(t, "{:>14}", f(&s.splits[n]));
         }
         let _ = writeln!(t);
     };
-    row(&mut t, "frames", &|n| s.splits[n].frames.to_string());
-    row(&mut t, "fill ratio", &|n| {
-        format!("{:.4}", s.splits[n].fill_ratio)
-    });
-    if s.splits.values().all(|x| x.rgb_coverage.is_some()) {
-        row(&mut t, "cells with colour", &|n| {
-            format!("{:.1}%", 100.0 * s.splits[n].rgb_coverage.unwrap_or(0.0))
+    row(t, "frames", &|x| x.frames.to_string());
+    row(t, "fill ratio", &|x| format!("{:.4}", x.fill_ratio));
+    let all_have = |f: &dyn Fn(&SplitStats) -> bool| s.splits.values().all(f);
+    if all_have(&|x| x.rgb_coverage.is_some()) {
+        row(t, "cells with colour", &|x| {
+            format!("{:.1}%", 100.0 * x.rgb_coverage.unwrap_or(0.0))
         });
     }
     let map = &s.class_map;
     let all = map.names();
     let labelled: Vec<&str> = map.labelled().into_iter().map(|c| map.name(c)).collect();
     for c in &all {
-        row(&mut t, &format!("{c} cells"), &|n| {
-            s.splits[n].cells[*c].to_string()
-        });
+        row(t, &format!("{c} cells"), &|x| x.cells[*c].to_string());
     }
-    if s.splits.values().all(|x| x.points.is_some()) {
+    if all_have(&|x| x.points.is_some()) {
         for c in &all {
-            row(&mut t, &format!("{c} points"), &|n| {
-                s.splits[n]
-                    .points
+            row(t, &format!("{c} points"), &|x| {
+                x.points
                     .as_ref()
                     .map(|p| p[*c].to_string())
                     .unwrap_or_default()
@@ -128,41 +153,32 @@ fn table(s: &Stats, chart: Option<&Path>) -> String {
         }
     }
     for c in &labelled {
-        row(&mut t, &format!("{c} % of labelled cells"), &|n| {
-            format!("{:.2}%", 100.0 * s.splits[n].share_of_labelled_cells[*c])
+        row(t, &format!("{c} % of labelled cells"), &|x| {
+            format!("{:.2}%", 100.0 * x.share_of_labelled_cells[*c])
         });
-        row(&mut t, &format!("{c} frames"), &|n| {
-            s.splits[n].frames_with[*c].to_string()
+        row(t, &format!("{c} frames"), &|x| {
+            x.frames_with[*c].to_string()
         });
     }
-    if s.splits.values().all(|x| x.tracklets.is_some()) {
+    if all_have(&|x| x.tracklets.is_some()) {
         for c in &labelled {
-            row(&mut t, &format!("{c} instances"), &|n| {
-                s.splits[n]
-                    .tracklets
-                    .as_ref()
-                    .map(|x| x.instances[*c].to_string())
-                    .unwrap_or_default()
+            let of =
+                |x: &SplitStats, f: &dyn Fn(&kitti2pgm::report::stats::TrackletStats) -> u64| {
+                    x.tracklets
+                        .as_ref()
+                        .map(|tr| f(tr).to_string())
+                        .unwrap_or_default()
+                };
+            row(t, &format!("{c} instances"), &|x| {
+                of(x, &|tr| tr.instances[*c])
             });
-            row(&mut t, &format!("{c} poses"), &|n| {
-                s.splits[n]
-                    .tracklets
-                    .as_ref()
-                    .map(|x| x.poses[*c].to_string())
-                    .unwrap_or_default()
-            });
+            row(t, &format!("{c} poses"), &|x| of(x, &|tr| tr.poses[*c]));
         }
     }
-    if names.len() > 1 {
-        let _ = writeln!(t, "\nshare of each class's cells per split");
-        for c in &labelled {
-            let shares: Vec<String> = names
-                .iter()
-                .map(|n| format!("{n} {:.1}%", 100.0 * s.class_split_share[*c][n]))
-                .collect();
-            let _ = writeln!(t, "  {c:<12} {}", shares.join("  "));
-        }
-    }
+}
+
+/// The normalisation constants and class weights.
+fn constants(t: &mut String, s: &Stats) {
     let nm = &s.normalisation;
     let _ = writeln!(
         t,
@@ -182,7 +198,7 @@ fn table(s: &Stats, chart: Option<&Path>) -> String {
     let _ = writeln!(
         t,
         "\nclass weights ({}; from {})",
-        all.join(", "),
+        s.class_map.names().join(", "),
         w.from_split
     );
     let _ = writeln!(
@@ -198,15 +214,4 @@ fn table(s: &Stats, chart: Option<&Path>) -> String {
     if let Some(r) = &w.reference {
         let _ = writeln!(t, "  reference (SqueezeSeg)  [{}]", fmt(r));
     }
-    if let Some(cs) = &s.convert_summary {
-        let _ = writeln!(
-            t,
-            "\nconversion: {} collisions, {} ring fallbacks",
-            cs.projection.collisions, cs.projection.ring_fallbacks
-        );
-    }
-    if let Some(p) = chart {
-        let _ = writeln!(t, "\nchart: {}", p.display());
-    }
-    t
 }
