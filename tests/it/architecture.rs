@@ -101,3 +101,62 @@ fn no_source_file_over_500_lines() {
         assert!(n <= 500, "{}: {n} lines", f.display());
     }
 }
+
+/// Lines of each function (`fn` line to its closing brace, as rustfmt lays it out): (lines,
+/// file, name). Braces inside string and char literals are skipped.
+fn function_lengths() -> Vec<(usize, String, String)> {
+    let (src, files) = sources();
+    let mut out = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let t = line.trim_start();
+            let t = t
+                .strip_prefix("pub(crate) ")
+                .or(t.strip_prefix("pub "))
+                .unwrap_or(t);
+            let Some(rest) = t.strip_prefix("fn ") else {
+                continue;
+            };
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            let (mut depth, mut opened) = (0i64, false);
+            for (j, l) in lines.iter().enumerate().skip(i) {
+                let (mut in_str, mut prev) = (false, ' ');
+                for c in l.split("//").next().unwrap_or("").chars() {
+                    match c {
+                        '"' if prev != '\\' => in_str = !in_str,
+                        '{' if !in_str && prev != '\'' => {
+                            depth += 1;
+                            opened = true;
+                        }
+                        '}' if !in_str && prev != '\'' => depth -= 1,
+                        _ => {}
+                    }
+                    prev = c;
+                }
+                if (opened && depth <= 0) || (!opened && l.trim_end().ends_with(';')) {
+                    let file = f.strip_prefix(&src).unwrap().display().to_string();
+                    out.push((j - i + 1, file, name.clone()));
+                    break;
+                }
+            }
+        }
+    }
+    out.sort_by(|a, b| b.cmp(a));
+    out
+}
+
+/// The aim is functions that fit on a screen (about 80 lines); this holds the line at the
+/// longest left (the report tables and chart drawing, long but flat), so that none grows.
+#[test]
+fn no_function_over_110_lines() {
+    let long: Vec<_> = function_lengths()
+        .into_iter()
+        .filter(|(n, _, _)| *n > 110)
+        .collect();
+    assert!(long.is_empty(), "functions over 110 lines: {long:?}");
+}
