@@ -73,7 +73,8 @@ pub fn run(a: InspectArgs) -> anyhow::Result<Outcome> {
                 i.metadata.drives.len()
             );
             if !i.metadata.failed.is_empty() {
-                println!("  failed frames   {}", i.metadata.failed.join(" "));
+                let failed: Vec<String> = i.metadata.failed.iter().map(|f| f.to_string()).collect();
+                println!("  failed frames   {}", failed.join(" "));
             }
         }
     }

@@ -77,10 +77,10 @@ pub(crate) fn convert_to_shards(
     let drives: Vec<String> = plan.drives.iter().map(|d| d.drive.name()).collect();
     shards.par_iter().for_each(|sp| {
         let path = pass.path(opts, sp.split, sp.index);
-        let ids: Vec<String> = sp
+        let ids: Vec<FrameId> = sp
             .jobs
             .iter()
-            .map(|&(d, f)| plan.drives[d].drive.frame_id(f).to_string())
+            .map(|&(d, f)| plan.drives[d].drive.frame_id(f))
             .collect();
         // The frames' .npy / .label files, when asked for, must be journalled with these
         // parameters too.
@@ -279,11 +279,11 @@ fn write_shard(
                         reports.push(p.report);
                     }
                     Err(e) => {
-                        let id = plan.drives[d].drive.frame_id(f).to_string();
+                        let id = plan.drives[d].drive.frame_id(f);
                         meta.failed.push(id.clone());
                         if pass.primary {
                             *failed_alone += 1;
-                            run.failed(id, 1, e);
+                            run.failed(id.to_string(), 1, e);
                         }
                     }
                 }

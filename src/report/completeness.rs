@@ -59,7 +59,7 @@ pub(crate) fn problem(gt: &GroundTruth) -> Result<Option<String>> {
         let mut holders = Vec::new();
         for s in shards {
             let md = Shard::open(s)?.metadata()?;
-            if md.frames.contains(&name) && !md.failed.contains(&name) {
+            if md.frames.contains(twice) && !md.failed.contains(twice) {
                 holders.push(s.display().to_string());
             }
         }

@@ -267,9 +267,7 @@ impl GroundTruth {
                 }
                 Some(_) => {}
             }
-            for f in md.frames.iter().filter(|f| !md.failed.contains(f)) {
-                frames.push(f.parse::<FrameId>().map_err(|e| Error::format(s, e))?);
-            }
+            frames.extend(md.frames.iter().filter(|f| !md.failed.contains(f)).cloned());
         }
         frames.sort();
         Ok(GroundTruth {

@@ -302,7 +302,12 @@ fn failed_frames_are_left_out_and_recorded() {
     );
     let shard = Shard::open(&out.join("shards/train-00000.mcap")).unwrap();
     let md = shard.metadata().unwrap();
-    assert_eq!(md.failed, ["2011_09_26_0001_0000000045"]);
+    assert_eq!(
+        md.failed,
+        ["2011_09_26_0001_0000000045"
+            .parse::<kitti2pgm::kitti::FrameId>()
+            .unwrap()]
+    );
     assert_eq!(shard.frames().0.len(), 2);
     // A shard with failed frames is not "intact": the re-run tries again.
     let (_, stdout, _) = run_text(&[

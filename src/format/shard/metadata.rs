@@ -7,6 +7,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::kitti::FrameId;
 use crate::params::ConvertParams;
 
 /// What the metadata record of a shard says.
@@ -19,13 +20,21 @@ pub struct ShardMetadata {
     /// Input drives, as `<date>_drive_<NNNN>_sync`.
     pub drives: Vec<String>,
     /// Frame ids planned for the shard, in order.
-    pub frames: Vec<String>,
+    pub frames: Vec<FrameId>,
     /// Frames of the plan that failed and are not in the shard.
-    pub failed: Vec<String>,
+    pub failed: Vec<FrameId>,
     /// The split of its frames.
     pub split: crate::plan::split::Split,
     /// What the shard holds.
     pub content: super::ShardKind,
+}
+
+/// Frame ids one a line, as the record stores them.
+fn ids_text(ids: &[FrameId]) -> String {
+    ids.iter()
+        .map(FrameId::to_string)
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 impl ShardMetadata {
@@ -38,8 +47,8 @@ impl ShardMetadata {
                 serde_json::to_string(&self.params).expect("parameters serialise"),
             ),
             ("drives".into(), self.drives.join("\n")),
-            ("frames".into(), self.frames.join("\n")),
-            ("failed".into(), self.failed.join("\n")),
+            ("frames".into(), ids_text(&self.frames)),
+            ("failed".into(), ids_text(&self.failed)),
             ("split".into(), self.split.to_string()),
             ("content".into(), self.content.name().into()),
             // The topics, so that readers (the Python package) need no copy of them.
@@ -58,6 +67,14 @@ impl ShardMetadata {
         };
         let list =
             |k: &str| -> Result<Vec<String>> { Ok(get(k)?.lines().map(String::from).collect()) };
+        let ids = |v: &[String], key: &str| -> Result<Vec<FrameId>> {
+            v.iter()
+                .map(|s| {
+                    s.parse()
+                        .map_err(|e: String| Error::format(path, format!("metadata `{key}`: {e}")))
+                })
+                .collect()
+        };
         let version = get("version")?.clone();
         let params = serde_json::from_str(get("params")?).map_err(|e| {
             Error::format(
@@ -69,8 +86,8 @@ impl ShardMetadata {
             version,
             params,
             drives: list("drives")?,
-            frames: list("frames")?,
-            failed: list("failed")?,
+            frames: ids(&list("frames")?, "frames")?,
+            failed: ids(&list("failed")?, "failed")?,
             split: get("split")?
                 .parse()
                 .map_err(|e: Error| Error::format(path, format!("metadata `split`: {e}")))?,

@@ -13,6 +13,7 @@ use super::message::{FrameMsg, PointsMsg};
 use super::metadata::ShardMetadata;
 use super::{ShardKind, METADATA_NAME, POINTS_TOPIC, PREDICTION_TOPIC};
 use crate::error::{Error, Result};
+use crate::kitti::FrameId;
 
 /// Whether a message's channel carries `schema` (messages are selected by schema, never by
 /// topic alone: a visualisation topic may share a name's prefix or a user's tool may rename).
@@ -208,8 +209,9 @@ impl Shard {
             .metadata()
             .map(|md| {
                 md.frames
-                    .into_iter()
+                    .iter()
                     .filter(|f| !md.failed.contains(f))
+                    .map(FrameId::to_string)
                     .collect()
             })
             .unwrap_or_default();
@@ -346,7 +348,7 @@ impl Shard {
 /// the same map and shard parameters as `params`.
 pub fn shard_is_intact(
     path: &Path,
-    frames: &[String],
+    frames: &[FrameId],
     params: &crate::params::ConvertParams,
     kind: ShardKind,
 ) -> bool {
