@@ -88,6 +88,16 @@ pub enum Error {
         /// What is unfinished or inconsistent.
         problem: String,
     },
+    /// The MCAP library could not read or write a shard.
+    #[error("{}: {context}: {source}", path.display())]
+    Mcap {
+        /// The shard.
+        path: PathBuf,
+        /// What was being read or written (`chunk at byte 1234`, `MCAP writer`).
+        context: String,
+        /// The library's error.
+        source: mcap::McapError,
+    },
     /// A required key is missing from a calibration file.
     #[error("{}: missing key `{key}`", path.display())]
     MissingKey {
@@ -118,6 +128,19 @@ pub enum Error {
 }
 
 impl Error {
+    /// An [`Error::Mcap`] for `path`.
+    pub fn mcap(
+        path: impl Into<PathBuf>,
+        context: impl Into<String>,
+        source: mcap::McapError,
+    ) -> Self {
+        Error::Mcap {
+            path: path.into(),
+            context: context.into(),
+            source,
+        }
+    }
+
     /// A [`Error::Format`] without a line number.
     pub fn format(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         Error::Format {

@@ -164,9 +164,10 @@ impl Shard {
                 &self.path,
                 "no summary section: the shard was not finished",
             )),
-            Err(e) => Err(Error::format(
+            Err(e) => Err(Error::mcap(
                 &self.path,
-                format!("unreadable summary (truncated or corrupted shard?): {e}"),
+                "unreadable summary (truncated or corrupted shard?)",
+                e,
             )),
         }
     }
@@ -182,7 +183,7 @@ impl Shard {
                 Error::format(&self.path, format!("no `{METADATA_NAME}` metadata record"))
             })?;
         let md = mcap::read::metadata(&self.map, index)
-            .map_err(|e| Error::format(&self.path, format!("metadata record: {e}")))?;
+            .map_err(|e| Error::mcap(&self.path, "metadata record", e))?;
         ShardMetadata::from_map(&md.metadata, &self.path)
     }
 
@@ -281,12 +282,13 @@ impl Shard {
         let at = index.chunk_start_offset;
         let stream = summary
             .stream_chunk(self.bytes(), index)
-            .map_err(|e| Error::format(&self.path, format!("chunk at byte {at}: {e}")))?;
+            .map_err(|e| Error::mcap(&self.path, format!("chunk at byte {at}"), e))?;
         Ok(stream.filter_map(move |m| match m {
             Ok(m) => decode(&m, &self.path),
-            Err(e) => Some(Err(Error::format(
+            Err(e) => Some(Err(Error::mcap(
                 &self.path,
-                format!("chunk at byte {at}: corrupted or truncated: {e}"),
+                format!("chunk at byte {at}: corrupted or truncated"),
+                e,
             ))),
         }))
     }

@@ -51,7 +51,7 @@ impl ShardWriter {
             .tempfile_in(dir)
             .map_err(werr)?;
         let (file, tmp) = tmp.into_parts();
-        let merr = |e: mcap::McapError| Error::format(path, format!("MCAP writer: {e}"));
+        let merr = |e: mcap::McapError| Error::mcap(path, "MCAP writer", e);
         let mut writer = mcap::WriteOptions::new()
             .profile(PROFILE)
             .library(format!("kitti2pgm {}", env!("CARGO_PKG_VERSION")))
@@ -81,7 +81,7 @@ impl ShardWriter {
     }
 
     fn merr(&self, e: mcap::McapError) -> Error {
-        Error::format(&self.path, format!("MCAP writer: {e}"))
+        Error::mcap(&self.path, "MCAP writer", e)
     }
 
     /// Appends a frame's encoded message (and its visualisation messages when `viz` is given
