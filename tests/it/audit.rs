@@ -37,11 +37,30 @@ fn every_bit_flip_in_a_shard_is_caught() {
         bad[at] ^= 1 << rng.below(8);
         let copy = t.path().join(format!("flip{k}.mcap"));
         std::fs::write(&copy, &bad).unwrap();
-        let (code, _, stderr) = run_text(&["inspect", s(&copy)]);
-        assert_ne!(code, 0, "flip at byte {at} of {} went unnoticed", bad.len());
-        assert!(stderr.contains(&format!("flip{k}.mcap")), "{stderr}");
-        let (code, _, _) = run_text(&["score", "--gt", s(&copy), "--pred", s(&shard)]);
-        assert_ne!(code, 0, "score read a shard flipped at byte {at}");
+        // In process: what inspect and score read the shard with.
+        let e = kitti2pgm::report::inspect::inspect(&copy)
+            .expect_err(&format!("flip at byte {at} of {} went unnoticed", bad.len()))
+            .to_string();
+        assert!(e.contains(&format!("flip{k}.mcap")), "{e}");
+        let truth = kitti2pgm::report::truth::GroundTruth::open(&copy);
+        let scored = truth.and_then(|gt| {
+            let preds = kitti2pgm::report::score::Predictions::index(&shard)?;
+            let opts = kitti2pgm::report::score::ScoreOptions {
+                protocol: kitti2pgm::report::score::Protocol::Cells,
+                missing_as_background: false,
+                raw: None,
+                unproject: kitti2pgm::project::unproject::Method::Cell,
+            };
+            let none = Default::default();
+            kitti2pgm::report::score::score(&gt, None, &preds, &opts, &none, &|_| {})
+        });
+        assert!(scored.is_err(), "score read a shard flipped at byte {at}");
+        // The command says so too (exit status, the shard named): once is enough.
+        if k == 0 {
+            let (code, _, stderr) = run_text(&["inspect", s(&copy)]);
+            assert_ne!(code, 0);
+            assert!(stderr.contains("flip0.mcap"), "{stderr}");
+        }
     }
     // A re-run rewrites a corrupted shard instead of keeping it as complete and intact.
     let mut bad = good.clone();
