@@ -11,7 +11,8 @@
 use super::augment::Augment;
 use super::frame::{assemble, PgmFrame, PointValues};
 use super::{
-    project_impl, rings, Geometry, PgmSpec, ProjectionStats, RowMode, Rows, EMPTY, LASERS,
+    project_impl, rings, Geometry, PgmSpec, PointCells, ProjectionStats, RowMode, Rows, EMPTY,
+    LASERS,
 };
 use crate::error::{Error, Result};
 use crate::geom::Point3;
@@ -186,7 +187,7 @@ pub fn project_cloud(
         let proj = project_impl(
             cloud.points,
             spec,
-            true,
+            PointCells::Keep,
             rows,
             Geometry::plain(cloud.points),
         );
@@ -253,7 +254,7 @@ fn augmented(
         rotate,
         scale,
     };
-    let proj = project_impl(&a.points, spec, true, rows, geometry);
+    let proj = project_impl(&a.points, spec, PointCells::Keep, rows, geometry);
     let (k_int, k_class, k_inst) = (
         pick(&a.kept, cloud.intensity),
         pick(&a.kept, class),

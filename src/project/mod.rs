@@ -284,19 +284,40 @@ pub enum Rows<'a> {
 
 /// Projects a scan's points onto the map.
 pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
-    project_impl(points, spec, false, Rows::FromSpec, Geometry::plain(points))
+    project_impl(
+        points,
+        spec,
+        PointCells::Drop,
+        Rows::FromSpec,
+        Geometry::plain(points),
+    )
 }
 
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
 /// for scoring per point.
 pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection {
-    project_impl(points, spec, true, Rows::FromSpec, Geometry::plain(points))
+    project_impl(
+        points,
+        spec,
+        PointCells::Keep,
+        Rows::FromSpec,
+        Geometry::plain(points),
+    )
 }
 
 /// The range of a point, metres (float32, as every map stores it).
 #[inline(always)]
 pub fn norm(p: &Point3) -> f32 {
     (p.x * p.x + p.y * p.y + p.z * p.z).sqrt()
+}
+
+/// Whether a projection keeps the cell of every point ([`Projection::point_cell`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum PointCells {
+    /// Kept (back-projection, per-point scoring, clouds).
+    Keep,
+    /// Not kept (the conversion: the map alone).
+    Drop,
 }
 
 /// Points per block of the two-pass loop (columns and ranges, then cells).
@@ -308,7 +329,7 @@ const BLOCK: usize = 512;
 pub(crate) fn project_impl(
     points: &[Point3],
     spec: &PgmSpec,
-    keep_point_cells: bool,
+    point_cells: PointCells,
     rows: Rows<'_>,
     geometry: Geometry<'_>,
 ) -> Projection {
@@ -327,6 +348,7 @@ pub(crate) fn project_impl(
     };
     let mut cell_point = vec![EMPTY; spec.cells()];
     let mut cell_range = vec![0f32; spec.cells()];
+    let keep_point_cells = point_cells == PointCells::Keep;
     let mut point_cell = if keep_point_cells {
         vec![EMPTY; points.len()]
     } else {

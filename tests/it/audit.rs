@@ -39,7 +39,10 @@ fn every_bit_flip_in_a_shard_is_caught() {
         std::fs::write(&copy, &bad).unwrap();
         // In process: what inspect and score read the shard with.
         let e = kitti2pgm::report::inspect::inspect(&copy)
-            .expect_err(&format!("flip at byte {at} of {} went unnoticed", bad.len()))
+            .expect_err(&format!(
+                "flip at byte {at} of {} went unnoticed",
+                bad.len()
+            ))
             .to_string();
         assert!(e.contains(&format!("flip{k}.mcap")), "{e}");
         let truth = kitti2pgm::report::truth::GroundTruth::open(&copy);
