@@ -38,9 +38,10 @@ pub struct Cloud<'a> {
     pub colour_valid: Option<&'a [bool]>,
 }
 
-/// A projected cloud.
+/// A projected cloud: its map (a [`PgmFrame`], the one type of a map in memory) and where
+/// each point went.
 #[derive(Debug, Clone)]
-pub struct CloudMap {
+pub struct CloudProjection {
     /// The map (channels in the `.npy` order; colour channels when the cloud had colours).
     pub frame: PgmFrame,
     /// The cell (`row * cols + col`) of every input point; [`EMPTY`] outside the field of view
@@ -144,7 +145,7 @@ pub fn project_cloud(
     cloud: &Cloud<'_>,
     spec: &PgmSpec,
     augment: Option<&Augment>,
-) -> Result<CloudMap> {
+) -> Result<CloudProjection> {
     spec.validate()?;
     cloud.validate()?;
     let n = cloud.points.len();
@@ -201,7 +202,7 @@ pub fn project_cloud(
             .colours
             .map(|_| &colour_of as &dyn Fn(usize) -> Option<[f32; 3]>);
         let frame = assemble(values, &proj, colour);
-        return Ok(CloudMap {
+        return Ok(CloudProjection {
             frame,
             point_cell: proj.point_cell,
             cell_point: proj.cell_point,
@@ -229,7 +230,7 @@ fn augmented(
     (class, instance): (&[ClassId], &[u16]),
     colour_of: &dyn Fn(usize) -> Option<[f32; 3]>,
     cull: Cull,
-) -> Result<CloudMap> {
+) -> Result<CloudProjection> {
     let n = cloud.points.len();
     // Rings from the original order, before any point moves or goes.
     let (recovered, rings_found) = match (cloud.rings, spec.row_mode) {
@@ -287,7 +288,7 @@ fn augmented(
             }
         })
         .collect();
-    Ok(CloudMap {
+    Ok(CloudProjection {
         frame,
         point_cell,
         cell_point,

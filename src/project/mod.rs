@@ -28,7 +28,7 @@ pub mod unproject;
 
 pub use augment::Augment;
 pub use channels::{Channel, Channels};
-pub use cloud::{project_cloud, Cloud, CloudMap};
+pub use cloud::{project_cloud, Cloud, CloudProjection};
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
 pub use preset::MapPreset;

@@ -5,7 +5,7 @@ use kitti2pgm::convert::frame::{load, process, Viz};
 use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
-use kitti2pgm::project::{project_cloud, rings, Augment, Cloud, CloudMap, PgmSpec, EMPTY};
+use kitti2pgm::project::{project_cloud, rings, Augment, Cloud, CloudProjection, PgmSpec, EMPTY};
 
 use crate::util::*;
 
@@ -22,7 +22,7 @@ fn cloud_map(
     l: &kitti2pgm::convert::frame::LoadedFrame,
     spec: &PgmSpec,
     aug: Option<&Augment>,
-) -> CloudMap {
+) -> CloudProjection {
     let colours = l.point_colours();
     let rgb: Option<Vec<[f32; 3]>> = colours
         .as_ref()

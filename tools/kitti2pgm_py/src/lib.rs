@@ -16,7 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use kitti2pgm::geom::Degrees;
-use kitti2pgm::project::{project_cloud, Augment, Cloud, CloudMap, PgmSpec, RowMode, EMPTY};
+use kitti2pgm::project::{project_cloud, Augment, Cloud, CloudProjection, PgmSpec, RowMode, EMPTY};
 
 use arrays::{colours_arg, points_arg, vec_arg};
 
@@ -287,10 +287,10 @@ fn unproject<'py>(
 /// The dict `project` returns; every array takes over its Rust buffer.
 pub(crate) fn map_dict<'py>(
     py: Python<'py>,
-    m: CloudMap,
+    m: CloudProjection,
     point_cells: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let CloudMap {
+    let CloudProjection {
         frame,
         point_cell,
         cell_point,
