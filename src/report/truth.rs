@@ -197,7 +197,7 @@ impl GroundTruth {
             return Self::from_dataset(path, found.drives);
         }
         if dir.points_dir().is_dir() {
-            return Err(input("holds point shards only (points/: unprojected points); the reports read maps: convert with --format npy or mcap too"));
+            return Err(input("holds point shards only (points/: unprojected points); the reports read maps: convert to .npy maps or map shards too"));
         }
         Err(input("neither a convert output folder (lidar_2d/ or shards/), a folder of <frame id>.npy maps, nor shards (*.mcap)"))
     }
@@ -248,7 +248,7 @@ impl GroundTruth {
             if md.content == ShardKind::Points {
                 return Err(Error::Input {
                     path: s.clone(),
-                    message: "a point shard (convert --format points) holds unprojected points; \
+                    message: "a point shard holds unprojected points; \
                               the reports read maps: give the map shards (OUT/shards), the .npy \
                               maps or the convert folder"
                         .into(),
