@@ -88,6 +88,20 @@ pub enum Error {
         /// What is unfinished or inconsistent.
         problem: String,
     },
+    /// A per-point label file whose count is not its scan's.
+    #[error("{}: {labels} labels, but the scan {} has {points} points{}", path.display(), scan.display(), note.map(|n| format!(" ({n})")).unwrap_or_default())]
+    LabelCount {
+        /// The label file.
+        path: PathBuf,
+        /// Labels in it.
+        labels: usize,
+        /// Its scan.
+        scan: PathBuf,
+        /// Points in the scan.
+        points: usize,
+        /// The likely cause, when known.
+        note: Option<&'static str>,
+    },
     /// The MCAP library could not read or write a shard.
     #[error("{}: {context}: {source}", path.display())]
     Mcap {

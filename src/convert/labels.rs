@@ -115,15 +115,13 @@ pub fn frame_labels(
             }
             let raw = label_file::read_raw(&path)?;
             if raw.len() != scan.file_len {
-                return Err(Error::format(
-                    &path,
-                    format!(
-                        "{} labels, but the scan {} has {} points",
-                        raw.len(),
-                        drive.scan_path(frame).display(),
-                        scan.file_len
-                    ),
-                ));
+                return Err(Error::LabelCount {
+                    path,
+                    labels: raw.len(),
+                    scan: drive.scan_path(frame),
+                    points: scan.file_len,
+                    note: None,
+                });
             }
             let class = map.classes_of_raw(&raw, &path)?;
             let instance: Vec<u16> = raw.iter().map(|v| (v >> 16) as u16).collect();

@@ -57,14 +57,13 @@ fn score_one(
         .len()
         / crate::kitti::velodyne::POINT_BYTES as u64;
     if truth.len() as u64 != scan_points {
-        return Err(Error::format(
-            &truth_path,
-            format!(
-                "{} labels, but the scan {} has {scan_points} points (truncated ground truth?)",
-                truth.len(),
-                scan_path.display()
-            ),
-        ));
+        return Err(Error::LabelCount {
+            path: truth_path,
+            labels: truth.len(),
+            scan: scan_path,
+            points: scan_points as usize,
+            note: Some("truncated ground truth?"),
+        });
     }
     let pred = match preds.files.get(id) {
         Some(p) if preds.points => {
