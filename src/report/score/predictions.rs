@@ -109,81 +109,34 @@ impl Predictions {
             });
         }
         paths.sort();
-        let mut files = BTreeMap::new();
-        let (mut npy, mut label) = (None::<PathBuf>, None::<PathBuf>);
         let mcaps: Vec<PathBuf> = paths
             .iter()
             .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
             .cloned()
             .collect();
-        let mut unrecognised = None::<PathBuf>;
-        for p in paths {
-            let Some(id) = frame_id_of(&p) else {
-                let prediction_like = p.extension().is_some_and(|e| e == "npy" || e == "label");
-                if prediction_like {
-                    unrecognised.get_or_insert(p);
-                }
-                continue;
-            };
-            if p.extension().is_some_and(|e| e == "npy") {
-                npy.get_or_insert(p.clone());
-            } else {
-                label.get_or_insert(p.clone());
-            }
-            if let Some(prev) = files.insert(id.clone(), p.clone()) {
-                return Err(Error::Input {
-                    path: p,
-                    message: format!("second prediction for {id} (first: {})", prev.display()),
-                });
-            }
+        let found = FileIndex::of(paths)?;
+        let mixed = |message: String| Error::Input {
+            path: root.into(),
+            message: format!("mixed formats: {message}"),
+        };
+        if let (Some(a), Some(b)) = (&found.npy, &found.label) {
+            let (a, b) = (a.display(), b.display());
+            return Err(mixed(format!(".npy maps ({a}) and .label files ({b})")));
         }
-        if let (Some(a), Some(b)) = (&npy, &label) {
-            return Err(Error::Input {
-                path: root.into(),
-                message: format!(
-                    "mixed formats: .npy maps ({}) and .label files ({})",
-                    a.display(),
-                    b.display()
-                ),
-            });
+        if let (Some(a), Some(b)) = (found.npy.as_ref().or(found.label.as_ref()), mcaps.first()) {
+            let (a, b) = (a.display(), b.display());
+            return Err(mixed(format!("prediction files ({a}) and shards ({b})")));
         }
-        if let (Some(a), Some(b)) = (npy.as_ref().or(label.as_ref()), mcaps.first()) {
-            return Err(Error::Input {
-                path: root.into(),
-                message: format!(
-                    "mixed formats: prediction files ({}) and shards ({})",
-                    a.display(),
-                    b.display()
-                ),
-            });
-        }
-        let mut shards = Vec::new();
-        let mut in_shard = BTreeMap::new();
-        for p in &mcaps {
-            let shard = Shard::open_verified(p)?;
-            let summary = shard.summary()?;
-            for chunk in 0..summary.chunk_indexes.len() {
-                for f in shard.chunk_frames(&summary, chunk)? {
-                    let f = f?;
-                    let id: FrameId = f.id.parse().map_err(|e: String| Error::format(p, e))?;
-                    if in_shard.insert(id.clone(), (shards.len(), chunk)).is_some() {
-                        return Err(Error::Input {
-                            path: p.clone(),
-                            message: format!("second prediction for {id}"),
-                        });
-                    }
-                }
-            }
-            shards.push((shard, summary));
-        }
-        if files.is_empty() && in_shard.is_empty() {
-            let found = unrecognised
+        let (shards, in_shard) = index_shards(&mcaps)?;
+        if found.files.is_empty() && in_shard.is_empty() {
+            let named = found
+                .unrecognised
                 .map(|p| format!("; {} is not named as one", p.display()))
                 .unwrap_or_default();
             return Err(Error::Input {
                 path: root.into(),
                 message: format!(
-                    "no prediction found{found}. Expected: map predictions <frame id>.npy \
+                    "no prediction found{named}. Expected: map predictions <frame id>.npy \
                      (2011_09_26_0001_0000000000.npy, 00_000000.npy), per-point \
                      <drive>/<frame>.label (2011_09_26_drive_0001_sync/0000000000.label), \
                      SemanticKITTI's sequences/<NN>/predictions/<frame6>.label, or prediction \
@@ -193,12 +146,83 @@ impl Predictions {
         }
         Ok(Predictions {
             root: root.into(),
-            files,
-            points: label.is_some(),
+            files: found.files,
+            points: found.label.is_some(),
             shards,
             in_shard,
         })
     }
+}
+
+/// The prediction files found, by frame id, with the first of each kind (to name them).
+struct FileIndex {
+    files: BTreeMap<FrameId, PathBuf>,
+    npy: Option<PathBuf>,
+    label: Option<PathBuf>,
+    /// A `.npy` or `.label` file whose name is no frame id.
+    unrecognised: Option<PathBuf>,
+}
+
+impl FileIndex {
+    /// Indexes `paths` (sorted) by frame id; a frame twice is an error naming both files.
+    fn of(paths: Vec<PathBuf>) -> Result<FileIndex> {
+        let mut out = FileIndex {
+            files: BTreeMap::new(),
+            npy: None,
+            label: None,
+            unrecognised: None,
+        };
+        for p in paths {
+            let Some(id) = frame_id_of(&p) else {
+                if p.extension().is_some_and(|e| e == "npy" || e == "label") {
+                    out.unrecognised.get_or_insert(p);
+                }
+                continue;
+            };
+            if p.extension().is_some_and(|e| e == "npy") {
+                out.npy.get_or_insert(p.clone());
+            } else {
+                out.label.get_or_insert(p.clone());
+            }
+            if let Some(prev) = out.files.insert(id.clone(), p.clone()) {
+                return Err(Error::Input {
+                    path: p,
+                    message: format!("second prediction for {id} (first: {})", prev.display()),
+                });
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The prediction shards, verified, and the (shard, chunk) of each frame; a frame twice is an
+/// error.
+type ShardIndex = (
+    Vec<(Shard, mcap::read::Summary)>,
+    BTreeMap<FrameId, (usize, usize)>,
+);
+
+fn index_shards(mcaps: &[PathBuf]) -> Result<ShardIndex> {
+    let mut shards = Vec::new();
+    let mut in_shard = BTreeMap::new();
+    for p in mcaps {
+        let shard = Shard::open_verified(p)?;
+        let summary = shard.summary()?;
+        for chunk in 0..summary.chunk_indexes.len() {
+            for f in shard.chunk_frames(&summary, chunk)? {
+                let f = f?;
+                let id: FrameId = f.id.parse().map_err(|e: String| Error::format(p, e))?;
+                if in_shard.insert(id.clone(), (shards.len(), chunk)).is_some() {
+                    return Err(Error::Input {
+                        path: p.clone(),
+                        message: format!("second prediction for {id}"),
+                    });
+                }
+            }
+        }
+        shards.push((shard, summary));
+    }
+    Ok((shards, in_shard))
 }
 
 impl Predictions {
