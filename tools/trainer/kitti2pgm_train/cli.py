@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 
-from .config import TrainConfig
+from .config import EvalConfig, TrainConfig
 from .names import INPUTS, MODELS
 
 
@@ -90,11 +90,11 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--shards", required=True, help="shards folder (val-*.mcap is used)")
     e.add_argument("--val-shards", help="explicit shards (glob) instead of <shards>/val-*.mcap")
     e.add_argument("--predictions", help="where to write the .npy maps (default <run>/predictions)")
-    e.add_argument("--format", choices=["npy", "mcap", "both"], default="npy",
+    e.add_argument("--format", choices=["npy", "mcap", "both"],
                    help="predictions as <id>.npy maps, as one prediction shard <run>/predictions.mcap, or both")
-    e.add_argument("--batch", type=int, default=8, help="frames per forward pass")
-    e.add_argument("--device", default="auto", help="auto, cpu or cuda")
-    e.add_argument("--timing-frames", type=int, default=10, help="frames timed for inference ms/frame")
+    e.add_argument("--batch", type=int, help="frames per forward pass")
+    e.add_argument("--device", help="auto, cpu or cuda")
+    e.add_argument("--timing-frames", type=int, help="frames timed for inference ms/frame")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.add_argument("--onnx", help="also time this exported model (onnxruntime, CPU) per frame")
     e.add_argument("--points", action="store_true",
@@ -102,14 +102,15 @@ def parser() -> argparse.ArgumentParser:
                         "per point (3D, beside the 2D figures) and write the per-point predictions as kitti2pgm "
                         "unproject does (SemanticKITTI: raw ids in sequences/<NN>/predictions/); needs --raw")
     e.add_argument("--raw", help="with --points: the dataset root holding the scans")
-    e.add_argument("--unproject", choices=["cell", "knn"], default="knn",
+    e.add_argument("--unproject", choices=["cell", "knn"],
                    help="with --points: a point's class from its cell, or RangeNet++'s kNN post-processing")
     e.add_argument("--point-predictions", help="with --points: where (default <run>/point_predictions)")
-    e.add_argument("--knn-k", type=int, default=5, help="kNN: neighbours that vote")
-    e.add_argument("--knn-window", type=int, default=5, help="kNN: search window side, cells (odd)")
-    e.add_argument("--knn-sigma", type=float, default=1.0, help="kNN: Gaussian standard deviation, cells")
-    e.add_argument("--knn-cutoff", type=float, default=1.0, help="kNN: farther neighbours vote for nobody, metres")
+    e.add_argument("--knn-k", type=int, help="kNN: neighbours that vote")
+    e.add_argument("--knn-window", type=int, help="kNN: search window side, cells (odd)")
+    e.add_argument("--knn-sigma", type=float, help="kNN: Gaussian standard deviation, cells")
+    e.add_argument("--knn-cutoff", type=float, help="kNN: farther neighbours vote for nobody, metres")
     e.add_argument("--knn-wrap", action="store_true", help="kNN: window across the 360-degree seam")
+    e.set_defaults(**EvalConfig.defaults())
     x = sub.add_parser("export", help="export a run as ONNX and/or TorchScript, normalisation inside",
                        formatter_class=_Help)
     x.add_argument("--run", required=True, help="the run directory (train --out)")
@@ -137,7 +138,7 @@ def main(argv=None) -> int:
                 print(f"{kind}: {path}")
         else:
             from .evaluate import evaluate
-            r = evaluate(args)
+            r = evaluate(EvalConfig.from_args(args))
             if args.json:
                 print(json.dumps(r, indent=2))
             else:

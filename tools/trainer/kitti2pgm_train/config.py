@@ -93,3 +93,45 @@ class TrainConfig:
             elif f.default_factory is not MISSING:
                 out[f.name] = f.default_factory()
         return out
+
+
+@dataclass
+class EvalConfig:
+    """Everything ``evaluate`` is told (the ``evaluate`` options, dashes as underscores)."""
+
+    run: str
+    shards: str
+    val_shards: Optional[str] = None
+    predictions: Optional[str] = None
+    format: str = "npy"
+    batch: int = 8
+    device: str = "auto"
+    timing_frames: int = 10
+    json: bool = False
+    onnx: Optional[str] = None
+    # Per point (the native module carries each prediction back to its scan).
+    points: bool = False
+    raw: Optional[str] = None
+    unproject: str = "knn"
+    point_predictions: Optional[str] = None
+    knn_k: int = 5
+    knn_window: int = 5
+    knn_sigma: float = 1.0
+    knn_cutoff: float = 1.0
+    knn_wrap: bool = False
+
+    def __post_init__(self):
+        if self.points and not self.raw:
+            raise ValueError("--points needs --raw: the dataset root holding the scans")
+        if self.batch < 1:
+            raise ValueError(f"--batch must be at least 1, not {self.batch}")
+
+    @classmethod
+    def from_args(cls, ns: argparse.Namespace) -> "EvalConfig":
+        """From the parsed ``evaluate`` options."""
+        return cls(**{f.name: getattr(ns, f.name) for f in fields(cls)})
+
+    @staticmethod
+    def defaults() -> dict:
+        """The options' defaults (every field but the required ``run`` and ``shards``)."""
+        return {f.name: f.default for f in fields(EvalConfig) if f.default is not MISSING}

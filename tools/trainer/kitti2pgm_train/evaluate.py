@@ -17,6 +17,7 @@ from .common import Progress, pick_device
 from .data import FrameSet, Normaliser, collate, find_shards
 from .onthefly import open_frames
 from .metrics import Confusion
+from .config import EvalConfig, TrainConfig
 from .models import SegNet
 
 
@@ -25,9 +26,9 @@ def load_run(run: str, device: torch.device):
     normalisation."""
     with open(os.path.join(run, "config.json")) as f:
         config = json.load(f)
-    a = config["args"]
-    model = SegNet(a["model"], a["input"], len(config["class_map"]["classes"]), width_mult=a["width_mult"],
-                   dropout=a["dropout"], crf=a["crf"])
+    a = TrainConfig.from_saved(config["args"])
+    model = SegNet(a.model, a.input, len(config["class_map"]["classes"]), width_mult=a.width_mult,
+                   dropout=a.dropout, crf=a.crf)
     which = "best.pt" if os.path.exists(os.path.join(run, "best.pt")) else "checkpoint.pt"
     ck = torch.load(os.path.join(run, which), map_location=device, weights_only=False)
     model.load_state_dict(ck["model"])
@@ -50,12 +51,13 @@ def predict(model, data: FrameSet, device: torch.device, batch: int, conf: Confu
 
 
 @torch.no_grad()
-def evaluate(args) -> dict:
+def evaluate(args: EvalConfig) -> dict:
     """Predicts every frame of the val shards, writes ``predictions/<id>.npy`` and the IoU table."""
     device = pick_device(args.device, 0)
     model, config, norm = load_run(args.run, device)
     paths = find_shards(args.shards, "val") if not args.val_shards else find_shards(args.val_shards)
-    data = open_frames(paths, config["args"]["input"], norm)
+    trained = TrainConfig.from_saved(config["args"])
+    data = open_frames(paths, trained.input, norm)
     out = args.predictions or os.path.join(args.run, "predictions")
     write_npy = args.format in ("npy", "both")
     if write_npy:
@@ -65,12 +67,10 @@ def evaluate(args) -> dict:
     conf = Confusion(config["class_map"])
     progress = Progress(len(data), "evaluating")
     points = None
-    if getattr(args, "points", False):
+    if args.points:
         from kitti2pgm_data import read_metadata
 
         from .points import PointEvaluation
-        if not args.raw:
-            raise ValueError("--points needs --raw: the dataset root holding the scans")
         spec = read_metadata(paths[0])["params"]["map"]["spec"]
         knn = dict(k=args.knn_k, window=args.knn_window, sigma=args.knn_sigma, cutoff=args.knn_cutoff,
                    wrap_columns=args.knn_wrap)
@@ -93,14 +93,14 @@ def evaluate(args) -> dict:
         from kitti2pgm_data import write_predictions
         shard_out = os.path.join(args.run, "predictions.mcap")
         write_predictions(shard_out, predictions(), schema_from=paths[0],
-                          metadata={"run": os.path.abspath(args.run), "model": config["args"]["model"],
-                                    "input": config["args"]["input"]})
+                          metadata={"run": os.path.abspath(args.run), "model": trained.model,
+                                    "input": trained.input})
     else:
         for _ in predictions():
             pass
     progress.close()
     timing = inference_time(model, data, device, args.timing_frames)
-    if getattr(args, "onnx", None):
+    if args.onnx:
         timing["onnxruntime_cpu"] = onnx_time(args.onnx, data, args.timing_frames)
     result = {"frames": len(data), "class_map": config["class_map"], "predictions": out if write_npy else None, "prediction_shard": shard_out,
               **conf.as_dict(), "inference_ms_per_frame": timing}

@@ -16,6 +16,7 @@ from typing import List
 import torch
 import torch.nn as nn
 
+from .config import TrainConfig
 from .evaluate import load_run
 from .models import INPUTS
 
@@ -54,7 +55,7 @@ def deployable(run: str) -> tuple:
     model, config, norm = load_run(run, torch.device("cpu"))
     spec = config["shard_params"]["map"]["spec"]
     channels = config["channels"]
-    net = Deployable(model, channels, config["args"]["input"], norm.mean, norm.std).eval()
+    net = Deployable(model, channels, TrainConfig.from_saved(config["args"]).input, norm.mean, norm.std).eval()
     example = torch.zeros(1, spec["rows"], spec["cols"], len(channels))
     return net, example
 

@@ -362,3 +362,8 @@ def test_the_configuration_is_typed_and_has_one_set_of_defaults(tmp_path):
     for bad in ({"steps": 0}, {"log_every": 0}, {"workers": -1}):
         with pytest.raises(ValueError, match="must be"):
             TrainConfig(shards="s", out="o", **bad)
+    from kitti2pgm_train.config import EvalConfig
+    ev = EvalConfig.from_args(parser().parse_args(["evaluate", "--run", "r", "--shards", "s"]))
+    assert ev == EvalConfig(run="r", shards="s") and ev.knn_k == 5 and ev.format == "npy"
+    with pytest.raises(ValueError, match="--points needs --raw"):
+        EvalConfig(run="r", shards="s", points=True)
