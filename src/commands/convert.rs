@@ -191,32 +191,32 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
     })
 }
 
+fn pct(a: u64, b: u64) -> f64 {
+    if b == 0 {
+        0.0
+    } else {
+        100.0 * a as f64 / b as f64
+    }
+}
+
 fn table(s: &ConvertSummary) -> String {
     use std::fmt::Write;
     let mut t = String::new();
-    let pct = |a: u64, b: u64| {
-        if b == 0 {
-            0.0
-        } else {
-            100.0 * a as f64 / b as f64
-        }
-    };
     let spec = &s.params.map.spec;
+    let rows = match spec.row_mode {
+        RowMode::Rings => "from the laser rings",
+        RowMode::Elevation => "by elevation",
+    };
+    let shape = format!(
+        "{} x {} x {}",
+        spec.rows,
+        spec.cols,
+        s.params.map.channels().len()
+    );
     let _ = writeln!(
         t,
-        "map                 {:>12}  ({} deg, rows {}; {})",
-        format!(
-            "{} x {} x {}",
-            spec.rows,
-            spec.cols,
-            s.params.map.channels().len()
-        ),
-        spec.fov.0,
-        match spec.row_mode {
-            RowMode::Rings => "from the laser rings",
-            RowMode::Elevation => "by elevation",
-        },
-        s.map_origin
+        "map                 {shape:>12}  ({} deg, rows {rows}; {})",
+        spec.fov.0, s.map_origin
     );
     let _ = writeln!(t, "{:<20}{:>12}", s.source.units(), s.drives);
     let _ = writeln!(t, "frames converted    {:>12}", s.frames_converted);
@@ -224,18 +224,31 @@ fn table(s: &ConvertSummary) -> String {
     for (why, n) in &s.frames_skipped {
         let _ = writeln!(t, "frames skipped      {n:>12}  ({why})");
     }
+    points_and_cells(&mut t, s);
+    class_rows(&mut t, s);
+    if !s.not_frames.is_empty() {
+        let _ = writeln!(t, "not scans, skipped  {:>12}", s.not_frames.len());
+    }
+    for (ty, n) in &s.unknown_object_types {
+        let _ = writeln!(t, "unknown object type {n:>12}  ({ty:?} tracklets)");
+    }
+    for f in &s.failures {
+        let _ = writeln!(t, "failed: {} ({} frames): {}", f.what, f.frames, f.error);
+    }
+    t
+}
+
+/// Points read and dropped, the projection's counts, shards and colour.
+fn points_and_cells(t: &mut String, s: &ConvertSummary) {
+    use std::fmt::Write;
+    let p = &s.projection;
     let _ = writeln!(t, "points              {:>12}", s.points);
     let _ = writeln!(t, "non-finite dropped  {:>12}", s.dropped_nonfinite);
     if s.dropped_out_of_range > 0 {
-        let _ = writeln!(
-            t,
-            "beyond {} m dropped {:>12}",
-            kitti2pgm::kitti::velodyne::MAX_RANGE_M,
-            s.dropped_out_of_range
-        );
+        let max = kitti2pgm::kitti::velodyne::MAX_RANGE_M;
+        let _ = writeln!(t, "beyond {max} m dropped {:>12}", s.dropped_out_of_range);
     }
-    let _ = writeln!(t, "points in FOV       {:>12}", s.projection.in_fov);
-    let p = &s.projection;
+    let _ = writeln!(t, "points in FOV       {:>12}", p.in_fov);
     let _ = writeln!(t, "fill ratio          {:>12.4}", s.fill_ratio());
     let _ = writeln!(
         t,
@@ -255,13 +268,18 @@ fn table(s: &ConvertSummary) -> String {
         );
     }
     if s.rgb_cells > 0 {
+        let share = pct(s.rgb_cells, p.filled_cells);
         let _ = writeln!(
             t,
-            "cells with colour   {:>12}  ({:.1}% of filled)",
-            s.rgb_cells,
-            pct(s.rgb_cells, p.filled_cells)
+            "cells with colour   {:>12}  ({share:.1}% of filled)",
+            s.rgb_cells
         );
     }
+}
+
+/// Labelled points and cells per class.
+fn class_rows(t: &mut String, s: &ConvertSummary) {
+    use std::fmt::Write;
     let _ = writeln!(
         t,
         "\nclass            points        %        cells        %"
@@ -272,22 +290,9 @@ fn table(s: &ConvertSummary) -> String {
         let (np, nc) = (pts[name], cells[name]);
         let _ = writeln!(
             t,
-            "{:<14} {:>10} {:>7.3}% {:>12} {:>7.3}%",
-            name,
-            np,
+            "{name:<14} {np:>10} {:>7.3}% {nc:>12} {:>7.3}%",
             pct(np, tp),
-            nc,
             pct(nc, tc)
         );
     }
-    if !s.not_frames.is_empty() {
-        let _ = writeln!(t, "not scans, skipped  {:>12}", s.not_frames.len());
-    }
-    for (ty, n) in &s.unknown_object_types {
-        let _ = writeln!(t, "unknown object type {n:>12}  ({ty:?} tracklets)");
-    }
-    for f in &s.failures {
-        let _ = writeln!(t, "failed: {} ({} frames): {}", f.what, f.frames, f.error);
-    }
-    t
 }
