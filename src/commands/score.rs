@@ -289,20 +289,7 @@ fn table(r: &ScoreReport, map: &ClassMap, full_confusion: bool) -> String {
     // The matrix only where it fits a terminal: SemanticKITTI's 20 x 20 is in --json and
     // --confusion PNG.
     if full_confusion || map.len() <= 6 {
-        let cw = w.max(9) + 1;
-        let _ = writeln!(t, "\nconfusion (rows: truth, columns: prediction)");
-        let _ = write!(t, "{:<w$}", "");
-        for name in map.names() {
-            let _ = write!(t, "{name:>cw$}");
-        }
-        let _ = writeln!(t);
-        for (g, name) in map.names().iter().enumerate() {
-            let _ = write!(t, "{name:<w$}");
-            for v in &r.confusion.m[g] {
-                let _ = write!(t, "{v:>cw$}");
-            }
-            let _ = writeln!(t);
-        }
+        confusion_rows(&mut t, r, map, w);
     } else {
         let _ = writeln!(
             t,
@@ -312,19 +299,43 @@ fn table(r: &ScoreReport, map: &ClassMap, full_confusion: bool) -> String {
         );
     }
     if let Some(pf) = &r.per_frame {
-        let _ = write!(t, "\n{:<28}", "frame");
-        for name in &r.miou_classes {
-            let _ = write!(t, " {:>11}", name.chars().take(11).collect::<String>());
-        }
-        let _ = writeln!(t, " {:>8} {:>10}", "mIoU*", "elements");
-        for p in pf {
-            let _ = write!(t, "{:<28}", p.id.to_string());
-            for name in &r.miou_classes {
-                let _ = write!(t, " {:>11}", f(p.iou[name]));
-            }
-            let _ = writeln!(t, " {:>8} {:>10}", f(p.miou_present), p.elements);
-        }
-        let _ = writeln!(t, "(* mean over the object classes present in the frame)");
+        per_frame_rows(&mut t, r, pf);
     }
     t
+}
+
+/// The confusion matrix, rows truth, columns prediction.
+fn confusion_rows(t: &mut String, r: &ScoreReport, map: &ClassMap, w: usize) {
+    let cw = w.max(9) + 1;
+    let _ = writeln!(t, "\nconfusion (rows: truth, columns: prediction)");
+    let _ = write!(t, "{:<w$}", "");
+    for name in map.names() {
+        let _ = write!(t, "{name:>cw$}");
+    }
+    let _ = writeln!(t);
+    for (g, name) in map.names().iter().enumerate() {
+        let _ = write!(t, "{name:<w$}");
+        for v in &r.confusion.m[g] {
+            let _ = write!(t, "{v:>cw$}");
+        }
+        let _ = writeln!(t);
+    }
+}
+
+/// A row per frame: the IoU of each mIoU class and the frame's own mean.
+fn per_frame_rows(t: &mut String, r: &ScoreReport, pf: &[kitti2pgm::report::score::FramePerf]) {
+    let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into());
+    let _ = write!(t, "\n{:<28}", "frame");
+    for name in &r.miou_classes {
+        let _ = write!(t, " {:>11}", name.chars().take(11).collect::<String>());
+    }
+    let _ = writeln!(t, " {:>8} {:>10}", "mIoU*", "elements");
+    for p in pf {
+        let _ = write!(t, "{:<28}", p.id.to_string());
+        for name in &r.miou_classes {
+            let _ = write!(t, " {:>11}", f(p.iou[name]));
+        }
+        let _ = writeln!(t, " {:>8} {:>10}", f(p.miou_present), p.elements);
+    }
+    let _ = writeln!(t, "(* mean over the object classes present in the frame)");
 }
