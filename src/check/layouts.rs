@@ -10,6 +10,23 @@ use crate::kitti::timestamps;
 use crate::kitti::tracklets::Tracklets;
 use crate::kitti::{poses, Drive};
 
+/// A raw drive's velodyne timestamps and OXTS records, the latter compared with the scans.
+fn read_raw_records(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
+    let ts = drive.scan_timestamps_path();
+    if ts.is_file() {
+        r.timestamps = read_or_note(c, C::Read, &ts, timestamps::read(&ts));
+        r.inventory.timestamps = r.timestamps.as_ref().map(Vec::len);
+    }
+    let oxts = drive.dir.join("oxts/data");
+    if oxts.is_dir() {
+        let frames = frames_in(&oxts, 10, ".txt");
+        r.inventory.poses = Some(frames.len());
+        let scans: Vec<u32> = r.scans.keys().copied().collect();
+        let what = "scans without an OXTS record";
+        missing(c, C::Inventory, S::Warning, &oxts, &scans, &frames, what);
+    }
+}
+
 pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let tpath = drive.tracklets_path();
     if tpath.is_file() {
@@ -34,26 +51,7 @@ pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
         c.add(C::Inventory, S::Note, &date, None, None,
             format!("no {CAM_TO_CAM} / {VELO_TO_CAM} beside the drive: no colour channels, no camera checks"));
     }
-    let ts = drive.scan_timestamps_path();
-    if ts.is_file() {
-        r.timestamps = read_or_note(c, C::Read, &ts, timestamps::read(&ts));
-        r.inventory.timestamps = r.timestamps.as_ref().map(Vec::len);
-    }
-    let oxts = drive.dir.join("oxts/data");
-    if oxts.is_dir() {
-        let frames = frames_in(&oxts, 10, ".txt");
-        r.inventory.poses = Some(frames.len());
-        let scans: Vec<u32> = r.scans.keys().copied().collect();
-        missing(
-            c,
-            C::Inventory,
-            S::Warning,
-            &oxts,
-            &scans,
-            &frames,
-            "scans without an OXTS record",
-        );
-    }
+    read_raw_records(drive, r, c);
     let Some(t) = &r.tracklets else { return };
     let annotated: Vec<u32> = (0..t.end_frame()).filter(|&f| t.count_at(f) > 0).collect();
     r.inventory.annotated = annotated.len();
@@ -61,6 +59,7 @@ pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
         .first()
         .zip(annotated.last())
         .map(|(a, b)| (*a, *b));
+    let (ts, tpath) = (drive.scan_timestamps_path(), drive.tracklets_path());
     if let Some(n) = r.inventory.timestamps {
         let all: Vec<u32> = (0..n as u32).collect();
         let scans: Vec<u32> = r.scans.keys().copied().collect();

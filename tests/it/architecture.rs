@@ -150,13 +150,13 @@ fn function_lengths() -> Vec<(usize, String, String)> {
     out
 }
 
-/// The aim is functions that fit on a screen (about 80 lines); this holds the line at the
+/// The aim is functions that fit on a screen (about 80 lines); this holds the line just above
 /// longest left (the report tables and chart drawing, long but flat), so that none grows.
 #[test]
-fn no_function_over_110_lines() {
+fn no_function_over_100_lines() {
     let long: Vec<_> = function_lengths()
         .into_iter()
-        .filter(|(n, _, _)| *n > 110)
+        .filter(|(n, _, _)| *n > 100)
         .collect();
-    assert!(long.is_empty(), "functions over 110 lines: {long:?}");
+    assert!(long.is_empty(), "functions over 100 lines: {long:?}");
 }
