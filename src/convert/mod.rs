@@ -25,7 +25,7 @@ use crate::format::layout::OutputDir;
 use crate::format::summary::{self, ConvertSummary};
 use crate::label::ClassCounts;
 use crate::params::ConvertParams;
-use crate::plan::SkipReason;
+use crate::plan::{Failed, SkipReason};
 use crate::plan::{FrameFailure, Plan};
 pub use frame::{convert_frame, load, process, write_frame_files, Converted, FrameReport, Viz};
 
@@ -109,7 +109,7 @@ impl Totals {
         let map = &s.params.map.class_map;
         s.labelled_points = map.keyed(&self.points.0);
         s.labelled_cells = map.keyed(&self.cells.0);
-        s.failures.sort_by(|a, b| a.what.cmp(&b.what));
+        s.failures.sort_by_cached_key(|f| f.what.to_string());
         s.fallback_frames.sort();
         s
     }
@@ -153,7 +153,7 @@ impl Run<'_> {
     }
 
     /// `frames` frames lost to `e`.
-    pub(crate) fn failed(&self, what: String, frames: u64, e: Error) {
+    pub(crate) fn failed(&self, what: Failed, frames: u64, e: Error) {
         let f = FrameFailure {
             what,
             frames,
@@ -228,7 +228,7 @@ fn write_frames(plan: &Plan, opts: &ConvertOptions, run: &Run, pool: &rayon::Thr
                 // failure to remove them leaves files the journal does not list, which the
                 // readers refuse.)
                 let _ = resume::remove_frame_files(&id, opts);
-                run.failed(id.to_string(), 1, e)
+                run.failed(Failed::Frame(id), 1, e)
             }
         }
     };

@@ -23,6 +23,7 @@ use crate::format::shard::{
 use crate::kitti::FrameId;
 use crate::params::ShardParams;
 use crate::plan::split::{assign, Split};
+use crate::plan::Failed;
 use crate::plan::{DrivePlan, Plan};
 use crate::project::rings;
 
@@ -130,11 +131,7 @@ pub(crate) fn convert_to_shards(
             }
             // The shard is lost (its temporary file is removed), so are its frames; those that
             // failed on their own were counted already.
-            Err(e) => run.failed(
-                format!("shard {}", path.display()),
-                frames - failed_alone,
-                e,
-            ),
+            Err(e) => run.failed(Failed::Shard(path.clone()), frames - failed_alone, e),
         }
     });
     Ok(())
@@ -283,7 +280,7 @@ fn write_shard(
                         meta.failed.push(id.clone());
                         if pass.primary {
                             *failed_alone += 1;
-                            run.failed(id.to_string(), 1, e);
+                            run.failed(Failed::Frame(id), 1, e);
                         }
                     }
                 }

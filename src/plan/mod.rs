@@ -150,11 +150,62 @@ impl DrivePlan {
     }
 }
 
+/// What failed. Written as one string (`convert_summary.json`'s `what`: the frame id, the
+/// drive name, the folder, `shard <path>`) and read back from it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(into = "String", from = "String")]
+pub enum Failed {
+    /// One frame.
+    Frame(FrameId),
+    /// A whole drive, sequence or split, by name.
+    Drive(String),
+    /// A folder that could not be read as a drive.
+    Folder(PathBuf),
+    /// A shard, with the frames it held.
+    Shard(PathBuf),
+}
+
+impl std::fmt::Display for Failed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Failed::Frame(id) => write!(f, "{id}"),
+            Failed::Drive(name) => f.write_str(name),
+            Failed::Folder(p) => write!(f, "{}", p.to_string_lossy()),
+            Failed::Shard(p) => write!(f, "shard {}", p.display()),
+        }
+    }
+}
+
+impl From<Failed> for String {
+    fn from(f: Failed) -> String {
+        f.to_string()
+    }
+}
+
+impl From<String> for Failed {
+    fn from(s: String) -> Failed {
+        if let Some(p) = s.strip_prefix("shard ") {
+            return Failed::Shard(p.into());
+        }
+        if let Ok(id) = s.parse::<FrameId>() {
+            return Failed::Frame(id);
+        }
+        let drive = crate::kitti::parse_drive_name(&s).is_some()
+            || s == "object"
+            || (s.len() == 2 && s.bytes().all(|c| c.is_ascii_digit()));
+        if drive {
+            Failed::Drive(s)
+        } else {
+            Failed::Folder(s.into())
+        }
+    }
+}
+
 /// A frame that could not be converted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrameFailure {
-    /// The frame id, or the drive name when the whole drive failed.
-    pub what: String,
+    /// What failed: a frame, a whole drive, a folder, a shard.
+    pub what: Failed,
     /// Frames lost.
     pub frames: u64,
     /// The error, naming the file.
@@ -231,7 +282,7 @@ impl Plan {
         let found = discover_as(root, source)?;
         for (path, why) in found.problems {
             plan.failed.push(FrameFailure {
-                what: path.to_string_lossy().into_owned(),
+                what: Failed::Folder(path.clone()),
                 frames: 0,
                 error: format!("{}: {why}", path.to_string_lossy()),
             });
@@ -252,7 +303,7 @@ impl Plan {
             match loaded {
                 Ok(dp) => plan.add_drive(dp, &frames, selection),
                 Err(e) => plan.failed.push(FrameFailure {
-                    what: drive.name(),
+                    what: Failed::Drive(drive.name()),
                     frames: frames.len() as u64,
                     error: e.to_string(),
                 }),
@@ -268,7 +319,7 @@ impl Plan {
             Ok(l) => l,
             Err(e) => {
                 self.failed.push(FrameFailure {
-                    what: drive.name(),
+                    what: Failed::Drive(drive.name()),
                     frames: 0,
                     error: e.to_string(),
                 });
@@ -279,7 +330,7 @@ impl Plan {
         match drive.labels_without_scan(&listing.frames) {
             Ok(extra) => self.labels_without_scan.extend(extra),
             Err(e) => self.failed.push(FrameFailure {
-                what: drive.name(),
+                what: Failed::Drive(drive.name()),
                 frames: 0,
                 error: e.to_string(),
             }),
@@ -332,5 +383,27 @@ impl Plan {
         self.jobs
             .iter()
             .map(|&(d, f)| self.drives[d].drive.frame_id(f))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn what_failed_round_trips_through_its_string() {
+        for f in [
+            Failed::Frame("2011_09_26_0001_0000000010".parse().unwrap()),
+            Failed::Frame("00_000007".parse().unwrap()),
+            Failed::Drive("2011_09_26_drive_0001_sync".into()),
+            Failed::Drive("08".into()),
+            Failed::Drive("object".into()),
+            Failed::Folder("/data/kitti/2011_09_26/odd".into()),
+            Failed::Shard("out/shards/train-00000.mcap".into()),
+        ] {
+            let json = serde_json::to_string(&f).unwrap();
+            assert_eq!(serde_json::from_str::<Failed>(&json).unwrap(), f, "{json}");
+        }
+        assert_eq!(Failed::Shard("a.mcap".into()).to_string(), "shard a.mcap");
     }
 }

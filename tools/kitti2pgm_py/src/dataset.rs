@@ -126,7 +126,7 @@ impl Dataset {
         self.plan
             .failed
             .iter()
-            .map(|f| (f.what.clone(), f.error.clone()))
+            .map(|f| (f.what.to_string(), f.error.clone()))
             .collect()
     }
 
