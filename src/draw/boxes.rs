@@ -158,11 +158,24 @@ pub fn camera_overlay(
             continue;
         }
         let (u, v) = (q.x / q.z, q.y / q.z);
-        if u >= 0.0 && v >= 0.0 && (u as u32) < img.width() && (v as u32) < img.height() {
-            let c = colormap(1.0 - (p.coords.norm() / 40.0).min(1.0));
-            img.put_pixel(u as u32, v as u32, Rgb(c));
+        if u < 0.0 || v < 0.0 {
+            continue;
+        }
+        // 2 x 2 pixels a point, so that the points read against the picture.
+        let c = Rgb(colormap(1.0 - (p.coords.norm() / 40.0).min(1.0)));
+        for (du, dv) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let (x, y) = (u as u32 + du, v as u32 + dv);
+            if x < img.width() && y < img.height() {
+                img.put_pixel(x, y, c);
+            }
         }
     }
-    draw_text(&mut img, 6, 6, title, [255, 255, 255], 1);
+    // The title on a dark band (the sky is bright).
+    for y in 0..18.min(img.height()) {
+        for x in 0..img.width() {
+            img.put_pixel(x, y, Rgb([12, 12, 16]));
+        }
+    }
+    draw_text(&mut img, 6, 5, title, [255, 255, 255], 1);
     img
 }

@@ -296,6 +296,14 @@ fn swapped_cameras_fail_the_alignment() {
     for d in &r.drives {
         assert!(d.alignment.unwrap().score < 1.0, "{d:?}");
     }
+    // Its picture: the points over camera 2's image.
+    let opts = CheckOptions::default();
+    let mut pictures = kitti2pgm::check::Pictures::new(&root, &opts).unwrap();
+    let img = pictures
+        .draw(a[0])
+        .unwrap()
+        .expect("a picture of the flagged frame");
+    assert_eq!(img.dimensions(), (1242, 375));
 }
 
 #[test]
