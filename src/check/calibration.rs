@@ -11,6 +11,7 @@ use super::{CheckName as C, Collector, Severity as S};
 use crate::geom::{check_rotation, na, Matrix3x4, Point3};
 use crate::kitti::calib::CAM_TO_CAM;
 use crate::kitti::Layout;
+use crate::project::camera::pixel;
 
 /// Checks the form of the calibration matrices a drive uses.
 pub(crate) fn check_files(r: &DriveRead, c: &mut Collector) {
@@ -117,11 +118,6 @@ pub(crate) fn overlap_share(
         }
     }
     (total > 0).then_some((inside, total))
-}
-
-fn pixel(proj: &Matrix3x4, p: &Point3) -> Option<(f64, f64)> {
-    let q = proj * na::Vector4::new(p.x as f64, p.y as f64, p.z as f64, 1.0);
-    (q.z > 0.1).then(|| (q.x / q.z, q.y / q.z))
 }
 
 /// How well the image's edges fit the scan's depth edges, per drive.

@@ -168,6 +168,11 @@ fn draw_worst(
     Ok(())
 }
 
+/// A figure with 4 decimals, `-` when there is none.
+fn figure(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into())
+}
+
 /// The width of the class column: the longest class name, at least "class".
 fn name_width(map: &ClassMap) -> usize {
     map.names()
@@ -181,7 +186,7 @@ fn name_width(map: &ClassMap) -> usize {
 /// The cell (2D) and point (3D) figures of the same predictions, side by side.
 fn side_by_side(cells: &ScoreReport, points: &ScoreReport, map: &ClassMap) -> String {
     let mut t = String::new();
-    let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into());
+    let f = figure;
     let _ = writeln!(
         t,
         "{} frames: {} cells (2D) and {} points (3D) scored",
@@ -230,7 +235,7 @@ fn side_by_side(cells: &ScoreReport, points: &ScoreReport, map: &ClassMap) -> St
 fn table(r: &ScoreReport, map: &ClassMap, full_confusion: bool) -> String {
     use kitti2pgm::label::classes::AbsentInMiou;
     let mut t = String::new();
-    let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into());
+    let f = figure;
     let what = if r.protocol == Protocol::Cells {
         "cells"
     } else {
@@ -324,7 +329,7 @@ fn confusion_rows(t: &mut String, r: &ScoreReport, map: &ClassMap, w: usize) {
 
 /// A row per frame: the IoU of each mIoU class and the frame's own mean.
 fn per_frame_rows(t: &mut String, r: &ScoreReport, pf: &[kitti2pgm::report::score::FramePerf]) {
-    let f = |v: Option<f64>| v.map(|x| format!("{x:.4}")).unwrap_or_else(|| "-".into());
+    let f = figure;
     let _ = write!(t, "\n{:<28}", "frame");
     for name in &r.miou_classes {
         let _ = write!(t, " {:>11}", name.chars().take(11).collect::<String>());

@@ -4,8 +4,9 @@
 use image::{Rgb, RgbImage};
 
 use super::{colormap, draw_text};
-use crate::geom::{na, Matrix3x4, Point3, Real, Vector3};
+use crate::geom::{Matrix3x4, Point3, Real, Vector3};
 use crate::label::LabelBox;
+use crate::project::camera::pixel;
 
 /// A box to draw: its footprint, colour, whether it is the one flagged, and a label.
 pub struct Drawn<'a> {
@@ -153,14 +154,9 @@ pub fn camera_overlay(
 ) -> RgbImage {
     let mut img = image.clone();
     for p in points.iter().filter(|p| p.x > 1.0) {
-        let q = proj * na::Vector4::new(p.x as f64, p.y as f64, p.z as f64, 1.0);
-        if q.z <= 0.1 {
+        let Some((u, v)) = pixel(proj, p).filter(|&(u, v)| u >= 0.0 && v >= 0.0) else {
             continue;
-        }
-        let (u, v) = (q.x / q.z, q.y / q.z);
-        if u < 0.0 || v < 0.0 {
-            continue;
-        }
+        };
         // 2 x 2 pixels a point, so that the points read against the picture.
         let c = Rgb(colormap(1.0 - (p.coords.norm() / 40.0).min(1.0)));
         for (du, dv) in [(0, 0), (1, 0), (0, 1), (1, 1)] {

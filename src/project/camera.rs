@@ -30,6 +30,21 @@ crate::named_enum!(Sampling, "colour sampling", [
     Bilinear => "bilinear" [] "Bilinear blend of the four neighbouring pixels",
 ]);
 
+/// Pixel coordinates of velodyne point `p` through `velo_to_image` (velodyne to homogeneous
+/// pixels), or `None` behind the camera.
+#[inline]
+pub fn pixel(velo_to_image: &Matrix3x4, p: &Point3) -> Option<(f64, f64)> {
+    let m = velo_to_image;
+    let (x, y, z) = (p.x as f64, p.y as f64, p.z as f64);
+    let w = m[(2, 0)] * x + m[(2, 1)] * y + m[(2, 2)] * z + m[(2, 3)];
+    if w <= 0.0 {
+        return None;
+    }
+    let u = (m[(0, 0)] * x + m[(0, 1)] * y + m[(0, 2)] * z + m[(0, 3)]) / w;
+    let v = (m[(1, 0)] * x + m[(1, 1)] * y + m[(1, 2)] * z + m[(1, 3)]) / w;
+    Some((u, v))
+}
+
 /// Projects velodyne points into one camera's rectified image.
 #[derive(Debug, Clone)]
 pub struct CameraProjector {
@@ -43,15 +58,7 @@ impl CameraProjector {
     /// Pixel coordinates of `p`, or `None` behind the camera.
     #[inline]
     pub fn pixel(&self, p: &Point3) -> Option<(f64, f64)> {
-        let m = &self.velo_to_image;
-        let (x, y, z) = (p.x as f64, p.y as f64, p.z as f64);
-        let w = m[(2, 0)] * x + m[(2, 1)] * y + m[(2, 2)] * z + m[(2, 3)];
-        if w <= 0.0 {
-            return None;
-        }
-        let u = (m[(0, 0)] * x + m[(0, 1)] * y + m[(0, 2)] * z + m[(0, 3)]) / w;
-        let v = (m[(1, 0)] * x + m[(1, 1)] * y + m[(1, 2)] * z + m[(1, 3)]) / w;
-        Some((u, v))
+        pixel(&self.velo_to_image, p)
     }
 
     /// Colour of `p` in `image`, scaled to [0, 1], or `None` when it has none.
