@@ -58,7 +58,7 @@ impl<'a> Pictures<'a> {
             CheckName::CameraOverlap | CheckName::CameraAlignment | CheckName::Calibration
         ) {
             let image = drive.image_path(2, frame);
-            let Some(proj) = camera(r, frame) else {
+            let Some((proj, _)) = super::scans::camera_at(r, frame) else {
                 return Ok(None);
             };
             if !image.is_file() {
@@ -91,16 +91,6 @@ impl<'a> Pictures<'a> {
             .unwrap_or((0.0, 0.0));
         Ok(Some(bird_eye(&scan.points, &drawn, centre, 20.0, &title)))
     }
-}
-
-fn camera(r: &DriveRead, frame: u32) -> Option<crate::geom::Matrix3x4> {
-    if let Some(c) = &r.calib {
-        return Some(c.velo_to_image(2));
-    }
-    if let Some(c) = &r.frame_calib {
-        return Some(c.velo_to_image(2));
-    }
-    r.objects.get(&frame).map(|(_, c)| c.velo_to_image(2))
 }
 
 /// The boxes at a frame (with the ghosts of annotations that ended just before, when asked):

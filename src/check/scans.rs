@@ -98,7 +98,7 @@ fn sample(r: &DriveRead, frames: &[u32], t: &Thresholds) -> Vec<u32> {
 }
 
 /// Camera 2's projection and image size at a frame, when known.
-fn camera_at(r: &DriveRead, f: u32) -> Option<(Matrix3x4, Option<[f64; 2]>)> {
+pub(crate) fn camera_at(r: &DriveRead, f: u32) -> Option<(Matrix3x4, Option<[f64; 2]>)> {
     match r.drive().layout {
         Layout::Raw => r.calib.as_ref().map(|c| {
             let s = c.cam_to_cam.cameras[2].size_rect;
