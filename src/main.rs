@@ -27,6 +27,13 @@ pub enum Outcome {
 }
 
 fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, so every `println!` into a closed pipe (`| head`) would panic: take
+    // the default action back, and the process ends quietly there, as Unix tools do.
+    #[cfg(unix)]
+    // SAFETY: called first thing, before any thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let args = cli::Args::parse();
     match commands::run(args) {
         Ok(Outcome::Ok) => ExitCode::SUCCESS,
