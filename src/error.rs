@@ -36,6 +36,82 @@ pub enum Error {
         /// What is wrong, with the values that disagree.
         message: String,
     },
+    /// A file that is not of its format at all (not NumPy, not XML, not a kitti2pgm journal).
+    #[error("{}: not {format}: {detail}", path.display())]
+    NotFormat {
+        /// The file.
+        path: PathBuf,
+        /// The format it should be in, with its article (`a .npy file`).
+        format: &'static str,
+        /// The parser's account.
+        detail: String,
+    },
+    /// A binary file whose length is not a whole number of records.
+    #[error("{}: {bytes} bytes, not a multiple of {record} ({} whole {what}s and {} stray bytes; truncated?)", path.display(), bytes / record, bytes % record)]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// Its length.
+        bytes: usize,
+        /// The length of one record.
+        record: usize,
+        /// What a record is (`point`, `label`).
+        what: &'static str,
+    },
+    /// A field or record of another length than its header or its shape says.
+    #[error("{}: {what} has {found} {unit}, expected {expected}", path.display())]
+    Length {
+        /// The file.
+        path: PathBuf,
+        /// Which field, of which frame (`frame 0052/0000000003: channel x`).
+        what: String,
+        /// The length found.
+        found: usize,
+        /// The length wanted.
+        expected: usize,
+        /// What is counted (`bytes`, `labels`).
+        unit: &'static str,
+    },
+    /// An array or map of another shape than the reader or the ground truth needs.
+    #[error("{}: {what} is {}, expected {expected}", path.display(), dims(found))]
+    Shape {
+        /// The file.
+        path: PathBuf,
+        /// What has the shape (`map`, `prediction for 0052/0000000003`).
+        what: String,
+        /// Its dimensions.
+        found: Vec<usize>,
+        /// What was wanted, in words with the dimensions.
+        expected: String,
+    },
+    /// A value that must be finite and is not (NaN or infinite).
+    #[error("{}: {what} is {value}, not a finite number", path.display())]
+    NotFinite {
+        /// The file.
+        path: PathBuf,
+        /// Which value (`oxts value 7`, `frame 3: channel range at cell (2, 5)`).
+        what: String,
+        /// The value.
+        value: f64,
+    },
+    /// A shard whose bytes do not check: a CRC, a record or a message is damaged or missing.
+    #[error("{}: corrupted shard: {what}", path.display())]
+    Corrupt {
+        /// The shard.
+        path: PathBuf,
+        /// What does not check, where (`frame #3 (0052/0000000003): ...`).
+        what: String,
+    },
+    /// A file or record naming a frame by a string that is not a frame id.
+    #[error("{}{}: {source}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    FrameId {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number, in a list.
+        line: Option<usize>,
+        /// The string.
+        source: NotAFrameId,
+    },
     /// An array of another element type than the reader takes.
     #[error("{}: dtype {found}, expected {expected}", path.display())]
     Dtype {
@@ -53,8 +129,8 @@ pub enum Error {
         path: PathBuf,
         /// Which element (`point 17`, `cell (3, 4)`).
         what: String,
-        /// The value found.
-        value: u64,
+        /// The value found (a float where the file holds floats: `2.5`, `-1`).
+        value: f64,
         /// The class map's name.
         map: String,
         /// Its largest class id.
@@ -112,10 +188,10 @@ pub enum Error {
         /// The library's error.
         source: mcap::McapError,
     },
-    /// A required key is missing from a calibration file.
+    /// A required key is missing from a calibration file or a shard's metadata.
     #[error("{}: missing key `{key}`", path.display())]
     MissingKey {
-        /// The calibration file.
+        /// The calibration file or shard.
         path: PathBuf,
         /// The key that is absent.
         key: String,
@@ -171,6 +247,28 @@ impl Error {
             source,
         }
     }
+}
+
+/// A string that is not a frame id (`FrameId`'s parse error).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0:?} is not a frame id like 2011_09_26_0001_0000000010, 00_000000 or 000000")]
+pub struct NotAFrameId(pub String);
+
+impl NotAFrameId {
+    /// The [`Error::FrameId`] for this string found in `path`.
+    pub fn in_file(self, path: impl Into<PathBuf>) -> Error {
+        Error::FrameId {
+            path: path.into(),
+            line: None,
+            source: self,
+        }
+    }
+}
+
+/// `4x512x6`: dimensions as people write them.
+fn dims(d: &[usize]) -> String {
+    let parts: Vec<String> = d.iter().map(ToString::to_string).collect();
+    parts.join("x")
 }
 
 /// `Result` with the crate's [`Error`].

@@ -182,16 +182,16 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
             // another size would be sampled at the wrong pixels.
             if let Some([w, h]) = size {
                 if (img.width() as f64, img.height() as f64) != (w, h) {
-                    return Err(Error::format(
-                        &path,
-                        format!(
-                            "image is {}x{}, camera {} is calibrated for {w}x{h} ({})",
-                            img.width(),
-                            img.height(),
+                    return Err(Error::Shape {
+                        path,
+                        what: "the image".into(),
+                        found: vec![img.width() as usize, img.height() as usize],
+                        expected: format!(
+                            "{w}x{h}, the size camera {} is calibrated for in {}",
                             rgb.camera,
                             calib_file.display()
                         ),
-                    ));
+                    });
                 }
             }
             if viz == Viz::On {

@@ -169,7 +169,11 @@ pub fn read_journal(out: &OutputDir) -> Result<Option<JournalRecord>> {
         .strip_suffix('\n')
         .and_then(|h| h.strip_prefix(JOURNAL_MAGIC))
         .and_then(|h| h.strip_prefix(' '))
-        .ok_or_else(|| Error::format(&path, "not a kitti2pgm journal (bad header line)"))?;
+        .ok_or_else(|| Error::NotFormat {
+            path: path.clone(),
+            format: "a kitti2pgm journal",
+            detail: format!("its first line is not `{JOURNAL_MAGIC} PARAMETERS`"),
+        })?;
     let frames = lines
         .filter_map(|l| l.strip_suffix('\n'))
         .filter(|l| !l.is_empty())

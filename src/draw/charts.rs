@@ -1,6 +1,7 @@
 //! Charts: the class balance of `stats`, the confusion matrix and the worst frames of `score`.
 
-use super::{draw_text, text_width, ROW_SCALE};
+use super::{draw_text, fill_rect, text_width, ROW_SCALE};
+use crate::label::ClassId;
 use crate::label::ClassMap;
 use crate::report::score::{Confusion, FrameMaps};
 use crate::report::stats::Stats;
@@ -52,11 +53,7 @@ pub fn confusion_chart(c: &Confusion, map: &ClassMap) -> image::RgbImage {
                 [255, shade, shade]
             };
             let (x0, y0) = (left + p as u32 * cell, top + g as u32 * cell);
-            for x in x0..x0 + cell - 2 {
-                for y in y0..y0 + cell - 2 {
-                    img.put_pixel(x, y, image::Rgb(colour));
-                }
-            }
+            fill_rect(&mut img, (x0, y0), (cell - 2, cell - 2), colour);
             let count = c.m[g][p].to_string();
             let pct = format!("{:.1}%", share * 100.0);
             draw_text(
@@ -138,18 +135,8 @@ pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
     let group = nc * bar + (nc - 1) * gap;
     let w = left + n * group + (n - 1) * group_gap + 24;
     let w = w.max(420);
-    // The legend wraps to the picture's width (the 19 classes of SemanticKITTI take lines).
-    let mut legend = Vec::with_capacity(classes.len());
-    let (mut lx, mut ly) = (left, 22u32);
-    for &class in &classes {
-        let item = 16 + text_width(map.name(class), 1) + 20;
-        if lx > left && lx + item > w {
-            (lx, ly) = (left, ly + 16);
-        }
-        legend.push((class, lx, ly));
-        lx += item;
-    }
-    let top = ly + 34;
+    let legend = legend_layout(&classes, map, left, w);
+    let top = legend.last().map_or(22, |&(_, _, y)| y) + 34;
     let mut img = image::RgbImage::from_pixel(w, top + h + bottom, image::Rgb([255, 255, 255]));
     let black = [0, 0, 0];
     draw_text(
@@ -161,34 +148,10 @@ pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
         1,
     );
     for &(class, lx, ly) in &legend {
-        for x in lx..(lx + 12).min(w) {
-            for y in ly..ly + 12 {
-                img.put_pixel(x, y, image::Rgb(map.colour(class)));
-            }
-        }
+        fill_rect(&mut img, (lx, ly), (12, 12), map.colour(class));
         draw_text(&mut img, lx + 16, ly + 2, map.name(class), black, 1);
     }
-    for t in 0..=10 {
-        let y = top + h - t * h / 10;
-        for x in left..w - 8 {
-            img.put_pixel(
-                x,
-                y,
-                image::Rgb(if t == 0 { black } else { [225, 225, 225] }),
-            );
-        }
-        if t % 2 == 0 {
-            let label = format!("{}%", t * 10);
-            draw_text(
-                &mut img,
-                left.saturating_sub(text_width(&label, 1) + 4),
-                y.saturating_sub(4),
-                &label,
-                black,
-                1,
-            );
-        }
-    }
+    percent_grid(&mut img, (left, w - 8), (top, h));
     for (g, name) in s.split_order.iter().enumerate() {
         let split = &s.splits[name];
         let x_group = left + g as u32 * (group + group_gap);
@@ -200,11 +163,7 @@ pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
                 .unwrap_or(0.0);
             let bh = (v * h as f64).round() as u32;
             let x0 = x_group + b as u32 * (bar + gap);
-            for x in x0..x0 + bar {
-                for y in (top + h - bh)..(top + h) {
-                    img.put_pixel(x, y, image::Rgb(map.colour(class)));
-                }
-            }
+            fill_rect(&mut img, (x0, top + h - bh), (bar, bh), map.colour(class));
             let label = format!("{:.1}%", v * 100.0);
             // Values only where they fit above their bar (the table and JSON have them all).
             if text_width(&label, 1) > bar + gap {
@@ -225,4 +184,41 @@ pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
         draw_text(&mut img, cx, top + h + 12, &caption, black, 1);
     }
     img
+}
+
+/// Where each class's legend entry goes: (class, x, y), wrapping to the picture's width `w`
+/// (the 19 classes of SemanticKITTI take lines).
+fn legend_layout(
+    classes: &[ClassId],
+    map: &ClassMap,
+    left: u32,
+    w: u32,
+) -> Vec<(ClassId, u32, u32)> {
+    let mut legend = Vec::with_capacity(classes.len());
+    let (mut lx, mut ly) = (left, 22u32);
+    for &class in classes {
+        let item = 16 + text_width(map.name(class), 1) + 20;
+        if lx > left && lx + item > w {
+            (lx, ly) = (left, ly + 16);
+        }
+        legend.push((class, lx, ly));
+        lx += item;
+    }
+    legend
+}
+
+/// The 0-100% axis of a bar chart from `left` to `right` over the `h` pixels below `top`: a
+/// light line every 10% (black at 0), labelled every 20%.
+fn percent_grid(img: &mut image::RgbImage, (left, right): (u32, u32), (top, h): (u32, u32)) {
+    let black = [0, 0, 0];
+    for t in 0..=10 {
+        let y = top + h - t * h / 10;
+        let colour = if t == 0 { black } else { [225, 225, 225] };
+        fill_rect(img, (left, y), (right.saturating_sub(left), 1), colour);
+        if t % 2 == 0 {
+            let label = format!("{}%", t * 10);
+            let x = left.saturating_sub(text_width(&label, 1) + 4);
+            draw_text(img, x, y.saturating_sub(4), &label, black, 1);
+        }
+    }
 }

@@ -61,6 +61,16 @@ pub fn draw_text(img: &mut RgbImage, x: u32, y: u32, text: &str, colour: [u8; 3]
     }
 }
 
+/// Fills the `w` x `h` rectangle with its top-left corner at (x, y); pixels outside the image
+/// are skipped.
+pub fn fill_rect(img: &mut RgbImage, (x, y): (u32, u32), (w, h): (u32, u32), colour: [u8; 3]) {
+    for py in y..(y + h).min(img.height()) {
+        for px in x..(x + w).min(img.width()) {
+            img.put_pixel(px, py, Rgb(colour));
+        }
+    }
+}
+
 /// Width in pixels of `text` drawn by [`draw_text`].
 pub fn text_width(text: &str, scale: u32) -> u32 {
     text.chars().count() as u32 * 8 * scale

@@ -10,7 +10,7 @@
 
 use image::{Rgb, RgbImage};
 
-use super::draw_text;
+use super::{draw_text, fill_rect};
 use crate::geom::Point3;
 use crate::label::{ClassId, ClassMap};
 
@@ -56,17 +56,9 @@ pub fn point_prediction_chart(
     draw_text(&mut img, 4, 6, caption, [0, 0, 0], 1);
     // Panel backgrounds.
     for k in 0..3 {
-        for y in head..head + side {
-            for x in k * (side + gap)..k * (side + gap) + side {
-                img.put_pixel(x, y, Rgb([0, 0, 0]));
-            }
-        }
+        fill_rect(&mut img, (k * (side + gap), head), (side, side), [0, 0, 0]);
         let y0 = head + side + gap + k * (range_h + gap);
-        for y in y0..y0 + range_h {
-            for x in 0..RANGE_COLS {
-                img.put_pixel(x, y, Rgb([0, 0, 0]));
-            }
-        }
+        fill_rect(&mut img, (0, y0), (RANGE_COLS, range_h), [0, 0, 0]);
     }
     // Farthest first, so that near points are drawn over far ones.
     let mut order: Vec<usize> = (0..points.len()).collect();
@@ -87,17 +79,7 @@ pub fn point_prediction_chart(
                 }
             }
         }
-        // Range view: azimuth over 360 degrees, straight ahead in the middle.
-        let yaw = p.y.atan2(p.x);
-        let col = (((0.5 - yaw / (2.0 * std::f32::consts::PI)) * RANGE_COLS as f32) as i64)
-            .clamp(0, RANGE_COLS as i64 - 1) as u32;
-        let row = match rows {
-            Some(r) => r[i].min(63) as u32,
-            None => {
-                let pitch = (p.z / range(p).max(1e-6)).asin().to_degrees();
-                (((3.0 - pitch) / 28.0 * 64.0) as i64).clamp(0, 63) as u32
-            }
-        };
+        let (col, row) = range_view_pixel(p, rows.map(|r| r[i]));
         for (k, c) in cs.iter().enumerate() {
             if let Some(c) = c {
                 let y0 = head + side + gap + k as u32 * (range_h + gap) + row * super::ROW_SCALE;
@@ -121,4 +103,21 @@ pub fn point_prediction_chart(
         );
     }
     img
+}
+
+/// The (column, row) of point `p` in the range view: azimuth over 360 degrees, straight ahead
+/// in the middle; its laser `ring` as the row, or an elevation bin when the ring is not known.
+fn range_view_pixel(p: &Point3, ring: Option<u8>) -> (u32, u32) {
+    let yaw = p.y.atan2(p.x);
+    let col = (((0.5 - yaw / (2.0 * std::f32::consts::PI)) * RANGE_COLS as f32) as i64)
+        .clamp(0, RANGE_COLS as i64 - 1) as u32;
+    let row = match ring {
+        Some(r) => r.min(63) as u32,
+        None => {
+            let range = (p.x * p.x + p.y * p.y + p.z * p.z).sqrt();
+            let pitch = (p.z / range.max(1e-6)).asin().to_degrees();
+            (((3.0 - pitch) / 28.0 * 64.0) as i64).clamp(0, 63) as u32
+        }
+    };
+    (col, row)
 }

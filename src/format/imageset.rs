@@ -15,10 +15,10 @@ pub fn read(path: &Path) -> Result<Vec<FrameId>> {
         .map(|(i, l)| {
             l.trim()
                 .parse::<FrameId>()
-                .map_err(|message| Error::Format {
+                .map_err(|source| Error::FrameId {
                     path: path.into(),
                     line: Some(i + 1),
-                    message,
+                    source,
                 })
         })
         .collect()

@@ -27,10 +27,12 @@ pub fn encode_raw(entries: &[u32]) -> Vec<u8> {
 pub fn read_raw(path: &Path) -> Result<Vec<u32>> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if bytes.len() % 4 != 0 {
-        return Err(Error::format(
-            path,
-            format!("{} bytes, not a multiple of 4", bytes.len()),
-        ));
+        return Err(Error::Truncated {
+            path: path.into(),
+            bytes: bytes.len(),
+            record: 4,
+            what: "label",
+        });
     }
     Ok(bytes
         .chunks_exact(4)

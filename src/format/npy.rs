@@ -80,8 +80,7 @@ impl NpyArray {
 /// straight from the file's tail, which is several times faster than decoding it value by value.
 pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let npy = npyz::NpyFile::new(&bytes[..])
-        .map_err(|e| Error::format(path, format!("not a .npy file: {e}")))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| not_npy(path, e))?;
     let shape = npy.shape().to_vec();
     let dtype = npy.dtype().descr();
     if dtype != "'<f4'" {
@@ -92,33 +91,24 @@ pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
         });
     }
     let fortran = npy.order() == npyz::Order::Fortran;
-    let n = npy.len() as usize;
-    let need = n * 4;
-    if bytes.len() < need + 10 {
-        return Err(Error::format(
-            path,
-            format!(
-                "truncated .npy data: {} bytes for {n} float32 values",
-                bytes.len()
-            ),
-        ));
-    }
-    let data_start = bytes.len() - need;
-    // The data must start right after the header (checked by its length field).
+    let need = npy.len() as usize * 4;
+    // The data must start right after the header (checked by its length field) and fill the
+    // rest of the file.
     let header_len = 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
     let header_len = if bytes[6] == 1 {
         header_len
     } else {
         12 + u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize
     };
-    if data_start != header_len {
-        return Err(Error::format(
-            path,
-            format!(
-                "{} data bytes after the header, expected {need} for shape {shape:?}",
-                bytes.len().saturating_sub(header_len)
-            ),
-        ));
+    let data_start = header_len;
+    if bytes.len().checked_sub(need) != Some(header_len) {
+        return Err(Error::Length {
+            path: path.into(),
+            what: format!("the data of shape {shape:?} after the header"),
+            found: bytes.len().saturating_sub(header_len),
+            expected: need,
+            unit: "bytes",
+        });
     }
     let data: Vec<f32> = bytes[data_start..]
         .chunks_exact(4)
@@ -161,80 +151,53 @@ fn c_order<T: Copy>(shape: &[u64], data: Vec<T>, fortran: bool) -> Vec<T> {
     out
 }
 
+/// The error for a file npyz cannot read as NumPy (header or truncated data).
+fn not_npy(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::NotFormat {
+        path: path.into(),
+        format: "a (complete) .npy file",
+        detail: e.to_string(),
+    }
+}
+
+/// The values of `npy` as f64, each converted by `to_f64`.
+fn values<T: npyz::Deserialize>(
+    npy: npyz::NpyFile<&[u8]>,
+    path: &Path,
+    to_f64: impl Fn(T) -> f64,
+) -> Result<Vec<f64>> {
+    let v = npy.into_vec::<T>().map_err(|e| not_npy(path, e))?;
+    Ok(v.into_iter().map(to_f64).collect())
+}
+
 /// Reads a numeric `.npy` file of any common dtype, converting values to f64 and Fortran order
 /// to C order.
 pub fn read_any(path: &Path) -> Result<NpyArray> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let npy = npyz::NpyFile::new(&bytes[..])
-        .map_err(|e| Error::format(path, format!("not a .npy file: {e}")))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| not_npy(path, e))?;
     let shape = npy.shape().to_vec();
     let fortran = npy.order() == npyz::Order::Fortran;
     let descr = npy.dtype().descr();
     let dtype = descr.trim_matches('\'').to_string();
-    let trunc = |e: std::io::Error| Error::format(path, format!("truncated .npy data: {e}"));
     let data: Vec<f64> = match dtype.as_str() {
-        "<f4" => npy
-            .into_vec::<f32>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        "<f8" => npy.into_vec::<f64>().map_err(trunc)?,
-        "|u1" | "<u1" => npy
-            .into_vec::<u8>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        "|i1" | "<i1" => npy
-            .into_vec::<i8>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        "<u2" => npy
-            .into_vec::<u16>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        "<i2" => npy
-            .into_vec::<i16>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        "<u4" => npy
-            .into_vec::<u32>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        "<i4" => npy
-            .into_vec::<i32>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        "<i8" => npy
-            .into_vec::<i64>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| v as f64)
-            .collect(),
-        "<u8" => npy
-            .into_vec::<u64>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| v as f64)
-            .collect(),
-        "|b1" => npy
-            .into_vec::<bool>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| v as u8 as f64)
-            .collect(),
-        other => return Err(Error::format(path, format!("unsupported dtype {other}"))),
+        "<f4" => values(npy, path, |v: f32| v.into())?,
+        "<f8" => values(npy, path, |v: f64| v)?,
+        "|u1" | "<u1" => values(npy, path, |v: u8| v.into())?,
+        "|i1" | "<i1" => values(npy, path, |v: i8| v.into())?,
+        "<u2" => values(npy, path, |v: u16| v.into())?,
+        "<i2" => values(npy, path, |v: i16| v.into())?,
+        "<u4" => values(npy, path, |v: u32| v.into())?,
+        "<i4" => values(npy, path, |v: i32| v.into())?,
+        "<i8" => values(npy, path, |v: i64| v as f64)?,
+        "<u8" => values(npy, path, |v: u64| v as f64)?,
+        "|b1" => values(npy, path, |v: bool| f64::from(u8::from(v)))?,
+        other => {
+            return Err(Error::Dtype {
+                path: path.into(),
+                found: other.to_string(),
+                expected: "a number (float, int, uint or bool)",
+            })
+        }
     };
     let data = c_order(&shape, data, fortran);
     Ok(NpyArray { shape, data, dtype })

@@ -52,11 +52,11 @@ pub fn read(path: &Path) -> Result<PgmFile> {
         [_, _, c] => Channels::npy_of_depth(*c as usize),
         _ => None,
     }
-    .ok_or_else(|| {
-        Error::format(
-            path,
-            format!("shape {shape:?}, expected a map H x W x 6 (x, y, z, intensity, range, label) or 9 (+ r, g, b)"),
-        )
+    .ok_or_else(|| Error::Shape {
+        path: path.into(),
+        what: "the array".into(),
+        found: shape.iter().map(|&d| d as usize).collect(),
+        expected: "a map H x W x 6 (x, y, z, intensity, range, label) or 9 (+ r, g, b)".into(),
     })?;
     Ok(PgmFile {
         rows: shape[0] as usize,
@@ -90,14 +90,14 @@ impl PgmFile {
             if cell[range] > 0.0 {
                 let v = cell[label];
                 if v.fract() != 0.0 || v < 0.0 {
-                    return Err(Error::format(
-                        path,
-                        format!(
-                            "cell ({}, {}) has label {v}, not a class id",
-                            i / self.cols,
-                            i % self.cols
-                        ),
-                    ));
+                    return Err(Error::NotAClass {
+                        path: path.into(),
+                        what: format!("cell ({}, {})", i / self.cols, i % self.cols),
+                        value: v.into(),
+                        map: map.name.clone(),
+                        max: map.len() - 1,
+                        hint: None,
+                    });
                 }
                 labels[i] = map.check(v as u64, path, || {
                     format!("cell ({}, {})", i / self.cols, i % self.cols)

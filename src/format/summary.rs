@@ -115,13 +115,15 @@ pub fn read(path: &Path) -> Result<Option<ConvertSummary>> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(Error::io(path, e)),
     };
-    serde_json::from_str(&text).map(Some).map_err(|e| {
-        Error::format(
-            path,
-            format!(
-                "not a kitti2pgm {} conversion summary: {e}",
-                env!("CARGO_PKG_VERSION")
+    serde_json::from_str(&text)
+        .map(Some)
+        .map_err(|e| Error::NotFormat {
+            path: path.into(),
+            format: concat!(
+                "a kitti2pgm ",
+                env!("CARGO_PKG_VERSION"),
+                " conversion summary"
             ),
-        )
-    })
+            detail: e.to_string(),
+        })
 }

@@ -30,6 +30,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::error::NotAFrameId;
 use crate::error::Result;
 
 /// Frame numbers are below this (a million scans: 28 hours at 10 Hz; KITTI's longest drive has
@@ -151,8 +152,8 @@ impl From<FrameId> for String {
 }
 
 impl TryFrom<String> for FrameId {
-    type Error = String;
-    fn try_from(s: String) -> std::result::Result<FrameId, String> {
+    type Error = NotAFrameId;
+    fn try_from(s: String) -> std::result::Result<FrameId, NotAFrameId> {
         s.parse()
     }
 }
@@ -168,11 +169,9 @@ impl fmt::Display for FrameId {
 }
 
 impl std::str::FromStr for FrameId {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let bad = || {
-            format!("{s:?} is not a frame id like 2011_09_26_0001_0000000010, 00_000000 or 000000")
-        };
+    type Err = NotAFrameId;
+    fn from_str(s: &str) -> std::result::Result<Self, NotAFrameId> {
+        let bad = || NotAFrameId(s.into());
         let digits = |t: &str, n: usize| t.len() == n && t.bytes().all(|c| c.is_ascii_digit());
         let number = |t: &str| t.parse::<u32>().map_err(|_| bad());
         if digits(s, 6) {

@@ -83,16 +83,20 @@ impl Oxts {
             .map_err(|e| Error::format(path, format!("oxts record: {e}")))?;
         // Every field refused alike when not finite, used by the conversion or not.
         if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-            return Err(Error::format(
-                path,
-                format!("oxts record: value {} is not finite ({})", k + 1, v[k]),
-            ));
+            return Err(Error::NotFinite {
+                path: path.into(),
+                what: format!("oxts value {}", k + 1),
+                value: v[k],
+            });
         }
         if v.len() != 30 {
-            return Err(Error::format(
-                path,
-                format!("oxts record has {} values, expected 30", v.len()),
-            ));
+            return Err(Error::Length {
+                path: path.into(),
+                what: "the oxts record".into(),
+                found: v.len(),
+                expected: 30,
+                unit: "values",
+            });
         }
         let i = |k: usize| v[k] as i32;
         Ok(Oxts {
@@ -145,12 +149,13 @@ mod tests {
         let mut fields = vec!["1.0"; 30];
         assert!(Oxts::parse(&fields.join(" "), Path::new("o.txt")).is_ok());
         fields[20] = "nan";
-        let e = Oxts::parse(&fields.join(" "), Path::new("o.txt"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("o.txt") && e.contains("value 21 is not finite"),
-            "{e}"
-        );
+        match Oxts::parse(&fields.join(" "), Path::new("o.txt")) {
+            Err(Error::NotFinite { path, what, value }) => {
+                assert_eq!(path, Path::new("o.txt"));
+                assert_eq!(what, "oxts value 21");
+                assert!(value.is_nan());
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }

@@ -250,8 +250,13 @@ impl Tracklets {
             allow_dtd: true,
             ..Default::default()
         };
-        let doc = roxmltree::Document::parse_with_options(text, options)
-            .map_err(|e| Error::format(path, format!("malformed XML: {e}")))?;
+        let doc = roxmltree::Document::parse_with_options(text, options).map_err(|e| {
+            Error::NotFormat {
+                path: path.into(),
+                format: "well-formed XML",
+                detail: e.to_string(),
+            }
+        })?;
         let p = Parser { path };
         let root = doc.root_element();
         let list = p.child(root, "tracklets")?;

@@ -48,15 +48,12 @@ impl Scan {
             return Err(Error::format(path, "empty velodyne scan (0 bytes)"));
         }
         if !bytes.len().is_multiple_of(POINT_BYTES) {
-            return Err(Error::format(
-                path,
-                format!(
-                    "{} bytes, not a multiple of {POINT_BYTES} (truncated scan? {} whole points and {} stray bytes)",
-                    bytes.len(),
-                    bytes.len() / POINT_BYTES,
-                    bytes.len() % POINT_BYTES
-                ),
-            ));
+            return Err(Error::Truncated {
+                path: path.into(),
+                bytes: bytes.len(),
+                record: POINT_BYTES,
+                what: "point",
+            });
         }
         let n = bytes.len() / POINT_BYTES;
         let mut points = Vec::with_capacity(n);

@@ -167,8 +167,10 @@ impl ClassMap {
     /// A class map from a `semantic-kitti.yaml`-style file (`labels`, `color_map`,
     /// `learning_map`, `learning_map_inv`, `learning_ignore`); `path` names it in errors.
     pub fn from_semantic_kitti_yaml(text: &str, path: &Path) -> Result<ClassMap> {
-        let y: SemanticKittiYaml = serde_norway::from_str(text).map_err(|e| {
-            Error::format(path, format!("not a semantic-kitti.yaml class file: {e}"))
+        let y: SemanticKittiYaml = serde_norway::from_str(text).map_err(|e| Error::NotFormat {
+            path: path.into(),
+            format: "a semantic-kitti.yaml class file",
+            detail: e.to_string(),
         })?;
         let bad = |m: String| Error::format(path, m);
         let n = y.learning_map_inv.len();
@@ -375,7 +377,7 @@ impl ClassMap {
             Err(Error::NotAClass {
                 path: path.into(),
                 what: what(),
-                value,
+                value: value as f64,
                 map: self.name.clone(),
                 max: self.len() - 1,
                 hint: None,

@@ -24,6 +24,7 @@ pub mod cloud;
 pub mod columns;
 pub mod frame;
 pub mod preset;
+pub mod rows;
 pub mod unproject;
 
 pub use augment::Augment;
@@ -32,6 +33,8 @@ pub use cloud::{project_cloud, Cloud, CloudProjection};
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
 pub use preset::MapPreset;
+pub use rows::{rings, Rows};
+use rows::{row_source, RowSource};
 
 use serde::{Deserialize, Serialize};
 
@@ -176,35 +179,6 @@ impl<'a> Geometry<'a> {
     }
 }
 
-/// Ring index of every point from the scan order, or `None` when the scan does not show exactly
-/// [`LASERS`] rings. Returns also the number of rings seen.
-///
-/// A new ring starts at point `i` when point `i - 1` has `y < 0` and point `i` has `y >= 0`, both
-/// in front (`x > 0`): the azimuth crossed the forward direction from negative to non-negative in
-/// a small step (a wrap-around at the back is a step of about 360 degrees and never matches).
-/// The ring must also have reached the rear half (`x < 0`) since it started, so that jitter of
-/// the azimuth around zero does not split a ring.
-pub fn rings(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
-    let mut ring = vec![0u8; points.len()];
-    let mut current = 0usize;
-    let mut seen_rear = false;
-    let mut prev: Option<&Point3> = None;
-    for (i, p) in points.iter().enumerate() {
-        if let Some(q) = prev {
-            if seen_rear && q.y < 0.0 && p.y >= 0.0 && q.x > 0.0 && p.x > 0.0 {
-                current += 1;
-                seen_rear = false;
-            }
-        }
-        seen_rear |= p.x < 0.0;
-        // Saturates past 255 rings; such a scan is rejected below anyway.
-        ring[i] = current.min(u8::MAX as usize) as u8;
-        prev = Some(p);
-    }
-    let found = if points.is_empty() { 0 } else { current + 1 };
-    ((found == LASERS).then_some(ring), found)
-}
-
 /// What projecting scans found; added up over frames for the conversion summary.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ProjectionStats {
@@ -269,19 +243,6 @@ impl Projection {
     }
 }
 
-/// Where the rows of a projection come from.
-#[derive(Debug, Clone, Copy)]
-pub enum Rows<'a> {
-    /// The spec's rule: rings recovered from the scan order (elevation binning when the scan does
-    /// not show [`LASERS`] rings), or elevation binning.
-    FromSpec,
-    /// These ring indices (one per point, each below [`LASERS`]), e.g. recovered before the
-    /// points were augmented; elevation binning if the spec asks for it.
-    Rings(&'a [u8]),
-    /// Elevation binning, counted as a ring fallback (the rings were not recoverable).
-    Fallback,
-}
-
 /// Projects a scan's points onto the map.
 pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
     project_impl(
@@ -334,18 +295,12 @@ pub(crate) fn project_impl(
     geometry: Geometry<'_>,
 ) -> Projection {
     debug_assert_eq!(points.len(), geometry.base.len());
-    let by_rings = spec.row_mode == RowMode::Rings;
-    let recovered;
-    let (ring_ids, rings_found, fallback): (Option<&[u8]>, usize, bool) = match rows {
-        Rows::FromSpec if by_rings => {
-            let (r, found) = rings(points);
-            recovered = r;
-            (recovered.as_deref(), found, recovered.is_none())
-        }
-        Rows::Rings(r) if by_rings => (Some(r), LASERS, false),
-        Rows::Fallback if by_rings => (None, 0, true),
-        _ => (None, 0, false),
-    };
+    let RowSource {
+        rings: ring_ids,
+        found: rings_found,
+        fallback,
+    } = row_source(points, spec, rows);
+    let ring_ids = ring_ids.as_deref();
     let mut cell_point = vec![EMPTY; spec.cells()];
     let mut cell_range = vec![0f32; spec.cells()];
     let keep_point_cells = point_cells == PointCells::Keep;
@@ -399,20 +354,27 @@ pub(crate) fn project_impl(
             }
         }
     }
-    let filled = cell_point.iter().filter(|&&c| c != EMPTY).count() as u64;
     Projection {
         spec: *spec,
+        stats: ProjectionStats::count(&cell_point, in_fov, fallback),
         cell_point,
         cell_range,
         point_cell,
-        stats: ProjectionStats {
+        rings_found,
+    }
+}
+
+impl ProjectionStats {
+    /// The statistics of a projection that put `in_fov` points into the cells `cell_point`.
+    fn count(cell_point: &[u32], in_fov: u64, ring_fallback: bool) -> ProjectionStats {
+        let filled = cell_point.iter().filter(|&&c| c != EMPTY).count() as u64;
+        ProjectionStats {
             in_fov,
             filled_cells: filled,
-            total_cells: spec.cells() as u64,
+            total_cells: cell_point.len() as u64,
             collisions: in_fov - filled,
-            ring_fallbacks: fallback as u64,
-        },
-        rings_found,
+            ring_fallbacks: ring_fallback as u64,
+        }
     }
 }
 

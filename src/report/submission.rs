@@ -72,24 +72,7 @@ pub fn check_submission(
             message: "no such prediction folder (expected PRED/sequences/<NN>/predictions/)".into(),
         });
     }
-    let all = discover_as(root, Some(Layout::Sequence))?.drives;
-    let drives: Vec<Drive> = match sequences {
-        None => all,
-        Some(want) => {
-            let mut v = Vec::new();
-            for &n in want {
-                let d = all
-                    .iter()
-                    .find(|d| d.number == n)
-                    .ok_or_else(|| Error::Input {
-                        path: root.into(),
-                        message: format!("no sequence {n:02} here"),
-                    })?;
-                v.push(d.clone());
-            }
-            v
-        }
-    };
+    let drives = select_sequences(root, sequences)?;
     let mut problems = Vec::new();
     let (mut expected, mut valid) = (0u64, 0u64);
     let names: Vec<String> = drives.iter().map(|d| format!("{:02}", d.number)).collect();
@@ -107,22 +90,8 @@ pub fn check_submission(
                 }),
             }
         }
-        // Anything else in the folder is extra.
         if dir.is_dir() {
-            for p in crate::fs::sorted_dir(&dir)? {
-                let frame = p
-                    .file_name()
-                    .and_then(|n| n.to_str())
-                    .and_then(|n| n.strip_suffix(".label"))
-                    .filter(|s| s.len() == 6)
-                    .and_then(|s| s.parse::<u32>().ok());
-                if frame.is_none_or(|f| scans.binary_search(&f).is_err()) {
-                    problems.push(Problem {
-                        path: p,
-                        problem: "extra: not the prediction of a scan of this sequence".into(),
-                    });
-                }
-            }
+            problems.extend(extra_files(&dir, &scans)?);
         }
     }
     let seq_root = pred.join("sequences");
@@ -147,6 +116,46 @@ pub fn check_submission(
         valid,
         problems,
     })
+}
+
+/// The sequences of `root` to check: `sequences`, each of which must be there, or all.
+fn select_sequences(root: &Path, sequences: Option<&[u32]>) -> Result<Vec<Drive>> {
+    let all = discover_as(root, Some(Layout::Sequence))?.drives;
+    let Some(want) = sequences else {
+        return Ok(all);
+    };
+    want.iter()
+        .map(|&n| {
+            all.iter()
+                .find(|d| d.number == n)
+                .cloned()
+                .ok_or_else(|| Error::Input {
+                    path: root.into(),
+                    message: format!("no sequence {n:02} here"),
+                })
+        })
+        .collect()
+}
+
+/// The files of a prediction folder that are not the prediction of one of its sequence's
+/// `scans` (sorted frame numbers).
+fn extra_files(dir: &Path, scans: &[u32]) -> Result<Vec<Problem>> {
+    let mut extra = Vec::new();
+    for p in crate::fs::sorted_dir(dir)? {
+        let frame = p
+            .file_name()
+            .and_then(|n| n.to_str())
+            .and_then(|n| n.strip_suffix(".label"))
+            .filter(|s| s.len() == 6)
+            .and_then(|s| s.parse::<u32>().ok());
+        if frame.is_none_or(|f| scans.binary_search(&f).is_err()) {
+            extra.push(Problem {
+                path: p,
+                problem: "extra: not the prediction of a scan of this sequence".into(),
+            });
+        }
+    }
+    Ok(extra)
 }
 
 /// What is wrong with one prediction file, if anything.

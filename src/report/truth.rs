@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, NotAFrameId, Result};
 use crate::format::layout::{self, OutputDir};
 use crate::format::pgm::{self, PgmFile};
 use crate::format::shard::{Shard, ShardKind};
@@ -341,23 +341,21 @@ impl GroundTruth {
         let (spec, map) = (&self.params.spec, &self.params.class_map);
         let want = self.params.channels();
         if f.channels != want {
-            return Err(Error::format(
-                &path,
-                format!(
-                    "{} channels, the ground truth's maps have {} (mixed 6- and 9-channel outputs?)",
-                    f.channels.len(),
-                    want.len()
-                ),
-            ));
+            return Err(Error::Length {
+                path,
+                what: "the map (mixed 6- and 9-channel outputs?)".into(),
+                found: f.channels.len(),
+                expected: want.len(),
+                unit: "channels",
+            });
         }
         if (f.rows, f.cols) != (spec.rows, spec.cols) {
-            return Err(Error::format(
-                &path,
-                format!(
-                    "{}x{} map, the ground truth's map is {}x{}",
-                    f.rows, f.cols, spec.rows, spec.cols
-                ),
-            ));
+            return Err(Error::Shape {
+                path,
+                what: "the map".into(),
+                found: vec![f.rows, f.cols],
+                expected: format!("{}x{}, the ground truth's", spec.rows, spec.cols),
+            });
         }
         MapFrame::from_pgm(id.clone(), f, map, &path)
     }
@@ -435,18 +433,17 @@ impl GroundTruth {
         let mut out = Vec::new();
         for msg in shard.frame_iter() {
             let msg = msg?;
-            let id: FrameId = msg.id.parse().map_err(|e: String| Error::format(path, e))?;
+            let id: FrameId = msg.id.parse().map_err(|e: NotAFrameId| e.in_file(path))?;
             if !wanted(&id) {
                 continue;
             }
             if (msg.height as usize, msg.width as usize) != (spec.rows, spec.cols) {
-                return Err(Error::format(
-                    path,
-                    format!(
-                        "frame {id} is {}x{}, the ground truth's map {}x{}",
-                        msg.height, msg.width, spec.rows, spec.cols
-                    ),
-                ));
+                return Err(Error::Shape {
+                    path: path.into(),
+                    what: format!("frame {id}"),
+                    found: vec![msg.height as usize, msg.width as usize],
+                    expected: format!("{}x{}, the ground truth's", spec.rows, spec.cols),
+                });
             }
             for (i, (l, m)) in msg.label.iter().zip(&msg.mask).enumerate() {
                 if *m != 0 {

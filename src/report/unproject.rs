@@ -57,7 +57,7 @@ pub struct UnprojectOptions {
 #[derive(Debug, Clone, Serialize)]
 pub struct UnprojectFailure {
     /// The frame.
-    pub frame: String,
+    pub frame: FrameId,
     /// What went wrong, naming the file.
     pub error: String,
 }
@@ -117,14 +117,13 @@ fn one(
         if let Ok(meta) = std::fs::metadata(&recorded) {
             let n = meta.len() / 4;
             if n != scan.file_len as u64 {
-                return Err(Error::format(
-                    &scan_path,
-                    format!(
-                        "{} points, but the conversion recorded {n} ({}): the data changed since",
-                        scan.file_len,
-                        recorded.display()
-                    ),
-                ));
+                return Err(Error::LabelCount {
+                    path: recorded,
+                    labels: n as usize,
+                    scan: scan_path,
+                    points: scan.file_len,
+                    note: Some("the conversion's labels; the data changed since"),
+                });
             }
         }
     }
@@ -178,7 +177,57 @@ pub fn unproject_all(
             map.name
         )));
     }
-    let frames: Vec<&FrameId> = match &opts.only {
+    let frames = frames_to_carry(gt, preds, opts.only.as_ref())?;
+    let (points, missing) = (AtomicU64::new(0), AtomicU64::new(0));
+    let mut failures: Vec<UnprojectFailure> = frames
+        .par_iter()
+        .filter_map(|id| {
+            let r = one(gt, preds, id, opts);
+            progress(1);
+            match r {
+                Ok((n, m)) => {
+                    points.fetch_add(n, Ordering::Relaxed);
+                    missing.fetch_add(m, Ordering::Relaxed);
+                    None
+                }
+                Err(e) => Some(UnprojectFailure {
+                    frame: (*id).clone(),
+                    error: e.to_string(),
+                }),
+            }
+        })
+        .collect();
+    if opts.only.is_none() {
+        failures.extend(orphan_predictions(gt, preds));
+    }
+    failures.sort_by(|a, b| a.frame.cmp(&b.frame));
+    let written: Vec<FrameId> = frames
+        .iter()
+        .filter(|f| failures.binary_search_by(|x| x.frame.cmp(f)).is_err())
+        .map(|f| (*f).clone())
+        .collect();
+    Ok(UnprojectSummary {
+        method: match opts.method {
+            Method::Cell => "cell".into(),
+            Method::Knn(_) => "knn".into(),
+        },
+        frames: written.len() as u64,
+        points: points.into_inner(),
+        not_predicted: missing.into_inner(),
+        failures,
+        written_to: opts.out.join(if sequence { "sequences" } else { "labels" }),
+        written,
+    })
+}
+
+/// The ground-truth frames to carry back: those of `only` (each must be in the ground truth),
+/// or every frame with a prediction; an error when there is none.
+fn frames_to_carry<'a>(
+    gt: &'a GroundTruth,
+    preds: &Predictions,
+    only: Option<&BTreeSet<FrameId>>,
+) -> Result<Vec<&'a FrameId>> {
+    let frames: Vec<&FrameId> = match only {
         Some(only) => {
             if let Some(missing) = only.iter().find(|id| !gt.frames.contains(id)) {
                 return Err(Error::Input {
@@ -196,66 +245,26 @@ pub fn unproject_all(
             message: "no prediction for any ground-truth frame".into(),
         });
     }
-    let (points, missing) = (AtomicU64::new(0), AtomicU64::new(0));
-    let mut failures: Vec<UnprojectFailure> = frames
-        .par_iter()
-        .filter_map(|id| {
-            let r = one(gt, preds, id, opts);
-            progress(1);
-            match r {
-                Ok((n, m)) => {
-                    points.fetch_add(n, Ordering::Relaxed);
-                    missing.fetch_add(m, Ordering::Relaxed);
-                    None
-                }
-                Err(e) => Some(UnprojectFailure {
-                    frame: id.to_string(),
-                    error: e.to_string(),
-                }),
-            }
+    Ok(frames)
+}
+
+/// A prediction for a frame the ground truth does not hold (a scan that is not there, a
+/// misnamed file): named as a failure, not skipped silently.
+fn orphan_predictions(gt: &GroundTruth, preds: &Predictions) -> Vec<UnprojectFailure> {
+    let truth: BTreeSet<&FrameId> = gt.frames.iter().collect();
+    preds
+        .frame_ids()
+        .into_iter()
+        .filter(|id| !truth.contains(id))
+        .map(|id| UnprojectFailure {
+            error: format!(
+                "{}: a prediction for a frame that is not in the ground truth {}",
+                preds.path_of(id).display(),
+                gt.path.display()
+            ),
+            frame: id.clone(),
         })
-        .collect();
-    // A prediction for a frame the ground truth does not hold (a scan that is not there, a
-    // misnamed file) is named, not skipped silently.
-    if opts.only.is_none() {
-        let truth: BTreeSet<&FrameId> = gt.frames.iter().collect();
-        for id in preds
-            .frame_ids()
-            .into_iter()
-            .filter(|id| !truth.contains(id))
-        {
-            failures.push(UnprojectFailure {
-                frame: id.to_string(),
-                error: format!(
-                    "{}: a prediction for a frame that is not in the ground truth {}",
-                    preds.path_of(id).display(),
-                    gt.path.display()
-                ),
-            });
-        }
-    }
-    failures.sort_by(|a, b| a.frame.cmp(&b.frame));
-    let written: Vec<FrameId> = frames
-        .iter()
-        .filter(|f| {
-            failures
-                .binary_search_by(|x| x.frame.as_str().cmp(&f.to_string()))
-                .is_err()
-        })
-        .map(|f| (*f).clone())
-        .collect();
-    Ok(UnprojectSummary {
-        method: match opts.method {
-            Method::Cell => "cell".into(),
-            Method::Knn(_) => "knn".into(),
-        },
-        frames: written.len() as u64,
-        points: points.into_inner(),
-        not_predicted: missing.into_inner(),
-        failures,
-        written_to: opts.out.join(if sequence { "sequences" } else { "labels" }),
-        written,
-    })
+        .collect()
 }
 
 /// Per-point predictions as classes, from a `.label` file of frame `id`: SemanticKITTI's raw ids
@@ -342,15 +351,13 @@ pub fn load_point_frame(
     let scan = Scan::read(&scan_path)?;
     let pred = read_point_predictions(pred_path, id, map)?;
     if pred.len() != scan.file_len {
-        return Err(Error::format(
-            pred_path,
-            format!(
-                "{} labels, the scan {} has {} points",
-                pred.len(),
-                scan_path.display(),
-                scan.file_len
-            ),
-        ));
+        return Err(Error::LabelCount {
+            path: pred_path.into(),
+            labels: pred.len(),
+            scan: scan_path,
+            points: scan.file_len,
+            note: None,
+        });
     }
     let truth = point_truth(raw, id, map, gt)?;
     let kept = scan.file_indices();
@@ -391,7 +398,7 @@ pub fn write_viz(
         path: path.into(),
         source,
     };
-    let merr = |e: mcap::McapError| Error::format(path, format!("MCAP writer: {e}"));
+    let merr = |e: mcap::McapError| Error::mcap(path, "MCAP writer", e);
     let tmp = crate::format::temp_builder()
         .suffix(".mcap")
         .tempfile_in(dir)

@@ -114,7 +114,8 @@ fn malformed_tracklets_fail_their_drive_only() {
     assert_eq!(j["frames_failed"], 1);
     let f = failures(&j);
     assert!(
-        f.contains("2011_09_26_drive_0052_sync/tracklet_labels.xml") && f.contains("malformed XML"),
+        f.contains("2011_09_26_drive_0052_sync/tracklet_labels.xml")
+            && f.contains("not well-formed XML"),
         "{f}"
     );
 

@@ -388,7 +388,7 @@ fn bad_predictions_name_the_frame() {
     let (code, _, stderr) = run_bad(&["--missing-as-background"]);
     assert_eq!(code, 1);
     assert!(
-        stderr.contains(&format!("{id}.npy")) && stderr.contains("[32, 512]"),
+        stderr.contains(&format!("{id}.npy")) && stderr.contains("is 32x512, expected 64x512"),
         "{stderr}"
     );
     // Labels out of range.
@@ -398,7 +398,8 @@ fn bad_predictions_name_the_frame() {
     let (code, _, stderr) = run_bad(&["--missing-as-background"]);
     assert_eq!(code, 1);
     assert!(
-        stderr.contains(&format!("{id}.npy")) && stderr.contains("cell (1, 188) is 7"),
+        stderr.contains(&format!("{id}.npy"))
+            && stderr.contains("cell (1, 188) has label 7, not a class id"),
         "{stderr}"
     );
     // NaN scores.

@@ -236,11 +236,11 @@ fn bad_unprojection_inputs_are_named_and_leave_nothing_half_written() {
     ]);
     assert_eq!(code, 1, "every frame failed: {e}");
     assert!(
-        e.contains("2011_09_26_0001_0000000000.npy") && e.contains("does not fit the 64x512"),
+        e.contains("2011_09_26_0001_0000000000.npy") && e.contains("is 64x256, expected 64x512"),
         "{e}"
     );
     assert!(
-        e.contains("2011_09_26_0001_0000000045.npy") && e.contains("is 9"),
+        e.contains("2011_09_26_0001_0000000045.npy") && e.contains("has label 9"),
         "{e}"
     );
     assert!(

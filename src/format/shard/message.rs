@@ -91,21 +91,23 @@ impl FrameMsg {
         ];
         for (what, got, want) in checks {
             if got != want && !(prediction && what != "label") {
-                return Err(Error::format(
-                    path,
-                    format!("frame {}: {what} has {got} bytes, expected {want}", self.id),
-                ));
+                return Err(Error::Length {
+                    path: path.into(),
+                    what: format!("frame {}: {what}", self.id),
+                    found: got,
+                    expected: want,
+                    unit: "bytes",
+                });
             }
         }
         if !self.rgb_valid.is_empty() && self.rgb_valid.len() != cells {
-            return Err(Error::format(
-                path,
-                format!(
-                    "frame {}: rgb_valid has {} bytes, expected {cells}",
-                    self.id,
-                    self.rgb_valid.len()
-                ),
-            ));
+            return Err(Error::Length {
+                path: path.into(),
+                what: format!("frame {}: rgb_valid", self.id),
+                found: self.rgb_valid.len(),
+                expected: cells,
+                unit: "bytes",
+            });
         }
         Ok(())
     }

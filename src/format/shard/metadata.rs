@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, NotAFrameId, Result};
 use crate::kitti::FrameId;
 use crate::params::ConvertParams;
 
@@ -62,25 +62,33 @@ impl ShardMetadata {
     /// parameters that are not this version's).
     pub fn from_map(m: &BTreeMap<String, String>, path: &Path) -> Result<ShardMetadata> {
         let get = |k: &str| {
-            m.get(k)
-                .ok_or_else(|| Error::format(path, format!("metadata record has no `{k}` entry")))
+            m.get(k).ok_or_else(|| Error::MissingKey {
+                path: path.into(),
+                key: format!("{k} (metadata entry)"),
+            })
         };
         let list =
             |k: &str| -> Result<Vec<String>> { Ok(get(k)?.lines().map(String::from).collect()) };
         let ids = |v: &[String], key: &str| -> Result<Vec<FrameId>> {
             v.iter()
                 .map(|s| {
-                    s.parse()
-                        .map_err(|e: String| Error::format(path, format!("metadata `{key}`: {e}")))
+                    s.parse().map_err(|e: NotAFrameId| Error::FrameId {
+                        path: path.into(),
+                        line: None,
+                        source: NotAFrameId(format!("{} (metadata `{key}`)", e.0)),
+                    })
                 })
                 .collect()
         };
         let version = get("version")?.clone();
-        let params = serde_json::from_str(get("params")?).map_err(|e| {
-            Error::format(
-                path,
-                format!("metadata `params` are not kitti2pgm {}'s conversion parameters (shard written by kitti2pgm {version}?): {e}", env!("CARGO_PKG_VERSION")),
-            )
+        let params = serde_json::from_str(get("params")?).map_err(|e| Error::NotFormat {
+            path: path.into(),
+            format: concat!(
+                "kitti2pgm ",
+                env!("CARGO_PKG_VERSION"),
+                "'s conversion parameters (metadata `params`)"
+            ),
+            detail: format!("{e} (shard written by kitti2pgm {version}?)"),
         })?;
         Ok(ShardMetadata {
             version,

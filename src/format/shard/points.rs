@@ -102,13 +102,13 @@ impl PointsMsg {
         ];
         for (what, got, want, absent) in checks {
             if got != want && !absent {
-                return Err(Error::format(
-                    path,
-                    format!(
-                        "points {}: {what} has {got} bytes, expected {want}",
-                        self.id
-                    ),
-                ));
+                return Err(Error::Length {
+                    path: path.into(),
+                    what: format!("points {}: {what}", self.id),
+                    found: got,
+                    expected: want,
+                    unit: "bytes",
+                });
             }
         }
         if self

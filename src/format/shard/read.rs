@@ -34,7 +34,11 @@ pub fn decode(message: &mcap::Message<'_>, path: &Path) -> Option<Result<FrameMs
     }
     Some(
         FrameMsg::decode(&message.data[..])
-            .map_err(|e| Error::format(path, format!("undecodable frame message: {e}")))
+            .map_err(|e| Error::NotFormat {
+                path: path.into(),
+                format: "a kitti2pgm frame message",
+                detail: e.to_string(),
+            })
             .and_then(|f| f.validate(path).map(|()| f)),
     )
 }
@@ -94,10 +98,10 @@ impl Shard {
         const DATA_END_LEN: usize = RECORD_HEAD + DATA_END_CONTENT as usize;
         let b = self.bytes();
         let bad = |what: String| {
-            Err(Error::format(
-                &self.path,
-                format!("corrupted shard: {what}"),
-            ))
+            Err(Error::Corrupt {
+                path: self.path.clone(),
+                what,
+            })
         };
         // magic, ..., data end, summary, footer, magic.
         let footer_len = RECORD_HEAD + FOOTER_CONTENT as usize;
@@ -146,10 +150,10 @@ impl Shard {
                 // Name the frame when a chunk is the damaged part.
                 let at = self.frame_iter().find_map(|f| f.err());
                 return Err(at.unwrap_or_else(|| {
-                    Error::format(
-                        &self.path,
-                        format!("corrupted shard: data section CRC {got:#010x}, stored {data_crc:#010x} (a record outside the frames' chunks is damaged)"),
-                    )
+                    Error::Corrupt {
+                        path: self.path.clone(),
+                        what: format!("data section CRC {got:#010x}, stored {data_crc:#010x} (a record outside the frames' chunks is damaged)"),
+                    }
                 }));
             }
         }
@@ -160,10 +164,10 @@ impl Shard {
     pub fn summary(&self) -> Result<mcap::read::Summary> {
         match mcap::read::Summary::read(&self.map) {
             Ok(Some(s)) => Ok(s),
-            Ok(None) => Err(Error::format(
-                &self.path,
-                "no summary section: the shard was not finished",
-            )),
+            Ok(None) => Err(Error::Corrupt {
+                path: self.path.clone(),
+                what: "no summary section: the shard was not finished".into(),
+            }),
             Err(e) => Err(Error::mcap(
                 &self.path,
                 "unreadable summary (truncated or corrupted shard?)",
@@ -179,8 +183,9 @@ impl Shard {
             .metadata_indexes
             .iter()
             .find(|m| m.name == METADATA_NAME)
-            .ok_or_else(|| {
-                Error::format(&self.path, format!("no `{METADATA_NAME}` metadata record"))
+            .ok_or_else(|| Error::MissingKey {
+                path: self.path.clone(),
+                key: format!("{METADATA_NAME} (metadata record)"),
             })?;
         let md = mcap::read::metadata(&self.map, index)
             .map_err(|e| Error::mcap(&self.path, "metadata record", e))?;
@@ -242,7 +247,10 @@ impl Shard {
                     .get(st.count)
                     .map(|id| format!(" ({id})"))
                     .unwrap_or_default();
-                Error::format(&path, format!("frame #{}{which}{after}: {what}", st.count))
+                Error::Corrupt {
+                    path: path.clone(),
+                    what: format!("frame #{}{which}{after}: {what}", st.count),
+                }
             };
             loop {
                 let next = state.stream.as_mut().and_then(Iterator::next);
@@ -331,7 +339,10 @@ impl Shard {
                     .last()
                     .map(|p| format!(" after {}", p.id))
                     .unwrap_or_default();
-                Error::format(&self.path, format!("points #{}{after}: {what}", out.len()))
+                Error::Corrupt {
+                    path: self.path.clone(),
+                    what: format!("points #{}{after}: {what}", out.len()),
+                }
             };
             let m = m.map_err(|e| fail(format!("corrupted or truncated: {e}")))?;
             if m.channel.topic != POINTS_TOPIC || !has_schema(&m, super::POINTS_SCHEMA) {

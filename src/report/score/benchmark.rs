@@ -90,15 +90,13 @@ fn score_one(
     };
     if let Some(p) = &pred {
         if p.len() != truth.len() {
-            return Err(Error::format(
-                &preds.files[id],
-                format!(
-                    "{} predictions, the ground truth {} has {} points",
-                    p.len(),
-                    truth_path.display(),
-                    truth.len()
-                ),
-            ));
+            return Err(Error::LabelCount {
+                path: preds.files[id].clone(),
+                labels: p.len(),
+                scan: truth_path.clone(),
+                points: truth.len(),
+                note: Some("counted in the ground truth's label file"),
+            });
         }
     }
     let mut c = Confusion::new(map.len());

@@ -22,7 +22,13 @@ struct ScanCells {
     cell_winner_file: Vec<u32>,
     /// The projection and the points' ranges, kept for the kNN.
     knn: Option<(crate::project::Projection, Vec<f32>)>,
+    /// The scan file.
+    path: std::path::PathBuf,
 }
+
+/// The likely cause of a label file shorter than the point it is read at.
+const SHORT_LABELS: Option<&'static str> =
+    Some("at least: counted up to its last point in the map");
 
 /// Projects the frame's scan with the ground truth's map.
 fn scan_cells(gt: &GroundTruth, id: &FrameId, opts: &ScoreOptions) -> Result<ScanCells> {
@@ -35,7 +41,8 @@ fn scan_cells(gt: &GroundTruth, id: &FrameId, opts: &ScoreOptions) -> Result<Sca
         },
     })?;
     let drive = raw_drive(raw, id)?;
-    let scan = Scan::read(&drive.scan_path(id.frame))?;
+    let path = drive.scan_path(id.frame);
+    let scan = Scan::read(&path)?;
     let proj = project_with_point_cells(&scan.points, &gt.params.spec);
     let file_idx = scan.file_indices();
     let cell_winner_file = proj
@@ -65,6 +72,7 @@ fn scan_cells(gt: &GroundTruth, id: &FrameId, opts: &ScoreOptions) -> Result<Sca
         point_cells,
         cell_winner_file,
         knn,
+        path,
     })
 }
 
@@ -89,13 +97,13 @@ fn predicted_cells(
             let winners = scan.cell_winner_file.iter().filter(|&&f| f != u32::MAX);
             let n = winners.map(|&f| f as usize + 1).max().unwrap_or(0);
             if pl.len() < n {
-                return Err(Error::format(
-                    p,
-                    format!(
-                        "{} point labels, but the scan has at least {n} points",
-                        pl.len()
-                    ),
-                ));
+                return Err(Error::LabelCount {
+                    path: p.clone(),
+                    labels: pl.len(),
+                    scan: scan.path.clone(),
+                    points: n,
+                    note: SHORT_LABELS,
+                });
             }
             scan.cell_winner_file
                 .iter()
@@ -186,11 +194,12 @@ fn count_points(
         (None, Some((proj, range))) => Some(carry(gt, proj, range, pred_cells, opts)?),
         _ => None,
     };
-    let short = |file: &Path, n: usize, fi: u32| {
-        Error::format(
-            file,
-            format!("{n} point labels, but the scan has point {fi}"),
-        )
+    let short = |file: &Path, n: usize, fi: u32| Error::LabelCount {
+        path: file.into(),
+        labels: n,
+        scan: scan.path.clone(),
+        points: fi as usize + 1,
+        note: SHORT_LABELS,
     };
     for (k, &(cell, fi)) in scan.point_cells.iter().enumerate() {
         let t = *gt_points

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, NotAFrameId, Result};
 use crate::format::npy::{read_any, NpyArray};
 use crate::format::shard::Shard;
 use crate::kitti::{parse_drive_name, FrameId};
@@ -211,7 +211,7 @@ fn index_shards(mcaps: &[PathBuf]) -> Result<ShardIndex> {
         for chunk in 0..summary.chunk_indexes.len() {
             for f in shard.chunk_frames(&summary, chunk)? {
                 let f = f?;
-                let id: FrameId = f.id.parse().map_err(|e: String| Error::format(p, e))?;
+                let id: FrameId = f.id.parse().map_err(|e: NotAFrameId| e.in_file(p))?;
                 if in_shard.insert(id.clone(), (shards.len(), chunk)).is_some() {
                     return Err(Error::Input {
                         path: p.clone(),
@@ -280,15 +280,12 @@ impl Predictions {
             }
             if (f.height as usize, f.width as usize) != (rows, cols) || f.label.len() != rows * cols
             {
-                return Err(Error::format(
-                    &shard.path,
-                    format!(
-                        "prediction for {id} is {}x{} ({} labels), the ground truth {rows}x{cols}",
-                        f.height,
-                        f.width,
-                        f.label.len()
-                    ),
-                ));
+                return Err(Error::Shape {
+                    path: shard.path.clone(),
+                    what: format!("the prediction for {id} ({} labels)", f.label.len()),
+                    found: vec![f.height as usize, f.width as usize],
+                    expected: format!("{rows}x{cols}, as the ground truth"),
+                });
             }
             for (i, v) in f.label.iter().enumerate() {
                 map.check(*v as u64, &shard.path, || {
@@ -297,10 +294,10 @@ impl Predictions {
             }
             return Ok(f.label);
         }
-        Err(Error::format(
-            &shard.path,
-            format!("prediction for {id} vanished from its chunk"),
-        ))
+        Err(Error::Corrupt {
+            path: shard.path.clone(),
+            what: format!("the prediction for {id} vanished from its chunk"),
+        })
     }
 }
 
@@ -315,16 +312,24 @@ pub struct CellPrediction {
 
 /// The class id `v` stands for; `what` names the cell in the error (built only on failure).
 #[inline]
-fn class_of(v: f64, k: usize, path: &Path, what: impl Fn() -> String) -> Result<u8> {
+fn class_of(v: f64, map: &ClassMap, path: &Path, what: impl Fn() -> String) -> Result<u8> {
     if v.is_nan() {
-        return Err(Error::format(path, format!("{} is NaN", what())));
+        return Err(Error::NotFinite {
+            path: path.into(),
+            what: what(),
+            value: v,
+        });
     }
     // Range first, then integrality by a round trip (`fract` is a libm call).
-    if !(0.0..k as f64).contains(&v) || (v as u8) as f64 != v {
-        return Err(Error::format(
-            path,
-            format!("{} is {v}, not a class id 0-{}", what(), k - 1),
-        ));
+    if !(0.0..map.len() as f64).contains(&v) || (v as u8) as f64 != v {
+        return Err(Error::NotAClass {
+            path: path.into(),
+            what: what(),
+            value: v,
+            map: map.name.clone(),
+            max: map.len() - 1,
+            hint: None,
+        });
     }
     Ok(v as u8)
 }
@@ -346,10 +351,12 @@ pub fn read_cell_prediction(
         [h, w, c] if *h == rows && *w == cols && *c == k => (PredFormat::ScoreMap, k),
         [h, w, c] if *h == rows && *w == cols && K_NPY.contains(c) => (PredFormat::SqueezeSeg, *c),
         other => {
-            return Err(Error::format(
-                path,
-                format!("shape {other:?} ({dtype}) does not fit the {rows}x{cols} ground truth: expected {rows}x{cols} labels, {rows}x{cols}x{k} scores or {rows}x{cols}x6/9 SqueezeSeg maps"),
-            ))
+            return Err(Error::Shape {
+                path: path.into(),
+                what: format!("the prediction ({dtype})"),
+                found: other.to_vec(),
+                expected: format!("{rows}x{cols} labels, {rows}x{cols}x{k} scores or {rows}x{cols}x6/9 SqueezeSeg maps, as the ground truth"),
+            })
         }
     };
     let mut labels = Vec::with_capacity(cells);
@@ -357,19 +364,20 @@ pub fn read_cell_prediction(
         let cell = &data[i * depth..(i + 1) * depth];
         let what = || format!("cell ({}, {})", i / cols, i % cols);
         let l = match format {
-            PredFormat::LabelMap => class_of(cell[0], k, path, what)?,
+            PredFormat::LabelMap => class_of(cell[0], map, path, what)?,
             PredFormat::SqueezeSeg => {
                 let label = Channels::npy_of_depth(depth)
                     .and_then(|c| c.index(Channel::Label))
                     .expect("an .npy layout");
-                class_of(cell[label], k, path, what)?
+                class_of(cell[label], map, path, what)?
             }
             PredFormat::ScoreMap => {
                 if let Some(k) = cell.iter().position(|v| v.is_nan()) {
-                    return Err(Error::format(
-                        path,
-                        format!("{} score of class {k} is NaN", what()),
-                    ));
+                    return Err(Error::NotFinite {
+                        path: path.into(),
+                        what: format!("{}: the score of class {k}", what()),
+                        value: cell[k],
+                    });
                 }
                 // First maximum: ties go to the lower class id.
                 let mut best = 0;

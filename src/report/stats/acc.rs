@@ -73,16 +73,17 @@ impl Acc {
             for (j, &c) in inputs.iter().enumerate() {
                 let v = cell[c] as f64;
                 if !v.is_finite() {
-                    return Err(Error::format(
-                        &f.source,
-                        format!(
-                            "frame {}: channel {} is {v} at cell ({}, {}); statistics need finite inputs",
+                    return Err(Error::NotFinite {
+                        path: f.source.clone(),
+                        what: format!(
+                            "frame {}, cell ({}, {}): channel {}",
                             f.id,
-                            f.channels.0[c],
                             i / f.cols,
-                            i % f.cols
+                            i % f.cols,
+                            f.channels.0[c],
                         ),
-                    ));
+                        value: v,
+                    });
                 }
                 acc.sum[j] += v;
                 acc.sum_sq[j] += v * v;
