@@ -140,7 +140,7 @@ pub struct ScoreArgs {
     /// (cell: each point its cell's class; knn: RangeNet++'s post-processing, --knn-*); the
     /// table shows the cell (2D) and point (3D) figures side by side. Needs --raw.
     #[arg(long, value_enum, requires = "raw", value_name = "METHOD")]
-    pub unproject: Option<crate::commands::unproject::MethodArg>,
+    pub unproject: Option<kitti2pgm::project::unproject::MethodKind>,
     /// The kNN's parameters for --unproject knn.
     #[command(flatten)]
     pub knn: crate::commands::unproject::KnnArgs,

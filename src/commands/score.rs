@@ -10,8 +10,8 @@ use kitti2pgm::kitti::FrameId;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::project::unproject::Method;
 use kitti2pgm::report::score::{
-    predictions_without_truth, report, score, worst, Predictions, Protocol, ScoreOptions,
-    ScoreReport,
+    per_frame, predictions_without_truth, report, score, worst, Predictions, Protocol,
+    ScoreOptions, ScoreReport,
 };
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
@@ -19,8 +19,8 @@ use super::completeness;
 
 use super::{progress, Global};
 use crate::cli::ScoreArgs;
-use crate::commands::unproject::MethodArg;
 use crate::Outcome;
+use kitti2pgm::project::unproject::MethodKind;
 
 /// The frames to score: an ImageSet list, or an ImageSet folder's val.txt (what a model is
 /// evaluated on); `None` for every frame.
@@ -47,14 +47,14 @@ fn options(
     a: &ScoreArgs,
     gt: &GroundTruth,
     preds: &Predictions,
-) -> (ScoreOptions, Option<MethodArg>) {
+) -> (ScoreOptions, Option<MethodKind>) {
     let dataset = matches!(gt.source, kitti2pgm::report::truth::Source::Dataset(_));
     let sequence = gt
         .frames
         .iter()
         .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence);
     let by_default = sequence && a.raw.is_some() && !a.points && !preds.points && !dataset;
-    let unproject = a.unproject.or(by_default.then_some(MethodArg::Knn));
+    let unproject = a.unproject.or(by_default.then_some(MethodKind::Knn));
     let opts = ScoreOptions {
         protocol: if a.points || dataset || unproject.is_some() {
             Protocol::Points
@@ -86,7 +86,10 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         .install(|| score(&gt, only.as_ref(), &preds, &opts, &none, &|n| pb.inc(n)))
         .with_context(context)?;
     pb.finish_and_clear();
-    let mut rep = report(opts.protocol, &scores, map, a.per_frame);
+    let mut rep = report(opts.protocol, &scores, map);
+    if a.per_frame {
+        rep.per_frame = Some(per_frame(&scores, map));
+    }
     rep.predictions_without_truth = predictions_without_truth(&gt, &preds);
     if let Some(first) = rep.predictions_without_truth.first() {
         eprintln!(
@@ -104,7 +107,7 @@ pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
         let (cell_scores, _) = pool
             .install(|| score(&gt, only.as_ref(), &preds, &cells, &none, &|_| {}))
             .with_context(context)?;
-        let rep2d = report(Protocol::Cells, &cell_scores, map, false);
+        let rep2d = report(Protocol::Cells, &cell_scores, map);
         if a.json {
             let j = serde_json::json!({
                 "unproject": format!("{method:?}").to_lowercase(),

@@ -2,24 +2,15 @@
 
 use std::path::PathBuf;
 
-use clap::{Args as ClapArgs, ValueEnum};
+use clap::Args as ClapArgs;
 use kitti2pgm::format::imageset;
-use kitti2pgm::project::unproject::{KnnParams, Method};
+use kitti2pgm::project::unproject::{KnnParams, Method, MethodKind};
 use kitti2pgm::report::score::Predictions;
 use kitti2pgm::report::truth::GroundTruth;
 use kitti2pgm::report::unproject::{unproject_all, write_viz, UnprojectOptions, NOT_PREDICTED};
 
 use super::{completeness, progress, Global};
 use crate::Outcome;
-
-/// How a point gets its class from a map prediction.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MethodArg {
-    /// The class of the point's cell.
-    Cell,
-    /// RangeNet++'s kNN post-processing (its result point for point; --knn-* options).
-    Knn,
-}
 
 /// RangeNet++'s kNN parameters (defaults: the reference's).
 #[derive(Debug, Clone, ClapArgs)]
@@ -43,18 +34,15 @@ pub struct KnnArgs {
 }
 
 impl KnnArgs {
-    /// The method.
-    pub fn method(&self, m: MethodArg) -> Method {
-        match m {
-            MethodArg::Cell => Method::Cell,
-            MethodArg::Knn => Method::Knn(KnnParams {
-                k: self.knn_k,
-                window: self.knn_window,
-                sigma: self.knn_sigma,
-                cutoff: self.knn_cutoff,
-                wrap_columns: self.knn_wrap,
-            }),
-        }
+    /// The method, with these parameters for the kNN.
+    pub fn method(&self, m: MethodKind) -> Method {
+        m.with(KnnParams {
+            k: self.knn_k,
+            window: self.knn_window,
+            sigma: self.knn_sigma,
+            cutoff: self.knn_cutoff,
+            wrap_columns: self.knn_wrap,
+        })
     }
 }
 
@@ -77,8 +65,8 @@ pub struct UnprojectArgs {
     #[arg(long, short, value_name = "DIR")]
     pub out: PathBuf,
     /// How a point gets its class.
-    #[arg(long, value_enum, default_value_t = MethodArg::Knn)]
-    pub method: MethodArg,
+    #[arg(long, value_enum, default_value_t = MethodKind::Knn)]
+    pub method: MethodKind,
     /// The kNN's parameters.
     #[command(flatten)]
     pub knn: KnnArgs,

@@ -111,6 +111,41 @@ pub enum Method {
     Knn(KnnParams),
 }
 
+impl Method {
+    /// The method's name.
+    pub fn kind(&self) -> MethodKind {
+        match self {
+            Method::Cell => MethodKind::Cell,
+            Method::Knn(_) => MethodKind::Knn,
+        }
+    }
+}
+
+/// A [`Method`] by name, without its parameters (the CLI's and the Python module's choice).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MethodKind {
+    /// [`Method::Cell`].
+    Cell,
+    /// [`Method::Knn`].
+    Knn,
+}
+
+crate::named_enum!(MethodKind, "unprojection method", [
+    Cell => "cell" [] "The class of the point's cell",
+    Knn => "knn" [] "RangeNet++'s kNN post-processing (its result point for point)",
+]);
+
+impl MethodKind {
+    /// The method, with `knn`'s parameters for the kNN.
+    pub fn with(self, knn: KnnParams) -> Method {
+        match self {
+            MethodKind::Cell => Method::Cell,
+            MethodKind::Knn => Method::Knn(knn),
+        }
+    }
+}
+
 /// A scan in its map: where each point went, and the ranges the kNN compares.
 #[derive(Debug, Clone, Copy)]
 pub struct PointsInMap<'a> {

@@ -31,7 +31,7 @@ use crate::format::layout::OutputDir;
 use crate::kitti::velodyne::Scan;
 use crate::kitti::{FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
-use crate::project::unproject::{unproject, Method, PointsInMap};
+use crate::project::unproject::{unproject, Method, MethodKind, PointsInMap};
 use crate::project::{norm, project_with_point_cells};
 
 /// The class written (low 16 bits of a `.label` entry) for a point outside the map, in the
@@ -65,8 +65,8 @@ pub struct UnprojectFailure {
 /// What `unproject` did.
 #[derive(Debug, Clone, Serialize)]
 pub struct UnprojectSummary {
-    /// `cell` or `knn`.
-    pub method: String,
+    /// The method (`cell` or `knn` in JSON).
+    pub method: MethodKind,
     /// Frames written.
     pub frames: u64,
     /// Points written (every point of their scans).
@@ -207,10 +207,7 @@ pub fn unproject_all(
         .map(|f| (*f).clone())
         .collect();
     Ok(UnprojectSummary {
-        method: match opts.method {
-            Method::Cell => "cell".into(),
-            Method::Knn(_) => "knn".into(),
-        },
+        method: opts.method.kind(),
         frames: written.len() as u64,
         points: points.into_inner(),
         not_predicted: missing.into_inner(),

@@ -106,35 +106,23 @@ fn split_options_on_the_fixtures() {
     assert_eq!(lines("val"), vec!["2011_09_26_0052_0000000000"]);
     assert_eq!(lines("train").len(), 2);
     // A seeded random split is reproducible and keeps drives whole.
-    assert_eq!(
-        run_text(&[
+    let root = fixtures();
+    let random_split = || {
+        let args = [
             "split",
-            s(&fixtures()),
+            s(&root),
             "--out",
             s(&out),
             "--random-val",
             "0.3",
             "--seed",
-            "7"
-        ])
-        .0,
-        0
-    );
+            "7",
+        ];
+        assert_eq!(run_text(&args).0, 0);
+    };
+    random_split();
     let (train, val) = (lines("train"), lines("val"));
-    assert_eq!(
-        run_text(&[
-            "split",
-            s(&fixtures()),
-            "--out",
-            s(&out),
-            "--random-val",
-            "0.3",
-            "--seed",
-            "7"
-        ])
-        .0,
-        0
-    );
+    random_split();
     assert_eq!((lines("train"), lines("val")), (train.clone(), val.clone()));
     assert_eq!(train.len() + val.len(), 3);
     let drives = |v: &[String]| {

@@ -38,6 +38,30 @@ fn perfect_predictions(out: &Path, pred: &Path) {
     }
 }
 
+/// `kitti2pgm unproject --gt GT --pred PRED --raw RAW --out OUT EXTRA...`: exit status,
+/// stdout, stderr.
+fn unproject(
+    gt: &Path,
+    pred: &Path,
+    raw: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> (i32, String, String) {
+    let mut args = vec![
+        "unproject",
+        "--gt",
+        s(gt),
+        "--pred",
+        s(pred),
+        "--raw",
+        s(raw),
+        "--out",
+        s(out),
+    ];
+    args.extend_from_slice(extra);
+    run_text(&args)
+}
+
 #[test]
 fn cell_unprojection_of_the_truth_is_the_converters_labels_where_points_won() {
     let t = tmp();
@@ -46,20 +70,13 @@ fn cell_unprojection_of_the_truth_is_the_converters_labels_where_points_won() {
     let pred = t.path().join("pred");
     perfect_predictions(&out, &pred);
     let back = t.path().join("back");
-    let (code, stdout, e) = run_text(&[
-        "unproject",
-        "--gt",
-        s(&out),
-        "--pred",
-        s(&pred),
-        "--raw",
-        s(&fixtures()),
-        "--out",
-        s(&back),
-        "--method",
-        "cell",
-        "--json",
-    ]);
+    let (code, stdout, e) = unproject(
+        &out,
+        &pred,
+        &fixtures(),
+        &back,
+        &["--method", "cell", "--json"],
+    );
     assert_eq!(code, 0, "{e}");
     let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(j["frames"], 3);
@@ -106,17 +123,7 @@ fn semantickitti_predictions_score_the_same_through_every_path() {
     perfect_predictions(&out, &pred);
     let back = t.path().join("back");
     let sk = fixture("semantickitti");
-    let (code, _, e) = run_text(&[
-        "unproject",
-        "--gt",
-        s(&out),
-        "--pred",
-        s(&pred),
-        "--raw",
-        s(&sk),
-        "--out",
-        s(&back),
-    ]);
+    let (code, _, e) = unproject(&out, &pred, &sk, &back, &[]);
     assert_eq!(code, 0, "{e}");
     assert!(back.join("sequences/00/predictions/000000.label").is_file());
     // The written raw ids score against the dataset itself as score --unproject knn does.
@@ -223,17 +230,7 @@ fn bad_unprojection_inputs_are_named_and_leave_nothing_half_written() {
     let bytes = std::fs::read(&bin).unwrap();
     std::fs::write(&bin, &bytes[..bytes.len() - 16 * 10]).unwrap();
     let back = t.path().join("back");
-    let (code, _, e) = run_text(&[
-        "unproject",
-        "--gt",
-        s(&out),
-        "--pred",
-        s(&pred),
-        "--raw",
-        s(&raw),
-        "--out",
-        s(&back),
-    ]);
+    let (code, _, e) = unproject(&out, &pred, &raw, &back, &[]);
     assert_eq!(code, 1, "every frame failed: {e}");
     assert!(
         e.contains("2011_09_26_0001_0000000000.npy") && e.contains("is 64x256, expected 64x512"),
@@ -259,17 +256,7 @@ fn bad_unprojection_inputs_are_named_and_leave_nothing_half_written() {
         "nothing written: {leftovers:?}"
     );
     // Predictions for frames the ground truth does not hold.
-    let (code, _, e) = run_text(&[
-        "unproject",
-        "--gt",
-        s(&out),
-        "--pred",
-        s(&t.path().join("nowhere")),
-        "--raw",
-        s(&raw),
-        "--out",
-        s(&back),
-    ]);
+    let (code, _, e) = unproject(&out, &t.path().join("nowhere"), &raw, &back, &[]);
     assert_eq!(code, 1);
     assert!(e.contains("nowhere"), "{e}");
 }
@@ -299,19 +286,7 @@ fn per_point_predictions_are_drawn_and_go_to_foxglove() {
     perfect_predictions(&out, &pred);
     let back = t.path().join("back");
     let viz = t.path().join("viz.mcap");
-    let (code, stdout, e) = run_text(&[
-        "unproject",
-        "--gt",
-        s(&out),
-        "--pred",
-        s(&pred),
-        "--raw",
-        s(&sk),
-        "--out",
-        s(&back),
-        "--viz",
-        s(&viz),
-    ]);
+    let (code, stdout, e) = unproject(&out, &pred, &sk, &back, &["--viz", s(&viz)]);
     assert_eq!(code, 0, "{e}");
     assert!(stdout.contains("viz"), "{stdout}");
     // One point cloud: every point in the map, wrong ones in red (class 20).
@@ -378,18 +353,7 @@ fn semantickitti_map_predictions_score_per_point_by_default_with_every_point() {
     );
     let back = t.path().join("back");
     let (code, j, e) = {
-        let (c, o, e) = run_text(&[
-            "unproject",
-            "--gt",
-            s(&out),
-            "--pred",
-            s(&pred),
-            "--raw",
-            s(&sk),
-            "--out",
-            s(&back),
-            "--json",
-        ]);
+        let (c, o, e) = unproject(&out, &pred, &sk, &back, &["--json"]);
         (
             c,
             serde_json::from_str::<serde_json::Value>(&o).unwrap_or_default(),
@@ -409,17 +373,7 @@ fn semantickitti_map_predictions_score_per_point_by_default_with_every_point() {
     // A prediction for a frame the ground truth does not hold is named.
     let extra = pred.join("00_000007.npy");
     std::fs::copy(pred.join("00_000000.npy"), &extra).unwrap();
-    let (code, _, e) = run_text(&[
-        "unproject",
-        "--gt",
-        s(&out),
-        "--pred",
-        s(&pred),
-        "--raw",
-        s(&sk),
-        "--out",
-        s(&t.path().join("b2")),
-    ]);
+    let (code, _, e) = unproject(&out, &pred, &sk, &t.path().join("b2"), &[]);
     assert_eq!(code, 3, "{e}");
     assert!(
         e.contains("00_000007.npy") && e.contains("not in the ground truth"),

@@ -58,7 +58,7 @@ def test_every_block_is_run_or_says_why_not():
 def _binary():
     env = os.environ.get("KITTI2PGM_BIN")
     if env:
-        return env
+        return os.path.abspath(env)  # a relative path would not hold inside the symlink
     p = REPO / "target" / "debug" / "kitti2pgm"
     if not p.exists():
         subprocess.run(["cargo", "build", "--quiet"], cwd=REPO, check=True)

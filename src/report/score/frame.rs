@@ -114,15 +114,15 @@ fn predicted_cells(
 }
 
 /// Scores one frame against its ground truth (`u8::MAX` in empty cells); the point protocol
-/// reads the `.label` files of the ground truth's convert folder.
+/// reads the `.label` files of the ground truth's convert folder. The frame's truth and
+/// predicted label maps come back with the score.
 pub fn score_frame(
     gt: &GroundTruth,
     id: &FrameId,
     truth: Vec<u8>,
     preds: &Predictions,
     opts: &ScoreOptions,
-    want_maps: bool,
-) -> Result<(FrameScore, Option<FrameMaps>)> {
+) -> Result<(FrameScore, FrameMaps)> {
     let map = &gt.params.class_map;
     let missing = !preds.files.contains_key(id) && !preds.in_shard.contains_key(id);
     if missing && !opts.missing_as_background {
@@ -150,10 +150,10 @@ pub fn score_frame(
         }
         Protocol::Points => count_points(&mut c, gt, id, preds, opts, &scan, &pred_cells)?,
     }
-    let maps = want_maps.then_some(FrameMaps {
+    let maps = FrameMaps {
         truth,
         pred: pred_cells,
-    });
+    };
     Ok((
         FrameScore {
             id: id.clone(),

@@ -149,13 +149,9 @@ impl FramePerf {
     }
 }
 
-/// Builds the report from the per-frame scores.
-pub fn report(
-    protocol: Protocol,
-    frames: &[FrameScore],
-    map: &ClassMap,
-    per_frame: bool,
-) -> ScoreReport {
+/// Builds the report from the per-frame scores (without the per-frame table: see
+/// [`per_frame`]).
+pub fn report(protocol: Protocol, frames: &[FrameScore], map: &ClassMap) -> ScoreReport {
     let mut total = Confusion::new(map.len());
     for f in frames {
         total.add(&f.confusion);
@@ -186,8 +182,13 @@ pub fn report(
         accuracy: total.accuracy(),
         confusion: total,
         predictions_without_truth: Vec::new(),
-        per_frame: per_frame.then(|| frames.iter().map(|f| FramePerf::new(f, map)).collect()),
+        per_frame: None,
     }
+}
+
+/// The per-frame table of a report ([`ScoreReport::per_frame`]).
+pub fn per_frame(frames: &[FrameScore], map: &ClassMap) -> Vec<FramePerf> {
+    frames.iter().map(|f| FramePerf::new(f, map)).collect()
 }
 
 /// Scores the frames of the ground truth (those of `only` when given), in parallel; results
@@ -207,8 +208,8 @@ pub fn score(
     let per_frame = gt.map_frames(
         only,
         &|f| {
-            let want = maps_for.contains(&f.id);
-            score_frame(gt, &f.id, f.truth(), preds, opts, want)
+            let (score, maps) = score_frame(gt, &f.id, f.truth(), preds, opts)?;
+            Ok((score, maps_for.contains(&f.id).then_some(maps)))
         },
         progress,
     )?;

@@ -66,8 +66,10 @@ pub(crate) fn named<T: std::str::FromStr<Err = kitti2pgm::Error>>(
     value: &str,
 ) -> PyResult<T> {
     value.parse().map_err(|e: kitti2pgm::Error| {
-        let e = e.to_string();
-        let names = e.strip_prefix("invalid option: ").unwrap_or(&e);
+        let names = match e {
+            kitti2pgm::Error::Config(names) => names,
+            other => other.to_string(),
+        };
         PyValueError::new_err(format!("{arg} must be a known name: {names}"))
     })
 }
@@ -210,29 +212,21 @@ fn unproject<'py>(
     cutoff: f32,
     wrap_columns: bool,
 ) -> PyResult<Bound<'py, PyArray1<i16>>> {
-    use kitti2pgm::project::unproject::{unproject as run, KnnParams, Method, PointsInMap};
+    use kitti2pgm::project::unproject::{unproject as run, KnnParams, MethodKind, PointsInMap};
     let (pred, h, w) = arrays::grid_arg::<u8>(pred, "pred")?;
     let (pts, _) = points_arg(points, "points", false)?;
     let n = pts.len();
     let row = vec_arg::<i32>(row, "row", n)?;
     let col = vec_arg::<i32>(col, "col", n)?;
-    let method = match method {
-        "cell" => Method::Cell,
-        "knn" => Method::Knn(KnnParams {
-            k,
-            window,
-            sigma,
-            cutoff,
-            wrap_columns,
-        }),
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "method must be 'cell' or 'knn', not {other:?}"
-            )))
-        }
-    };
-    let cell_range = match (cell_range, &method) {
-        (Some(c), _) => {
+    let method = named::<MethodKind>("method", method)?.with(KnnParams {
+        k,
+        window,
+        sigma,
+        cutoff,
+        wrap_columns,
+    });
+    let cell_range = match cell_range {
+        Some(c) => {
             let (v, ch, cw) = arrays::grid_arg::<f32>(c, "cell_range")?;
             if (ch, cw) != (h, w) {
                 return Err(PyValueError::new_err(format!(
@@ -241,28 +235,14 @@ fn unproject<'py>(
             }
             v
         }
-        (None, Method::Knn(_)) => {
+        None if method.kind() == MethodKind::Knn => {
             return Err(PyValueError::new_err(
                 "method 'knn' needs cell_range: the map's range channel (m['map'][..., 4])",
             ))
         }
-        (None, Method::Cell) => vec![0.0; h * w],
+        None => vec![0.0; h * w],
     };
-    let mut point_cell = Vec::with_capacity(n);
-    for i in 0..n {
-        let (r, c) = (row[i], col[i]);
-        point_cell.push(match (r, c) {
-            (-1, -1) => EMPTY,
-            (r, c) if r >= 0 && c >= 0 && (r as usize) < h && (c as usize) < w => {
-                (r as usize * w + c as usize) as u32
-            }
-            _ => {
-                return Err(PyValueError::new_err(format!(
-                    "point {i} is in cell ({r}, {c}), outside the {h}x{w} prediction"
-                )))
-            }
-        });
-    }
+    let point_cell = point_cells_arg(&row, &col, (h, w))?;
     let classes = readers::class_map_of(class_map)?;
     let labels = py
         .detach(|| {
@@ -282,6 +262,24 @@ fn unproject<'py>(
         .map(|l| l.map_or(-1, i16::from))
         .collect();
     Ok(PyArray1::from_vec(py, out))
+}
+
+/// The cell (`row * w + col`) of every point from `project`'s row and col arrays (-1, -1:
+/// outside the map); an error for a cell outside the `h x w` prediction.
+fn point_cells_arg(row: &[i32], col: &[i32], (h, w): (usize, usize)) -> PyResult<Vec<u32>> {
+    row.iter()
+        .zip(col)
+        .enumerate()
+        .map(|(i, (&r, &c))| match (r, c) {
+            (-1, -1) => Ok(EMPTY),
+            (r, c) if r >= 0 && c >= 0 && (r as usize) < h && (c as usize) < w => {
+                Ok((r as usize * w + c as usize) as u32)
+            }
+            _ => Err(PyValueError::new_err(format!(
+                "point {i} is in cell ({r}, {c}), outside the {h}x{w} prediction"
+            ))),
+        })
+        .collect()
 }
 
 /// The dict `project` returns; every array takes over its Rust buffer.
