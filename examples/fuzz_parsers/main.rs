@@ -101,7 +101,7 @@ fn main() {
             |b, p| {
                 let f = via_file(b, p, "m.npy");
                 if let Ok(m) = pgm::read(&f) {
-                    let _ = m.labels_and_mask(&ClassMap::kitti_paper(), &f);
+                    let _ = m.into_frame(&ClassMap::kitti_paper(), &f);
                 }
             },
         ),

@@ -17,13 +17,14 @@ const GAP: u32 = 4;
 
 /// Renders a frame to a stacked preview picture (range, intensity, colour when present,
 /// labels), labels in the colours of `classes`.
-pub fn render(map: &MapFrame, classes: &ClassMap) -> Result<RgbImage> {
+pub fn render(frame: &MapFrame, classes: &ClassMap) -> Result<RgbImage> {
+    let map = &frame.map;
     let (h, w, c) = (map.rows, map.cols, map.channels.len());
-    let data = &map.tensor;
+    let data = &map.data;
     let ch = |name: Channel| {
         map.channels
             .index(name)
-            .ok_or_else(|| Error::Config(format!("frame {} has no {name} channel to draw", map.id)))
+            .ok_or_else(|| Error::Config(format!("frame {} has no {name} channel to draw", frame.id)))
     };
     let (range, intensity) = (ch(Channel::Range)?, ch(Channel::Intensity)?);
     let rgb_at = map.channels.index(Channel::R);

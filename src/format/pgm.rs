@@ -78,9 +78,31 @@ impl PgmFile {
         &self.data[i * d..(i + 1) * d]
     }
 
+    /// The converted frame this map holds: labels checked against `map`, the mask where
+    /// range > 0, colour valid where any of r, g, b is above 0; no instances (a `.npy` holds
+    /// none). `path` names the file in errors.
+    pub fn into_frame(self, map: &ClassMap, path: &Path) -> Result<PgmFrame> {
+        let (label, mask) = self.labels_and_mask(map, path)?;
+        let rgb_valid = self.channels.index(Channel::R).map(|r| {
+            (0..self.cells())
+                .map(|i| self.cell(i)[r..r + 3].iter().any(|v| *v > 0.0) as u8)
+                .collect()
+        });
+        Ok(PgmFrame {
+            rows: self.rows,
+            cols: self.cols,
+            instance: vec![0; self.cells()],
+            channels: self.channels,
+            data: self.data,
+            label,
+            mask,
+            rgb_valid,
+        })
+    }
+
     /// The label and mask of every cell: mask 1 where range > 0; the label of a masked cell
     /// checked to be a class of `map` (0 in empty cells). `path` names the file in errors.
-    pub fn labels_and_mask(&self, map: &ClassMap, path: &Path) -> Result<(Vec<ClassId>, Vec<u8>)> {
+    fn labels_and_mask(&self, map: &ClassMap, path: &Path) -> Result<(Vec<ClassId>, Vec<u8>)> {
         let range = self.channels.index(Channel::Range).expect("an .npy layout");
         let label = self.channels.index(Channel::Label).expect("an .npy layout");
         let mut labels = vec![0 as ClassId; self.cells()];

@@ -40,6 +40,11 @@ impl PgmFrame {
         self.channels.len()
     }
 
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.rows * self.cols
+    }
+
     /// Valid cells per class among `n` classes.
     pub fn class_cells(&self, n: usize) -> ClassCounts {
         let valid = self.label.iter().zip(&self.mask).filter(|(_, m)| **m != 0);

@@ -18,10 +18,10 @@ use crate::format::pgm::{self, PgmFile};
 use crate::format::shard::{Shard, ShardKind};
 use crate::format::summary;
 use crate::kitti::{discover_as, Drive, FrameId, Layout};
-use crate::label::{ClassId, ClassMap};
+use crate::label::ClassMap;
 use crate::params::MapParams;
 use crate::project::camera::{RgbOptions, Sampling};
-use crate::project::{Channel, Channels};
+use crate::project::PgmFrame;
 
 pub use super::completeness::Completeness;
 
@@ -66,65 +66,35 @@ pub struct GroundTruth {
     pub partial: Option<String>,
 }
 
-/// One ground-truth frame, from a `.npy` or a shard.
+/// One ground-truth frame, from a `.npy` or a shard: the map and where it was read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MapFrame {
     /// The frame.
     pub id: FrameId,
     /// The file it was read from (its `.npy` or its shard).
     pub source: PathBuf,
-    /// Rows.
-    pub rows: usize,
-    /// Columns.
-    pub cols: usize,
-    /// Channel of each plane of `tensor` (with or without `label`).
-    pub channels: Channels,
-    /// H x W x C float32, row-major.
-    pub tensor: Vec<f32>,
-    /// Class per cell (0 where the mask is 0).
-    pub label: Vec<ClassId>,
-    /// 1 where the cell holds a point.
-    pub mask: Vec<u8>,
-    /// 1 where the cell has a colour (maps with colour only).
-    pub rgb_valid: Option<Vec<u8>>,
+    /// The map.
+    pub map: PgmFrame,
 }
 
 impl MapFrame {
-    /// Number of cells.
-    pub fn cells(&self) -> usize {
-        self.rows * self.cols
-    }
-
     /// The class of each cell, `u8::MAX` where the mask is 0.
     pub fn truth(&self) -> Vec<u8> {
-        self.label
+        let m = &self.map;
+        m.label
             .iter()
-            .zip(&self.mask)
+            .zip(&m.mask)
             .map(|(l, m)| if *m != 0 { *l } else { u8::MAX })
             .collect()
     }
-}
 
-impl MapFrame {
-    /// The frame of a map read from `path`: labels checked against `map`, the mask where
-    /// range > 0, colour valid where any of r, g, b is above 0.
-    pub fn from_pgm(id: FrameId, f: PgmFile, map: &ClassMap, path: &Path) -> Result<MapFrame> {
-        let (label, mask) = f.labels_and_mask(map, path)?;
-        let rgb_valid = f.channels.index(Channel::R).map(|r| {
-            (0..f.cells())
-                .map(|i| f.cell(i)[r..r + 3].iter().any(|v| *v > 0.0) as u8)
-                .collect()
-        });
+    /// The frame of a map read from `path`, labels checked against `classes`
+    /// ([`PgmFile::into_frame`]).
+    pub fn from_pgm(id: FrameId, f: PgmFile, classes: &ClassMap, path: &Path) -> Result<MapFrame> {
         Ok(MapFrame {
             id,
             source: path.to_path_buf(),
-            rows: f.rows,
-            cols: f.cols,
-            channels: f.channels,
-            tensor: f.data,
-            label,
-            mask,
-            rgb_valid,
+            map: f.into_frame(classes, path)?,
         })
     }
 }
@@ -451,15 +421,9 @@ impl GroundTruth {
                 }
             }
             let frame = MapFrame {
-                rows: spec.rows,
-                cols: spec.cols,
-                channels: msg.tensor_channels(path)?,
-                tensor: msg.tensor_f32(),
-                rgb_valid: (!msg.rgb_valid.is_empty()).then_some(msg.rgb_valid),
-                label: msg.label,
-                mask: msg.mask,
                 id: id.clone(),
                 source: path.to_path_buf(),
+                map: msg.into_frame(path)?,
             };
             out.push((id, f(frame)?));
             progress(1);

@@ -51,7 +51,7 @@ fn shards_hold_exactly_the_npy_frames() {
             f.channels,
             ["x", "y", "z", "intensity", "range", "r", "g", "b"]
         );
-        let tensor = f.tensor_f32();
+        let tensor = f.clone().into_frame(Path::new("shard")).unwrap().data;
         for (cell, (n, s8)) in npy.chunks_exact(9).zip(tensor.chunks_exact(8)).enumerate() {
             let expect: Vec<u32> = [0, 1, 2, 3, 4, 6, 7, 8]
                 .iter()

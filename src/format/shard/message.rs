@@ -112,12 +112,24 @@ impl FrameMsg {
         Ok(())
     }
 
-    /// The tensor as float32 values.
-    pub fn tensor_f32(&self) -> Vec<f32> {
-        self.tensor
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect()
+    /// The converted frame this message holds (a map message, [`FrameMsg::validate`]d);
+    /// `path` names the shard in errors.
+    pub fn into_frame(self, path: &Path) -> Result<PgmFrame> {
+        let le = |c: &[u8]| [c[0], c[1], c[2], c[3]];
+        Ok(PgmFrame {
+            rows: self.height as usize,
+            cols: self.width as usize,
+            channels: self.tensor_channels(path)?,
+            data: self.tensor.chunks_exact(4).map(|c| f32::from_le_bytes(le(c))).collect(),
+            instance: self
+                .instance
+                .chunks_exact(2)
+                .map(|c| u16::from_le_bytes([c[0], c[1]]))
+                .collect(),
+            rgb_valid: (!self.rgb_valid.is_empty()).then_some(self.rgb_valid),
+            label: self.label,
+            mask: self.mask,
+        })
     }
 }
 #[cfg(test)]

@@ -53,23 +53,24 @@ impl Acc {
 
     /// The sums of one frame; its points from the `.label` file in `dir`, when there is one.
     pub fn of_frame(f: &MapFrame, map: &ClassMap, dir: Option<&OutputDir>) -> Result<Acc> {
-        let depth = f.channels.len();
-        let inputs: Vec<usize> = f
+        let m = &f.map;
+        let depth = m.channels.len();
+        let inputs: Vec<usize> = m
             .channels
             .inputs()
             .0
             .iter()
-            .map(|c| f.channels.index(*c).expect("an input of the frame"))
+            .map(|c| m.channels.index(*c).expect("an input of the frame"))
             .collect();
-        let mut acc = Acc::new(f.rows, map.len(), inputs.len());
+        let mut acc = Acc::new(m.rows, map.len(), inputs.len());
         acc.frames = 1;
-        for i in 0..f.cells() {
-            if f.mask[i] == 0 {
+        for i in 0..m.cells() {
+            if m.mask[i] == 0 {
                 continue;
             }
-            acc.cells.0[f.label[i] as usize] += 1;
-            acc.row_filled[i / f.cols] += 1;
-            let cell = &f.tensor[i * depth..(i + 1) * depth];
+            acc.cells.0[m.label[i] as usize] += 1;
+            acc.row_filled[i / m.cols] += 1;
+            let cell = &m.data[i * depth..(i + 1) * depth];
             for (j, &c) in inputs.iter().enumerate() {
                 let v = cell[c] as f64;
                 if !v.is_finite() {
@@ -78,9 +79,9 @@ impl Acc {
                         what: format!(
                             "frame {}, cell ({}, {}): channel {}",
                             f.id,
-                            i / f.cols,
-                            i % f.cols,
-                            f.channels.0[c],
+                            i / m.cols,
+                            i % m.cols,
+                            m.channels.0[c],
                         ),
                         value: v,
                     });
@@ -88,7 +89,7 @@ impl Acc {
                 acc.sum[j] += v;
                 acc.sum_sq[j] += v * v;
             }
-            if f.rgb_valid.as_ref().is_some_and(|v| v[i] != 0) {
+            if m.rgb_valid.as_ref().is_some_and(|v| v[i] != 0) {
                 acc.rgb_cells += 1;
             }
         }
