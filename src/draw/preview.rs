@@ -22,9 +22,9 @@ pub fn render(frame: &MapFrame, classes: &ClassMap) -> Result<RgbImage> {
     let (h, w, c) = (map.rows, map.cols, map.channels.len());
     let data = &map.data;
     let ch = |name: Channel| {
-        map.channels
-            .index(name)
-            .ok_or_else(|| Error::Config(format!("frame {} has no {name} channel to draw", frame.id)))
+        map.channels.index(name).ok_or_else(|| {
+            Error::Config(format!("frame {} has no {name} channel to draw", frame.id))
+        })
     };
     let (range, intensity) = (ch(Channel::Range)?, ch(Channel::Intensity)?);
     let rgb_at = map.channels.index(Channel::R);

@@ -81,10 +81,9 @@ fn stale_shards_are_removed() {
         assert_eq!(names, ["train-00000.mcap"], "{format}");
     }
     convert_fixtures(&out, &["--format", "mcap", "--shard-frames", "3"]);
-    let (code, stdout, e) = run_text(&["stats", s(&out), "--json"]);
-    assert_eq!(code, 0, "{e}");
-    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    assert_eq!(j["splits"]["all"]["frames"], 3, "{j}");
+    let gt = kitti2pgm::report::truth::GroundTruth::open(&out).unwrap();
+    let st = kitti2pgm::report::stats::stats(&gt, &[], None, &|_| {}).unwrap();
+    assert_eq!(st.splits["all"].frames, 3);
     // A shard of another conversion copied in: refused, both shards named.
     let other = t.path().join("other");
     convert_fixtures(&other, &["--format", "mcap", "--shard-frames", "1"]);
@@ -292,10 +291,11 @@ fn reflectance_out_of_range_never_reaches_the_maps() {
     let (code, j, e) = convert_json(&raw, &out, &[]);
     assert_eq!(code, 0, "{e}");
     assert_eq!(j["dropped_out_of_range"], 2, "{j}");
-    let (code, stdout, e) = run_text(&["stats", s(&out), "--json"]);
-    assert_eq!(code, 0, "{e}");
-    let st: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    let mean = st["normalisation"]["mean"][3].as_f64().unwrap();
+    let gt = kitti2pgm::report::truth::GroundTruth::open(&out).unwrap();
+    let st = kitti2pgm::report::stats::stats(&gt, &[], None, &|_| {}).unwrap();
+    let norm = &st.normalisation;
+    assert_eq!(norm.channels[3], "intensity");
+    let mean = norm.mean[3];
     assert!((0.0..=1.0).contains(&mean), "intensity mean {mean}");
     // The two points are dropped: their .label entries are 0 and the rest line up.
     let labels =

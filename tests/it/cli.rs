@@ -198,3 +198,35 @@ fn help_explains_the_commands() {
     }
     assert_eq!(run_text(&["convert"]).0, 2, "usage errors exit 2");
 }
+
+/// The in-process conversion the other tests use as a shortcut writes what the binary writes,
+/// byte for byte (the summary's timing aside).
+#[test]
+fn in_process_conversion_is_the_binarys() {
+    let t = tmp();
+    let (cli, lib) = (t.path().join("cli"), t.path().join("lib"));
+    let (code, _, e) = run_text(&["convert", s(&fixtures()), "--out", s(&cli), "--no-progress"]);
+    assert_eq!(code, 0, "{e}");
+    convert_fixtures_in_process(&lib);
+    let strip = |tree: Vec<(String, Vec<u8>)>| -> Vec<(String, Vec<u8>)> {
+        tree.into_iter()
+            .map(|(p, b)| {
+                if p.ends_with(".json") {
+                    let mut j: serde_json::Value = serde_json::from_slice(&b).unwrap();
+                    j.as_object_mut().unwrap().remove("seconds");
+                    (p, j.to_string().into_bytes())
+                } else {
+                    (p, b)
+                }
+            })
+            .collect()
+    };
+    let (a, b) = (strip(tree_bytes(&cli)), strip(tree_bytes(&lib)));
+    assert_eq!(
+        a.iter().map(|(p, _)| p).collect::<Vec<_>>(),
+        b.iter().map(|(p, _)| p).collect::<Vec<_>>()
+    );
+    for ((p, x), (_, y)) in a.iter().zip(&b) {
+        assert!(x == y, "{p} differs: {}", String::from_utf8_lossy(y));
+    }
+}

@@ -133,8 +133,28 @@ pub fn tree_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
     out
 }
 
-/// Converts the fixtures into `out` with `extra` options; panics with stderr on failure.
+/// The default conversion of the fixtures into `out` (SqueezeSeg's map, `.npy` and `.label`),
+/// through the library: what `kitti2pgm convert fixtures/raw --out OUT` writes, without a process.
+pub fn convert_fixtures_in_process(out: &Path) -> kitti2pgm::format::summary::ConvertSummary {
+    use kitti2pgm::convert::{convert, ConvertOptions};
+    use kitti2pgm::plan::{FrameSelection, Plan};
+    let plan = Plan::build_as(&fixtures(), FrameSelection::Annotated, None).unwrap();
+    let opts = ConvertOptions {
+        map_origin: "preset squeezeseg (the default for KITTI raw)".into(),
+        ..ConvertOptions::new(out)
+    };
+    let summary = convert(&plan, &opts, &|_| {}).unwrap();
+    assert!(!summary.has_failures(), "{:?}", summary.failures);
+    summary
+}
+
+/// Converts the fixtures into `out` with `extra` options; panics with stderr on failure. The
+/// default conversion (no options) runs in process.
 pub fn convert_fixtures(out: &Path, extra: &[&str]) {
+    if extra.is_empty() {
+        convert_fixtures_in_process(out);
+        return;
+    }
     let raw = fixtures();
     let mut args = vec!["convert", s(&raw), "--out", s(out), "--no-progress"];
     args.extend_from_slice(extra);

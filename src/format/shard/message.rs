@@ -120,7 +120,11 @@ impl FrameMsg {
             rows: self.height as usize,
             cols: self.width as usize,
             channels: self.tensor_channels(path)?,
-            data: self.tensor.chunks_exact(4).map(|c| f32::from_le_bytes(le(c))).collect(),
+            data: self
+                .tensor
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes(le(c)))
+                .collect(),
             instance: self
                 .instance
                 .chunks_exact(2)
