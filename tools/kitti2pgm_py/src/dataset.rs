@@ -223,6 +223,7 @@ impl Dataset {
     /// with the same map keywords; load + project in one call.
     #[pyo3(signature = (frame, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode="rings"),
         text_signature = "(self, frame, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings')")]
+    // One Rust argument per Python keyword: the signature is the Python API.
     #[allow(clippy::too_many_arguments)]
     fn project<'py>(
         &self,

@@ -106,6 +106,7 @@ fn rings<'py>(
     rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0, point_cells=true, rgb=None,
     rgb_valid=None),
     text_signature = "(points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings', rings=None, labels=None, instance=None, colours=None, colour_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True, rgb=None, rgb_valid=None)")]
+// One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
     py: Python<'py>,
@@ -196,6 +197,7 @@ fn project<'py>(
 #[pyfunction]
 #[pyo3(signature = (pred, row, col, points, cell_range=None, *, method="cell", class_map="semantic-kitti",
     k=5, window=5, sigma=1.0, cutoff=1.0, wrap_columns=false))]
+// One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
 fn unproject<'py>(
     py: Python<'py>,
