@@ -215,13 +215,34 @@ def train_step(forward, opt, batch: dict, lr: float, weight, device, memory, amp
     return loss.detach().item()
 
 
+def _start_processes(cfg: TrainConfig):
+    """(rank, world, local rank) and this process's device; joins the process group when there
+    are several processes (torchrun)."""
+    dist = dist_info()
+    if dist[1] > 1:
+        torch.distributed.init_process_group("nccl" if torch.cuda.is_available() and cfg.device != "cpu" else "gloo")
+    return dist, pick_device(cfg.device, dist[2])
+
+
+def _restore(ckpt_path: str, net, opt, device) -> dict:
+    """Loads the checkpoint into the model and the optimiser, restores the RNG; returns it."""
+    ck = torch.load(ckpt_path, map_location=device, weights_only=False)
+    net.load_state_dict(ck["model"])
+    opt.load_state_dict(ck["optimizer"])
+    torch.set_rng_state(ck["torch_rng"])
+    return ck
+
+
+def _validation_frames(cfg: TrainConfig, td):
+    """The validation frames: ``cfg.val_shards``, or the val split of the training shards."""
+    paths = find_shards(cfg.val_shards or cfg.shards, None if cfg.val_shards else "val")
+    return open_frames(paths, cfg.input, td.norm)
+
+
 def train(cfg: TrainConfig) -> dict:
     """Trains as ``cfg`` says (a new run, or ``cfg.resume``); returns the last step and loss."""
-    dist = dist_info()
-    rank, world, local_rank = dist
-    if world > 1:
-        torch.distributed.init_process_group("nccl" if torch.cuda.is_available() and cfg.device != "cpu" else "gloo")
-    device = pick_device(cfg.device, local_rank)
+    dist, device = _start_processes(cfg)
+    rank, world, _ = dist
     run, ckpt_path = cfg.out, os.path.join(cfg.out, "checkpoint.pt")
     if cfg.tensorboard:
         import importlib.util
@@ -242,21 +263,15 @@ def train(cfg: TrainConfig) -> dict:
     opt = torch.optim.SGD(model.parameters(), lr=cfg.lr, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
     start, best, ck = 0, float("-inf"), None
     if resume:
-        ck = torch.load(ckpt_path, map_location=device, weights_only=False)
-        net.load_state_dict(ck["model"])
-        opt.load_state_dict(ck["optimizer"])
+        ck = _restore(ckpt_path, net, opt, device)
         start = ck["step"]
-        torch.set_rng_state(ck["torch_rng"])
     elif rank == 0:
         write_config(cfg, td, world, {"amp_bf16": amp, "channels_last": channels_last, "compile": cfg.compile,
                                       "data_on_device": on_device})
     weight = torch.tensor(td.weights, dtype=torch.float32, device=device)
-    val_data = None
-    if cfg.val_every and rank == 0:
-        val_paths = find_shards(cfg.val_shards or cfg.shards, None if cfg.val_shards else "val")
-        val_data = open_frames(val_paths, cfg.input, td.norm)
-        if ck:
-            best = ck.get("best_miou", best)
+    val_data = _validation_frames(cfg, td) if cfg.val_every and rank == 0 else None
+    if val_data is not None and ck:
+        best = ck.get("best_miou", best)
     logs = Logs(cfg, td.classes, rank, val_data is not None)
     model.train()
     if rank == 0:
