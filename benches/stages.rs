@@ -10,8 +10,8 @@ use std::sync::Arc;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use kitti2pgm::convert::labels::FrameLabels;
 use kitti2pgm::convert::{convert_frame, process, ConvertOptions};
-use kitti2pgm::format::atomic_write;
 use kitti2pgm::format::npy::encode_f32;
+use kitti2pgm::format::{atomic_write, Durability};
 use kitti2pgm::kitti::calib::Calibration;
 use kitti2pgm::kitti::camera::read_image;
 use kitti2pgm::kitti::velodyne::Scan;
@@ -95,7 +95,7 @@ fn stages(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
     let target = dir.path().join("x.npy");
     g.bench_function("atomic_write_npy_9ch", |b| {
-        b.iter(|| atomic_write(&target, &bytes, false).unwrap())
+        b.iter(|| atomic_write(&target, &bytes, Durability::Renamed).unwrap())
     });
     g.bench_function("plain_write_npy_9ch", |b| {
         b.iter(|| std::fs::write(&target, &bytes).unwrap())

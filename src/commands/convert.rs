@@ -132,7 +132,7 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         out: OutputDir::new(&a.out),
         params: a.params(a.class_map(&plan)?, plan.layout())?,
         threads: g.threads,
-        sync: a.sync,
+        durability: super::durability(a.sync),
         overwrite: a.overwrite,
         map_origin: a.map_origin(plan.layout()),
     };

@@ -64,6 +64,15 @@ pub struct Global {
     pub progress: bool,
 }
 
+/// The durability `--sync` asks for.
+pub fn durability(sync: bool) -> kitti2pgm::format::Durability {
+    if sync {
+        kitti2pgm::format::Durability::Synced
+    } else {
+        kitti2pgm::format::Durability::Renamed
+    }
+}
+
 /// The readers' rule for an unfinished conversion, from `--partial`.
 pub fn completeness(partial: bool) -> kitti2pgm::report::truth::Completeness {
     use kitti2pgm::report::truth::Completeness;

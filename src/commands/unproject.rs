@@ -9,7 +9,7 @@ use kitti2pgm::report::score::Predictions;
 use kitti2pgm::report::truth::GroundTruth;
 use kitti2pgm::report::unproject::{unproject_all, write_viz, UnprojectOptions, NOT_PREDICTED};
 
-use super::{completeness, progress, Global};
+use super::{completeness, durability, progress, Global};
 use crate::Outcome;
 
 /// RangeNet++'s kNN parameters (defaults: the reference's).
@@ -111,7 +111,7 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
         raw: a.raw.clone(),
         out: a.out.clone(),
         only,
-        sync: a.sync,
+        durability: durability(a.sync),
     };
     let total = opts.only.as_ref().map_or(gt.frames.len(), |o| o.len());
     let pb = progress::bar(total as u64, g.progress, "unprojecting");

@@ -253,11 +253,11 @@ pub fn write_frame_files(
 ) -> Result<()> {
     let id = dp.drive.frame_id(frame);
     if opts.params.npy {
-        pgm::write(&opts.out.npy_path(&id), &out.pgm, opts.sync)?;
+        pgm::write(&opts.out.npy_path(&id), &out.pgm, opts.durability)?;
     }
     if opts.params.labels {
         let bytes = label_file::encode(&out.point_class, &out.point_instance);
-        crate::format::atomic_write(&opts.out.label_path(&id), &bytes, opts.sync)?;
+        crate::format::atomic_write(&opts.out.label_path(&id), &bytes, opts.durability)?;
     }
     Ok(())
 }

@@ -20,9 +20,9 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::format::create_dir;
 use crate::format::layout::OutputDir;
 use crate::format::summary::{self, ConvertSummary};
+use crate::format::{create_dir, Durability};
 use crate::label::ClassCounts;
 use crate::params::ConvertParams;
 use crate::plan::{Failed, SkipReason};
@@ -38,8 +38,9 @@ pub struct ConvertOptions {
     pub params: ConvertParams,
     /// Worker threads; 0 = one per core, 1 = sequential.
     pub threads: usize,
-    /// Flush every file to the device before it is renamed into place (survives power cuts).
-    pub sync: bool,
+    /// Whether every file is flushed to the device before it is renamed into place (to survive
+    /// power cuts).
+    pub durability: Durability,
     /// Convert every frame again, even those an earlier run with the same parameters finished.
     pub overwrite: bool,
     /// How the map was chosen, in words, for the summary (`preset full (the default for
@@ -54,7 +55,7 @@ impl ConvertOptions {
             out: OutputDir::new(out_dir),
             params: ConvertParams::squeezeseg(),
             threads: 0,
-            sync: false,
+            durability: Durability::Renamed,
             overwrite: false,
             map_origin: String::new(),
         }
@@ -301,7 +302,7 @@ pub fn convert(
     }
     // Recorded before any frame is written, so that an interrupted run can be resumed.
     let started = run.totals().summary.clone();
-    summary::write(&opts.out.summary_path(), &started, opts.sync)?;
+    summary::write(&opts.out.summary_path(), &started, opts.durability)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
@@ -322,6 +323,6 @@ pub fn convert(
         complete: true,
         ..s
     };
-    summary::write(&opts.out.summary_path(), &s, opts.sync)?;
+    summary::write(&opts.out.summary_path(), &s, opts.durability)?;
     Ok(s)
 }

@@ -24,7 +24,7 @@ use std::sync::Mutex;
 use super::ConvertOptions;
 use crate::error::{Error, Result};
 use crate::format::layout::{self, OutputDir};
-use crate::format::npy;
+use crate::format::{npy, Durability};
 use crate::kitti::velodyne::POINT_BYTES;
 use crate::kitti::FrameId;
 use crate::params::ConvertParams;
@@ -193,7 +193,7 @@ pub struct Journal {
     header: String,
     /// Frames recorded by this run.
     recorded: Mutex<BTreeSet<String>>,
-    sync: bool,
+    durability: Durability,
     /// Frames an earlier run with the same parameters finished (empty when starting afresh).
     pub finished: BTreeSet<String>,
     /// Converted outputs of other parameters (or of `--overwrite`) removed before converting.
@@ -236,7 +236,7 @@ impl Journal {
                 remove(p)?;
             }
             stale_removed = outputs.len() as u64;
-            crate::format::atomic_write(&path, header.as_bytes(), true)?;
+            crate::format::atomic_write(&path, header.as_bytes(), Durability::Synced)?;
             BTreeSet::new()
         };
         let file = File::options()
@@ -251,7 +251,7 @@ impl Journal {
             path,
             header,
             recorded: Mutex::default(),
-            sync: opts.sync,
+            durability: opts.durability,
             finished,
             stale_removed,
         })
@@ -265,9 +265,7 @@ impl Journal {
             source,
         };
         f.write_all(format!("{id}\n").as_bytes()).map_err(werr)?;
-        if self.sync {
-            f.sync_data().map_err(werr)?;
-        }
+        self.durability.flush(&f).map_err(werr)?;
         drop(f);
         self.recorded
             .lock()
@@ -289,7 +287,7 @@ impl Journal {
             text.push('\n');
         }
         drop(self.file);
-        crate::format::atomic_write(&self.path, text.as_bytes(), self.sync)
+        crate::format::atomic_write(&self.path, text.as_bytes(), self.durability)
     }
 
     /// Whether an earlier run with these parameters finished `frame` of `dp` and its files are

@@ -36,5 +36,5 @@ pub fn to_text(ids: &[FrameId]) -> String {
 
 /// Writes an ImageSet list to `path`, atomically.
 pub fn write(path: &Path, ids: &[FrameId]) -> Result<()> {
-    super::atomic_write(path, to_text(ids).as_bytes(), false)
+    super::atomic_write(path, to_text(ids).as_bytes(), super::Durability::Renamed)
 }

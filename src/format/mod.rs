@@ -31,12 +31,33 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 
-/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+/// How far an output is taken before its writer returns.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Durability {
+    /// Written to a temporary file and renamed into place: whole or absent whatever happens to
+    /// the process.
+    #[default]
+    Renamed,
+    /// Also flushed to the device before the rename, so that it survives a power cut as well (a
+    /// disk round trip per file).
+    Synced,
+}
+
+impl Durability {
+    /// Flushes `file` to the device when that is asked for.
+    pub fn flush(self, file: &std::fs::File) -> std::io::Result<()> {
+        match self {
+            Durability::Renamed => Ok(()),
+            Durability::Synced => file.sync_data(),
+        }
+    }
+}
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename), flushed
+/// to the device first when `durability` says so.
 ///
-/// The rename makes the file appear whole or not at all, whatever happens to the process. With
-/// `durable`, the data is also flushed to the device before the rename, so that the file survives
-/// a power cut as well; that costs a disk round trip per file, so it is an option (`--sync`).
-pub fn atomic_write(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
+/// The rename makes the file appear whole or not at all, whatever happens to the process.
+pub fn atomic_write(path: &Path, bytes: &[u8], durability: Durability) -> Result<()> {
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -52,9 +73,7 @@ pub fn atomic_write(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
             source,
         })?;
     tmp.write_all(bytes).map_err(werr)?;
-    if durable {
-        tmp.as_file().sync_data().map_err(werr)?;
-    }
+    durability.flush(tmp.as_file()).map_err(werr)?;
     tmp.persist(path).map_err(|e| werr(e.error))?;
     Ok(())
 }

@@ -225,7 +225,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.npy");
         let data: Vec<f32> = (0..24).map(|v| v as f32 * 0.5).collect();
-        crate::format::atomic_write(&p, &encode_f32(&[2, 3, 4], &data), false).unwrap();
+        crate::format::atomic_write(&p, &encode_f32(&[2, 3, 4], &data), Default::default())
+            .unwrap();
         let (shape, back) = read_f32(&p).unwrap();
         assert_eq!(shape, vec![2, 3, 4]);
         assert_eq!(back, data);

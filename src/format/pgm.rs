@@ -33,9 +33,9 @@ pub fn encode(frame: &PgmFrame) -> Vec<u8> {
     )
 }
 
-/// Writes a converted frame to `path`, atomically (`sync`: flushed to the device first).
-pub fn write(path: &Path, frame: &PgmFrame, sync: bool) -> Result<()> {
-    super::atomic_write(path, &encode(frame), sync)
+/// Writes a converted frame to `path`, atomically.
+pub fn write(path: &Path, frame: &PgmFrame, durability: super::Durability) -> Result<()> {
+    super::atomic_write(path, &encode(frame), durability)
 }
 
 /// Reads a map: H x W x 6 or 9, any numeric dtype.

@@ -15,5 +15,5 @@ pub fn write(path: &Path, img: &image::RgbImage) -> Result<()> {
         path: path.into(),
         source,
     })?;
-    super::atomic_write(path, &bytes, false)
+    super::atomic_write(path, &bytes, super::Durability::Renamed)
 }

@@ -103,9 +103,9 @@ impl ConvertSummary {
 }
 
 /// Writes the summary to `path`, atomically.
-pub fn write(path: &Path, summary: &ConvertSummary, sync: bool) -> Result<()> {
+pub fn write(path: &Path, summary: &ConvertSummary, durability: super::Durability) -> Result<()> {
     let json = serde_json::to_vec_pretty(summary).expect("the summary serialises");
-    super::atomic_write(path, &json, sync)
+    super::atomic_write(path, &json, durability)
 }
 
 /// Reads the summary at `path`; `Ok(None)` when there is no such file.

@@ -26,8 +26,8 @@ use super::score::frame::raw_drive;
 use super::score::predictions::Predictions;
 use super::truth::GroundTruth;
 use crate::error::{Error, Result};
-use crate::format::label_file;
 use crate::format::layout::OutputDir;
+use crate::format::{label_file, Durability};
 use crate::kitti::velodyne::Scan;
 use crate::kitti::{FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
@@ -49,8 +49,8 @@ pub struct UnprojectOptions {
     pub out: PathBuf,
     /// Only these frames (an ImageSet list); default: every ground-truth frame with a prediction.
     pub only: Option<BTreeSet<FrameId>>,
-    /// Flush each file before renaming it into place.
-    pub sync: bool,
+    /// Whether each file is flushed to the device before it is renamed into place.
+    pub durability: Durability,
 }
 
 /// One frame that could not be carried back.
@@ -157,7 +157,7 @@ fn one(
         .collect();
     let path = prediction_path(&opts.out, id);
     crate::format::create_dir(path.parent().expect("a file in a folder"))?;
-    crate::format::atomic_write(&path, &label_file::encode_raw(&raw_ids), opts.sync)?;
+    crate::format::atomic_write(&path, &label_file::encode_raw(&raw_ids), opts.durability)?;
     Ok((raw_ids.len() as u64, missing))
 }
 
