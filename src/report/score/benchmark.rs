@@ -21,10 +21,31 @@ use crate::kitti::{Drive, FrameId};
 use crate::label::{ClassId, ClassMap};
 use crate::report::truth::GroundTruth;
 
-/// The classes of a `.label` file: raw ids through the learning map for the benchmark's
-/// files (`.../predictions/` and the dataset's `labels/`), class ids for `convert`'s.
-fn classes(path: &Path, raw_ids: bool, map: &ClassMap) -> Result<Vec<ClassId>> {
-    if !raw_ids {
+/// What the entries of a `.label` file are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LabelIds {
+    /// SemanticKITTI's raw ids (the benchmark's `.../predictions/` and the dataset's `labels/`),
+    /// read through the learning map.
+    Raw,
+    /// Class ids of the class map (`convert`'s `labels/`).
+    Class,
+}
+
+impl LabelIds {
+    /// The ids of a prediction file: raw in a `predictions/` folder, class ids elsewhere.
+    fn of_prediction(path: &Path) -> LabelIds {
+        let dir = path.parent().and_then(|d| d.file_name());
+        if dir.is_some_and(|n| n == "predictions") {
+            LabelIds::Raw
+        } else {
+            LabelIds::Class
+        }
+    }
+}
+
+/// The classes of a `.label` file holding `ids`.
+fn classes(path: &Path, ids: LabelIds, map: &ClassMap) -> Result<Vec<ClassId>> {
+    if ids == LabelIds::Class {
         return label_file::read_classes(path, map).map_err(|e| match e {
             Error::NotAClass { path, what, value, map, max, .. } => Error::NotAClass {
                 path,
@@ -48,7 +69,7 @@ fn score_one(
     map: &ClassMap,
 ) -> Result<FrameScore> {
     let truth_path = drive.point_labels_path(id.frame);
-    let truth = classes(&truth_path, true, map)?;
+    let truth = classes(&truth_path, LabelIds::Raw, map)?;
     // The truth is checked against its scan first, so that a truncated truth file is blamed,
     // not the prediction.
     let scan_path = drive.scan_path(id.frame);
@@ -66,10 +87,7 @@ fn score_one(
         });
     }
     let pred = match preds.files.get(id) {
-        Some(p) if preds.points => {
-            let raw = p.parent().and_then(|d| d.file_name()).is_some_and(|n| n == "predictions");
-            Some(classes(p, raw, map)?)
-        }
+        Some(p) if preds.points => Some(classes(p, LabelIds::of_prediction(p), map)?),
         Some(p) => {
             return Err(Error::Input {
                 path: p.clone(),
