@@ -120,9 +120,7 @@ impl Thresholds {
             Some((kind.to_string(), dim, bound))
         });
         let Some((kind, dim, bound)) = size else {
-            return Err(Error::Config(format!(
-                "unknown threshold `{name}` (`kitti2pgm check --list` names them all)"
-            )));
+            return Err(Error::Config(format!("unknown threshold `{name}`")));
         };
         let range = self.sizes.entry(kind).or_insert(SizeRange {
             l: [0.0, f64::INFINITY],

@@ -3,6 +3,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use anyhow::Context as _;
 use clap::Args as ClapArgs;
 use kitti2pgm::check::{check, CheckName, CheckOptions, CheckReport, Finding, Pictures, Severity};
 use kitti2pgm::label::ClassMap;
@@ -81,7 +82,9 @@ impl CheckArgs {
                 .collect()
         };
         for pair in &self.set {
-            o.thresholds.set_pair(pair)?;
+            o.thresholds.set_pair(pair).with_context(|| {
+                format!("--set {pair} (`kitti2pgm check --list` names every threshold)")
+            })?;
         }
         if let Some(m) = &self.class_map {
             o.class_map = Some(ClassMap::named_or_file(m)?);

@@ -55,7 +55,7 @@ pub enum RowMode {
 
 crate::named_enum!(RowMode, "row mode", [
     Rings => "rings" [] "Rings recovered from the scan order; elevation binning only where a scan breaks it",
-    Elevation => "elevation" [] "Elevation binning between --fov-up-deg and --fov-down-deg for every scan",
+    Elevation => "elevation" [] "Elevation binning between the map's upper and lower field-of-view bounds, for every scan",
 ]);
 
 /// Shape and field of view of the map.
