@@ -148,6 +148,30 @@ pub enum Error {
         /// Where its prediction was looked for, when there is one place.
         expected: Option<String>,
     },
+    /// A frame asked for (in a list) that the data does not hold.
+    #[error("{}: frame {frame} is listed but not there", path.display())]
+    FrameNotFound {
+        /// The data searched (the ground truth).
+        path: PathBuf,
+        /// The frame id.
+        frame: String,
+    },
+    /// Two predictions of one frame.
+    #[error("{}: a second prediction for frame {frame} (the first: {})", path.display(), first.display())]
+    DuplicatePrediction {
+        /// The second file or shard.
+        path: PathBuf,
+        /// The frame id.
+        frame: String,
+        /// The first file or shard.
+        first: PathBuf,
+    },
+    /// An output folder another process is converting into (its lock is held).
+    #[error("{}: another kitti2pgm conversion is writing into this folder", path.display())]
+    Locked {
+        /// The output folder.
+        path: PathBuf,
+    },
     /// Work that needs the raw scans, asked for without them.
     #[error("{frame}: {what} needs the raw scans")]
     NeedsScans {

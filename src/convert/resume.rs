@@ -53,9 +53,8 @@ pub fn lock(out: &OutputDir) -> Result<File> {
         })?;
     match file.try_lock() {
         Ok(()) => Ok(file),
-        Err(std::fs::TryLockError::WouldBlock) => Err(Error::Input {
+        Err(std::fs::TryLockError::WouldBlock) => Err(Error::Locked {
             path: out.root.clone(),
-            message: "another kitti2pgm conversion is writing into this folder".into(),
         }),
         Err(std::fs::TryLockError::Error(source)) => Err(Error::Write { path, source }),
     }

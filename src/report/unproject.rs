@@ -227,9 +227,9 @@ fn frames_to_carry<'a>(
     let frames: Vec<&FrameId> = match only {
         Some(only) => {
             if let Some(missing) = only.iter().find(|id| !gt.frames.contains(id)) {
-                return Err(Error::Input {
+                return Err(Error::FrameNotFound {
                     path: gt.path.clone(),
-                    message: format!("frame {missing} of the list is not in the ground truth"),
+                    frame: missing.to_string(),
                 });
             }
             gt.frames.iter().filter(|f| only.contains(f)).collect()

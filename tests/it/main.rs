@@ -8,6 +8,7 @@ mod bad_input;
 mod check;
 mod cli;
 mod cloud;
+mod errors;
 mod fuzz;
 mod label;
 mod newcomer;

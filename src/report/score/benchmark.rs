@@ -142,9 +142,9 @@ pub fn score_dataset(
 ) -> Result<Vec<FrameScore>> {
     let map = &gt.params.class_map;
     if let Some(missing) = only.and_then(|o| o.iter().find(|id| !gt.frames.contains(id))) {
-        return Err(Error::Input {
+        return Err(Error::FrameNotFound {
             path: gt.path.clone(),
-            message: format!("listed frame {missing} is not in the ground truth"),
+            frame: missing.to_string(),
         });
     }
     let ids: Vec<&FrameId> = gt

@@ -185,9 +185,10 @@ impl FileIndex {
                 out.label.get_or_insert(p.clone());
             }
             if let Some(prev) = out.files.insert(id.clone(), p.clone()) {
-                return Err(Error::Input {
+                return Err(Error::DuplicatePrediction {
                     path: p,
-                    message: format!("second prediction for {id} (first: {})", prev.display()),
+                    frame: id.to_string(),
+                    first: prev,
                 });
             }
         }
@@ -212,10 +213,11 @@ fn index_shards(mcaps: &[PathBuf]) -> Result<ShardIndex> {
             for f in shard.chunk_frames(&summary, chunk)? {
                 let f = f?;
                 let id: FrameId = f.id.parse().map_err(|e: NotAFrameId| e.in_file(p))?;
-                if in_shard.insert(id.clone(), (shards.len(), chunk)).is_some() {
-                    return Err(Error::Input {
+                if let Some((k, _)) = in_shard.insert(id.clone(), (shards.len(), chunk)) {
+                    return Err(Error::DuplicatePrediction {
                         path: p.clone(),
-                        message: format!("second prediction for {id}"),
+                        frame: id.to_string(),
+                        first: mcaps[k].clone(),
                     });
                 }
             }
