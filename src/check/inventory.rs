@@ -58,9 +58,9 @@ impl DriveRead {
         self.drive.as_ref().expect("set by read_drive")
     }
 
-    /// The boxes at `frame` (`DontCare` regions left out), with the ghosts of the tracklets
-    /// that ended just before when `ghosts`.
-    pub(crate) fn boxes_at(&self, frame: u32, ghosts: bool) -> Vec<FrameBox> {
+    /// The boxes at `frame` (`DontCare` regions left out), and the ghosts of the tracklets
+    /// that ended just before ([`FrameBox::ghost`]).
+    pub(crate) fn boxes_at(&self, frame: u32) -> Vec<FrameBox> {
         let mut out = Vec::new();
         if let Some(t) = &self.tracklets {
             for (i, tr, p) in t.at(frame) {
@@ -74,7 +74,7 @@ impl DriveRead {
                     visible: p.occlusion == Occlusion::Visible,
                 });
             }
-            for (i, tr) in t.tracklets.iter().enumerate().filter(|_| ghosts) {
+            for (i, tr) in t.tracklets.iter().enumerate() {
                 if let Some(pose) = super::scans::carried_on(tr, frame) {
                     out.push(FrameBox {
                         object: ObjectRef {

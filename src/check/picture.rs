@@ -67,7 +67,12 @@ impl<'a> Pictures<'a> {
             let img = crate::kitti::camera::read_image(&image)?;
             return Ok(Some(camera_overlay(&img, &scan.points, &proj, &title)));
         }
-        let boxes = boxes(r, frame, f.check == CheckName::AnnotationEnds);
+        let ghosts = if f.check == CheckName::AnnotationEnds {
+            Ghosts::Drawn
+        } else {
+            Ghosts::Left
+        };
+        let boxes = boxes(r, frame, ghosts);
         let map = ClassMap::kitti_paper();
         let flagged = f.object.as_ref().map(|o| o.index);
         let drawn: Vec<Drawn> = boxes
@@ -93,11 +98,21 @@ impl<'a> Pictures<'a> {
     }
 }
 
-/// The boxes at a frame (with the ghosts of annotations that ended just before, when asked):
-/// object index, type, box.
-fn boxes(r: &DriveRead, frame: u32, ghosts: bool) -> Vec<(u32, String, LabelBox)> {
-    r.boxes_at(frame, ghosts)
+/// Whether a picture shows the ghosts of annotations that ended just before its frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Ghosts {
+    /// Drawn (an `annotation-ends` finding: where the object went on).
+    Drawn,
+    /// Left out.
+    Left,
+}
+
+/// The boxes at a frame (with the ghosts of annotations that ended just before, when `ghosts`
+/// says so): object index, type, box.
+fn boxes(r: &DriveRead, frame: u32, ghosts: Ghosts) -> Vec<(u32, String, LabelBox)> {
+    r.boxes_at(frame)
         .into_iter()
+        .filter(|b| ghosts == Ghosts::Drawn || !b.ghost)
         .map(|b| {
             let kind = if b.ghost {
                 format!("{} (ended)", b.object.kind)

@@ -183,7 +183,7 @@ fn frame_boxes(r: &DriveRead, f: u32, t: &Thresholds) -> Vec<(LabelBox, BoxSeen)
             ground: None,
         }
     };
-    r.boxes_at(f, true)
+    r.boxes_at(f)
         .into_iter()
         .map(|b| {
             let s = seen(b.object, &b.label_box, b.ghost, b.visible);

@@ -37,8 +37,9 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
     for (&frame, (objects, _)) in &r.objects {
         let path = r.drive().object_labels_path(frame);
         let boxes: Vec<(ObjectRef, LabelBox)> = r
-            .boxes_at(frame, false)
+            .boxes_at(frame)
             .into_iter()
+            .filter(|b| !b.ghost)
             .map(|b| (b.object, b.label_box))
             .collect();
         for (obj, _) in &boxes {
