@@ -60,23 +60,36 @@ fn hand_computed_ious_on_a_small_map() {
     );
     let pred = t.path().join("pred/2011_09_26_0001_0000000000.npy");
     write_i64(&pred, &[2, 4], &[1, 1, 0, 1, 2, 0, 0, 3]);
-    let j = score_json(&["--gt", s(&gt), "--pred", s(pred.parent().unwrap())]);
+    // Through the library: the figures as typed values.
+    use kitti2pgm::report::score::{report, score, Predictions, ScoreOptions};
+    let truth = kitti2pgm::report::truth::GroundTruth::open(&gt).unwrap();
+    let preds = Predictions::index(pred.parent().unwrap()).unwrap();
+    let opts = ScoreOptions {
+        protocol: Protocol::Cells,
+        missing_as_background: false,
+        raw: None,
+        unproject: kitti2pgm::project::unproject::Method::Cell,
+    };
+    let (scores, _) = score(&truth, None, &preds, &opts, &Default::default(), &|_| {}).unwrap();
+    let r = report(Protocol::Cells, &scores, &truth.params.class_map);
+    let iou = |class: &str| r.classes[class].iou;
     // car: TP 2 (cells 0, 1), FP 1 (cell 3), FN 1 (cell 2) -> 2/4.
-    assert_eq!(iou(&j, "car"), 0.5);
+    assert_eq!(iou("car"), Some(0.5));
     // pedestrian: TP 1 (cell 4), FN 1 (cell 5) -> 1/2.
-    assert_eq!(iou(&j, "pedestrian"), 0.5);
+    assert_eq!(iou("pedestrian"), Some(0.5));
     // cyclist: TP 0, FN 1 (cell 6); cell 7 is empty, so its prediction does not count -> 0.
-    assert_eq!(iou(&j, "cyclist"), 0.0);
+    assert_eq!(iou("cyclist"), Some(0.0));
     // background: TP 0, FP 3 (cells 2, 5, 6), FN 1 (cell 3) -> 0.
-    assert_eq!(iou(&j, "background"), 0.0);
-    assert_eq!(j["elements"], 7);
-    assert_eq!(j["miou"].as_f64().unwrap(), (0.5 + 0.5 + 0.0) / 3.0);
-    assert_eq!(
-        j["classes"]["car"]["precision"].as_f64().unwrap(),
-        2.0 / 3.0
-    );
-    assert_eq!(j["classes"]["car"]["recall"].as_f64().unwrap(), 2.0 / 3.0);
-    assert_eq!(j["confusion"]["m"][1], serde_json::json!([1, 2, 0, 0]));
+    assert_eq!(iou("background"), Some(0.0));
+    assert_eq!(r.elements, 7);
+    assert_eq!(r.miou, (0.5 + 0.5 + 0.0) / 3.0);
+    assert_eq!(r.classes["car"].precision, Some(2.0 / 3.0));
+    assert_eq!(r.classes["car"].recall, Some(2.0 / 3.0));
+    assert_eq!(r.confusion.m[1], [1, 2, 0, 0]);
+    // The binary reports the same figures.
+    let j = score_json(&["--gt", s(&gt), "--pred", s(pred.parent().unwrap())]);
+    assert_eq!(j["classes"], serde_json::to_value(&r.classes).unwrap());
+    assert_eq!(j["confusion"], serde_json::to_value(&r.confusion).unwrap());
 }
 
 #[test]
