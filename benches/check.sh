@@ -5,13 +5,9 @@
 # tracklet files.
 #   benches/check.sh [THREADS]
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
-shared=${SHARED:-$here/../shared}
+. "$(dirname "$0")/common.sh"
 threads=${1:-$(nproc)}
-work=$(mktemp -d)
-[ -n "${KEEP:-}" ] && echo "kept: $work" || trap 'rm -rf "$work"' EXIT
-(cd "$here" && cargo build --release --quiet)
-bin=$here/target/release/kitti2pgm
+build
 day=$work/raw/2011_09_26
 mkdir -p "$day"
 cp "$shared"/kitti/raw/2011_09_26/calib_*.txt "$day/"

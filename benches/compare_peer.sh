@@ -11,12 +11,9 @@
 # second kitti2pgm run adds the per-point .label files the peer does not write). Each tool runs
 # three times, alternating, and the best run counts. Prints frames/s and the ratios.
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
-shared=${SHARED:-$here/../shared}
+. "$(dirname "$0")/common.sh"
 copies=${1:-10}
 workers=${2:-$(nproc)}
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
 day=2011_09_26
 src=$shared/kitti/raw/$day
 mkdir -p "$work/raw/$day"
@@ -30,8 +27,7 @@ for i in $(seq 1 "$copies"); do
     for part in velodyne_points image_02 tracklet_labels.xml; do ln -s "$src/${day}_drive_${d}_sync/$part" "$dst/$part"; done
   done
 done
-(cd "$here" && cargo build --release --quiet)
-bin=$here/target/release/kitti2pgm
+build
 frames=$(find -L "$work/raw" -name '*.bin' | wc -l)
 echo "frames: $frames, workers/threads: $workers, cpu: $(nproc) cores"
 peer_best=999999; ours_best=999999; ours_lab_best=999999

@@ -11,12 +11,9 @@
 # .label files the peer does not write. The floor reads every .bin and .label once (cat, page
 # cache warm). Each runs three times, alternating; the best run counts.
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
-shared=${SHARED:-$here/../shared}
+. "$(dirname "$0")/common.sh"
 copies=${1:-100}
 workers=${2:-$(nproc)}
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
 src=$shared/semantickitti/sequences/00
 seq=$work/sk/sequences/00
 mkdir -p "$seq/velodyne" "$seq/labels"
@@ -29,8 +26,7 @@ for i in $(seq 1 "$copies"); do
     ln -s "$src/labels/$f.label" "$seq/labels/$name.label"
   done
 done
-(cd "$here" && cargo build --release --quiet)
-bin=$here/target/release/kitti2pgm
+build
 echo "scans: $n, workers/threads: $workers, cpu: $(nproc) cores"
 t() { local s e; s=$(date +%s.%N); "$@" >/dev/null; e=$(date +%s.%N); echo "$e - $s" | bc; }
 min() { echo "if ($1 < $2) $1 else $2" | bc; }

@@ -4,13 +4,9 @@
 # predictions (HxW int64 label maps with 10% of the cells changed, written by numpy).
 #   benches/score_val.sh [THREADS]
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
-shared=${SHARED:-$here/../shared}
+. "$(dirname "$0")/common.sh"
 threads=${1:-$(nproc)}
-work=$(mktemp -d)
-[ -n "${KEEP:-}" ] && echo "kept: $work" || trap 'rm -rf "$work"' EXIT
-(cd "$here" && cargo build --release --quiet)
-bin=$here/target/release/kitti2pgm
+build
 "$bin" --no-progress convert "$shared/kitti/raw" --out "$work/src" >/dev/null
 python3 - "$work" <<'PY'
 import sys, os, glob, numpy as np
