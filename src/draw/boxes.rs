@@ -3,7 +3,7 @@
 
 use image::{Rgb, RgbImage};
 
-use super::{colormap, draw_text};
+use super::{colormap, draw_text, fill_rect};
 use crate::geom::{Matrix3x4, Point3, Real, Vector3};
 use crate::label::LabelBox;
 use crate::project::camera::pixel;
@@ -158,20 +158,12 @@ pub fn camera_overlay(
             continue;
         };
         // 2 x 2 pixels a point, so that the points read against the picture.
-        let c = Rgb(colormap(1.0 - (p.coords.norm() / 40.0).min(1.0)));
-        for (du, dv) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-            let (x, y) = (u as u32 + du, v as u32 + dv);
-            if x < img.width() && y < img.height() {
-                img.put_pixel(x, y, c);
-            }
-        }
+        let c = colormap(1.0 - (p.coords.norm() / 40.0).min(1.0));
+        fill_rect(&mut img, (u as u32, v as u32), (2, 2), c);
     }
     // The title on a dark band (the sky is bright).
-    for y in 0..18.min(img.height()) {
-        for x in 0..img.width() {
-            img.put_pixel(x, y, Rgb([12, 12, 16]));
-        }
-    }
+    let width = img.width();
+    fill_rect(&mut img, (0, 0), (width, 18), [12, 12, 16]);
     draw_text(&mut img, 6, 5, title, [255, 255, 255], 1);
     img
 }

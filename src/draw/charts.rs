@@ -1,6 +1,6 @@
 //! Charts: the class balance of `stats`, the confusion matrix and the worst frames of `score`.
 
-use super::{draw_text, fill_rect, text_width, ROW_SCALE};
+use super::{draw_map, draw_text, fill_rect, text_width, ROW_SCALE};
 use crate::label::ClassId;
 use crate::label::ClassMap;
 use crate::report::score::{Confusion, FrameMaps};
@@ -106,19 +106,14 @@ pub fn frame_chart(
     draw_text(&mut img, 4, ph + caption + 6, "ground truth", [0, 0, 0], 1);
     for (panel, labels) in [&maps.pred, &maps.truth].iter().enumerate() {
         let y0 = panel as u32 * (ph + caption) + caption;
-        for r in 0..rows {
-            for c in 0..cols {
-                let i = r * cols + c;
-                let px = if maps.truth[i] == u8::MAX {
-                    [0, 0, 0]
-                } else {
-                    map.colour(labels[i])
-                };
-                for k in 0..ROW_SCALE {
-                    img.put_pixel(c as u32, y0 + r as u32 * ROW_SCALE + k, image::Rgb(px));
-                }
+        draw_map(&mut img, y0, (rows, cols), |r, c| {
+            let i = r * cols + c;
+            if maps.truth[i] == u8::MAX {
+                [0, 0, 0]
+            } else {
+                map.colour(labels[i])
             }
-        }
+        });
     }
     img
 }

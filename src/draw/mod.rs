@@ -64,9 +64,25 @@ pub fn draw_text(img: &mut RgbImage, x: u32, y: u32, text: &str, colour: [u8; 3]
 /// Fills the `w` x `h` rectangle with its top-left corner at (x, y); pixels outside the image
 /// are skipped.
 pub fn fill_rect(img: &mut RgbImage, (x, y): (u32, u32), (w, h): (u32, u32), colour: [u8; 3]) {
-    for py in y..(y + h).min(img.height()) {
-        for px in x..(x + w).min(img.width()) {
+    for py in y..y.saturating_add(h).min(img.height()) {
+        for px in x..x.saturating_add(w).min(img.width()) {
             img.put_pixel(px, py, Rgb(colour));
+        }
+    }
+}
+
+/// Draws a `rows x cols` map from pixel row `y0` down, each cell one pixel wide and
+/// [`ROW_SCALE`] high, in the colour `colour(row, col)` gives it.
+pub fn draw_map(
+    img: &mut RgbImage,
+    y0: u32,
+    (rows, cols): (usize, usize),
+    colour: impl Fn(usize, usize) -> [u8; 3],
+) {
+    for r in 0..rows {
+        for c in 0..cols {
+            let y = y0 + r as u32 * ROW_SCALE;
+            fill_rect(img, (c as u32, y), (1, ROW_SCALE), colour(r, c));
         }
     }
 }

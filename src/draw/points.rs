@@ -83,9 +83,7 @@ pub fn point_prediction_chart(
         for (k, c) in cs.iter().enumerate() {
             if let Some(c) = c {
                 let y0 = head + side + gap + k as u32 * (range_h + gap) + row * super::ROW_SCALE;
-                for dy in 0..super::ROW_SCALE {
-                    img.put_pixel(col, y0 + dy, Rgb(*c));
-                }
+                fill_rect(&mut img, (col, y0), (1, super::ROW_SCALE), *c);
             }
         }
     }

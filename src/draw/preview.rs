@@ -5,9 +5,9 @@
 //! Labels use the class map's colours (the paper's: background red, car green, pedestrian light
 //! blue, cyclist violet).
 
-use image::{Rgb, RgbImage};
+use image::RgbImage;
 
-use super::{colormap, ROW_SCALE};
+use super::{colormap, draw_map, ROW_SCALE};
 use crate::error::{Error, Result};
 use crate::label::ClassMap;
 use crate::project::Channel;
@@ -37,18 +37,9 @@ pub fn render(frame: &MapFrame, classes: &ClassMap) -> Result<RgbImage> {
     let ph = h as u32 * ROW_SCALE;
     let mut img = RgbImage::new(w as u32, panels * ph + (panels - 1) * GAP);
     let mut draw = |panel: u32, f: &dyn Fn(usize, usize) -> Option<[u8; 3]>| {
-        for r in 0..h {
-            for col in 0..w {
-                let px = f(r, col).unwrap_or([0, 0, 0]);
-                for k in 0..ROW_SCALE {
-                    img.put_pixel(
-                        col as u32,
-                        panel * (ph + GAP) + r as u32 * ROW_SCALE + k,
-                        Rgb(px),
-                    );
-                }
-            }
-        }
+        draw_map(&mut img, panel * (ph + GAP), (h, w), |r, col| {
+            f(r, col).unwrap_or([0, 0, 0])
+        });
     };
     let valid = |r: usize, col: usize| map.mask[r * w + col] != 0;
     // Range: near is bright; square root spreads the near field where most points are.
@@ -77,13 +68,8 @@ pub fn render(frame: &MapFrame, classes: &ClassMap) -> Result<RgbImage> {
 /// in the class colours, rows doubled as in [`render`].
 pub fn render_labels(labels: &[u8], (rows, cols): (usize, usize), classes: &ClassMap) -> RgbImage {
     let mut img = RgbImage::new(cols as u32, rows as u32 * ROW_SCALE);
-    for r in 0..rows {
-        for c in 0..cols {
-            let px = Rgb(classes.colour(labels[r * cols + c]));
-            for k in 0..ROW_SCALE {
-                img.put_pixel(c as u32, r as u32 * ROW_SCALE + k, px);
-            }
-        }
-    }
+    draw_map(&mut img, 0, (rows, cols), |r, c| {
+        classes.colour(labels[r * cols + c])
+    });
     img
 }
