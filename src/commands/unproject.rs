@@ -64,7 +64,7 @@ pub struct UnprojectArgs {
     /// OUT/labels/<drive>/<frame>.label (KITTI raw and object, class ids).
     #[arg(long, short, value_name = "DIR")]
     pub out: PathBuf,
-    /// How a point gets its class.
+    /// How a point gets its class (the kNN's parameters: --knn-*).
     #[arg(long, value_enum, default_value_t = MethodKind::Knn)]
     pub method: MethodKind,
     /// The kNN's parameters.
