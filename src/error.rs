@@ -18,6 +18,37 @@ pub enum Error {
         /// The operating system's error.
         source: std::io::Error,
     },
+    /// An input path that holds something other than a regular file: a link that leads
+    /// nowhere or loops, a folder, a FIFO (reading would wait forever), a device.
+    #[error("{}: {found}, not a regular file", path.display())]
+    NotAFile {
+        /// The path.
+        path: PathBuf,
+        /// What is there.
+        found: NotFileKind,
+    },
+    /// An input file larger than any real file of its kind.
+    #[error("{}: {bytes} bytes, more than the {limit} a file of this kind may have", path.display())]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size (or the bytes read before stopping).
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
+    /// An output path that is, lies inside or holds one of the command's inputs.
+    #[error("{}: the output {how} {role} {}; write somewhere else", output.display(), input.display())]
+    OutputOverInput {
+        /// The output path.
+        output: PathBuf,
+        /// How it meets the input.
+        how: Overlap,
+        /// What the input is.
+        role: Role,
+        /// The input path.
+        input: PathBuf,
+    },
     /// A file could not be written (or renamed into place).
     #[error("{}: cannot write: {source}", path.display())]
     Write {
@@ -286,6 +317,87 @@ impl NotAFrameId {
             line: None,
             source: self,
         }
+    }
+}
+
+/// What is at a path that is not a regular file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NotFileKind {
+    /// A symbolic link whose target does not exist.
+    DanglingLink,
+    /// A symbolic link that cannot be followed (a loop, a target that cannot be reached).
+    BrokenLink,
+    /// A folder.
+    Folder,
+    /// A named pipe: reading it would wait for a writer.
+    Fifo,
+    /// A character or block device (`/dev/zero` never ends).
+    Device,
+    /// A socket.
+    Socket,
+    /// Anything else that is not a regular file.
+    Other,
+}
+
+impl std::fmt::Display for NotFileKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            NotFileKind::DanglingLink => "a link that leads nowhere",
+            NotFileKind::BrokenLink => "a link that cannot be followed (a loop?)",
+            NotFileKind::Folder => "a folder",
+            NotFileKind::Fifo => "a named pipe (FIFO)",
+            NotFileKind::Device => "a device",
+            NotFileKind::Socket => "a socket",
+            NotFileKind::Other => "something other than a file",
+        })
+    }
+}
+
+/// What an input is to the command, for the error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The dataset root (scans, labels, calibration).
+    Dataset,
+    /// The converted ground truth.
+    GroundTruth,
+    /// The predictions.
+    Predictions,
+    /// Converted data read by a report (maps, shards).
+    Converted,
+    /// A list or a class map file.
+    List,
+}
+
+impl std::fmt::Display for Role {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Role::Dataset => "the dataset",
+            Role::GroundTruth => "the ground truth",
+            Role::Predictions => "the predictions",
+            Role::Converted => "the converted data",
+            Role::List => "an input list",
+        })
+    }
+}
+
+/// How an output path meets an input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Overlap {
+    /// The same path.
+    Is,
+    /// Inside the input folder.
+    Inside,
+    /// A folder holding the input.
+    Holds,
+}
+
+impl std::fmt::Display for Overlap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Overlap::Is => "is",
+            Overlap::Inside => "is inside",
+            Overlap::Holds => "holds",
+        })
     }
 }
 

@@ -52,7 +52,11 @@ fn main() -> ExitCode {
             let usage = e.chain().any(|c| {
                 matches!(
                     c.downcast_ref(),
-                    Some(kitti2pgm::Error::Config(_) | kitti2pgm::Error::NeedsScans { .. })
+                    Some(
+                        kitti2pgm::Error::Config(_)
+                            | kitti2pgm::Error::NeedsScans { .. }
+                            | kitti2pgm::Error::OutputOverInput { .. }
+                    )
                 )
             });
             if usage {

@@ -224,6 +224,7 @@ fn table(s: &ConvertSummary) -> String {
     for (why, n) in &s.frames_skipped {
         let _ = writeln!(t, "frames skipped      {n:>12}  ({why})");
     }
+    resume_rows(&mut t, s);
     points_and_cells(&mut t, s);
     class_rows(&mut t, s);
     if !s.not_frames.is_empty() {
@@ -236,6 +237,32 @@ fn table(s: &ConvertSummary) -> String {
         let _ = writeln!(t, "failed: {} ({} frames): {}", f.what, f.frames, f.error);
     }
     t
+}
+
+/// What a re-run converted again and why, what it removed first.
+fn resume_rows(t: &mut String, s: &ConvertSummary) {
+    use std::fmt::Write;
+    if let Some(why) = s.restarted {
+        let _ = writeln!(
+            t,
+            "earlier outputs     {:>12}  (removed first: {why})",
+            s.stale_removed
+        );
+    }
+    for (why, n) in &s.reconverted {
+        let _ = writeln!(t, "reconverted         {n:>12}  ({why})");
+    }
+    const SHOWN: usize = 5;
+    for c in s.changed_inputs.iter().take(SHOWN) {
+        let _ = writeln!(t, "  changed input: {c}");
+    }
+    if s.changed_inputs.len() > SHOWN {
+        let _ = writeln!(
+            t,
+            "  ... and {} more changed inputs (convert_summary.json lists them all)",
+            s.changed_inputs.len() - SHOWN
+        );
+    }
 }
 
 /// Points read and dropped, the projection's counts, shards and colour.

@@ -7,6 +7,7 @@ use super::ConvertOptions;
 use crate::error::{Error, Result};
 use crate::format::shard::viz::VizFrame;
 use crate::format::{label_file, pgm};
+use crate::fs::Inputs;
 use crate::kitti::camera::decode_image;
 use crate::kitti::velodyne::Scan;
 use crate::kitti::FrameId;
@@ -88,6 +89,8 @@ pub struct Converted {
     pub report: FrameReport,
     /// The visualisation payload, with [`Viz::On`].
     pub viz: Option<VizFrame>,
+    /// The files it was made from ([`LoadedFrame::inputs`]).
+    pub inputs: Inputs,
 }
 
 /// Projects one labelled scan (no file access but the image, already decoded, if any).
@@ -132,6 +135,7 @@ pub fn process(
         pgm,
         report,
         viz: None,
+        inputs: Inputs::default(),
     }
 }
 
@@ -148,6 +152,10 @@ pub struct LoadedFrame {
     pub camera: Option<(CameraProjector, image::RgbImage)>,
     /// The camera's PNG bytes, when kept (visualisation).
     pub png: Option<Vec<u8>>,
+    /// Every file read for it (scan, labels, calibration, image, the drive's tracklets and
+    /// timestamps) with its fingerprint, and every path looked for and absent: what the
+    /// frame's outputs are made from.
+    pub inputs: Inputs,
 }
 
 impl LoadedFrame {
@@ -167,7 +175,16 @@ impl LoadedFrame {
 
 /// Reads frame `frame` of `dp` as `map` asks: scan, labels and, with colour, the camera image
 /// (checked against the calibrated size); with [`Viz::On`] the image's file bytes are kept.
+/// Every input read is recorded in [`LoadedFrame::inputs`].
 pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
+    let (loaded, inputs) = crate::fs::recording(|| {
+        crate::fs::note(&dp.inputs);
+        read_frame(dp, frame, map, viz)
+    });
+    Ok(LoadedFrame { inputs, ..loaded? })
+}
+
+fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
     let scan = Scan::read(&dp.drive.scan_path(frame))?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
@@ -175,7 +192,7 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
     let camera = match &map.rgb {
         Some(rgb) => {
             let path = dp.drive.image_path(rgb.camera, frame);
-            let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+            let bytes = crate::fs::read(&path, crate::fs::Limit::Data)?;
             let img = decode_image(&bytes, &path)?;
             let (velo_to_image, size, calib_file) = dp.camera(frame, rgb.camera)?;
             // The projection matrix maps into an image of the rectified size: a picture of
@@ -211,6 +228,7 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
         labels,
         camera,
         png,
+        inputs: Inputs::default(),
     })
 }
 
@@ -224,9 +242,11 @@ impl LoadedFrame {
             labels,
             camera,
             png,
+            inputs,
         } = self;
         let camera = camera.as_ref().map(|(p, i)| (p, i));
         let mut out = process(&id, &scan, &labels, &map.spec, &map.class_map, camera);
+        out.inputs = inputs;
         if viz == Viz::On {
             let file_idx = scan.file_indices();
             let points = scan.points.iter().zip(&scan.reflectance).zip(&file_idx);
@@ -263,10 +283,15 @@ pub fn write_frame_files(
 }
 
 /// Reads, converts and writes one frame (`.npy` and `.label` outputs): [`load`],
-/// [`LoadedFrame::into_converted`], [`write_frame_files`].
-pub fn convert_frame(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Result<FrameReport> {
+/// [`LoadedFrame::into_converted`], [`write_frame_files`]; returns what was found and the
+/// inputs it was made from.
+pub fn convert_frame(
+    dp: &DrivePlan,
+    frame: u32,
+    opts: &ConvertOptions,
+) -> Result<(FrameReport, Inputs)> {
     let map = &opts.params.map;
     let out = load(dp, frame, map, Viz::Off)?.into_converted(map, Viz::Off);
     write_frame_files(dp, frame, &out, opts)?;
-    Ok(out.report)
+    Ok((out.report, out.inputs))
 }

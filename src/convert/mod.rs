@@ -78,6 +78,8 @@ struct Totals {
     summary: ConvertSummary,
     points: ClassCounts,
     cells: ClassCounts,
+    /// The inputs found changed, with what changed.
+    changed_inputs: std::collections::BTreeSet<String>,
 }
 
 impl Totals {
@@ -112,6 +114,7 @@ impl Totals {
         s.labelled_cells = map.keyed(&self.cells.0);
         s.failures.sort_by_cached_key(|f| f.what.to_string());
         s.fallback_frames.sort();
+        s.changed_inputs = self.changed_inputs.into_iter().collect();
         s
     }
 }
@@ -129,6 +132,22 @@ pub(crate) struct Run<'a> {
 impl Run<'_> {
     fn totals(&self) -> std::sync::MutexGuard<'_, Totals> {
         self.totals.lock().expect("no panic while holding the lock")
+    }
+
+    /// What `verdict` says of a planned frame, counted: whether to keep it.
+    pub(crate) fn keeps(&self, verdict: resume::Verdict) -> bool {
+        match verdict {
+            resume::Verdict::Keep => true,
+            resume::Verdict::Convert(None) => false,
+            resume::Verdict::Convert(Some((why, change))) => {
+                let mut t = self.totals();
+                *t.summary.reconverted.entry(why).or_default() += 1;
+                if let Some(c) = change {
+                    t.changed_inputs.insert(c.to_string());
+                }
+                false
+            }
+        }
     }
 
     /// Frames left as an earlier run wrote them.
@@ -216,12 +235,12 @@ fn write_shards(
 fn write_frames(plan: &Plan, opts: &ConvertOptions, run: &Run, pool: &rayon::ThreadPool) {
     let one = |&(d, frame): &(usize, u32)| {
         let dp = &plan.drives[d];
-        if run.journal.frame_is_complete(dp, frame, opts) {
+        if run.keeps(run.journal.verdict(dp, frame, opts)) {
             return run.kept(1, SkipReason::Kept);
         }
         let id = dp.drive.frame_id(frame);
-        let written =
-            convert_frame(dp, frame, opts).and_then(|r| run.journal.record(&id).map(|()| r));
+        let written = convert_frame(dp, frame, opts)
+            .and_then(|(r, inputs)| run.journal.record(&id, &inputs).map(|_| r));
         match written {
             Ok(r) => run.done(&r),
             Err(e) => {
@@ -238,6 +257,18 @@ fn write_frames(plan: &Plan, opts: &ConvertOptions, run: &Run, pool: &rayon::Thr
     } else {
         pool.install(|| plan.jobs.par_iter().for_each(one));
     }
+}
+
+/// Removes the `.npy` / `.label` files of the frames an earlier run finished that this run did
+/// not plan (their scan went, or their annotation changed so that the selection drops them):
+/// they no longer match the inputs.
+fn remove_unplanned_frames(plan: &Plan, opts: &ConvertOptions, run: &Run) -> Result<()> {
+    let planned: std::collections::BTreeSet<_> = plan.frame_ids().collect();
+    for id in run.journal.unplanned(&planned) {
+        let removed = resume::remove_frame_files(&id, opts)?;
+        run.totals().summary.stale_removed += removed;
+    }
+    Ok(())
 }
 
 /// Removes the shards this run did not write or keep (another cut of the frames, frames that
@@ -272,7 +303,7 @@ pub fn convert(
     create_dir(&opts.out.root)?;
     let _lock = resume::lock(&opts.out)?;
     let leftovers_removed = resume::remove_leftovers(&opts.out)?;
-    let journal = resume::Journal::start(opts)?;
+    let journal = resume::Journal::start(opts, &plan.root)?;
     if params.npy {
         create_dir(&opts.out.lidar_dir())?;
     }
@@ -287,10 +318,12 @@ pub fn convert(
             summary: ConvertSummary {
                 leftovers_removed,
                 stale_removed: journal.stale_removed,
+                restarted: journal.restarted,
                 ..started_summary(plan, opts)
             },
             points: ClassCounts::zeros(n),
             cells: ClassCounts::zeros(n),
+            changed_inputs: Default::default(),
         }),
         journal,
         shards: Mutex::default(),
@@ -313,6 +346,7 @@ pub fn convert(
         write_frames(plan, opts, &run, &pool);
     }
     remove_unproduced_shards(opts, &run)?;
+    remove_unplanned_frames(plan, opts, &run)?;
     run.journal.finish()?;
     let s = run
         .totals

@@ -7,15 +7,17 @@
 //! the temporary files (`.tmp-*`) that an interrupted run (kill -9, power cut) left in the output
 //! folders are its own leftovers and are removed.
 //!
-//! Provenance is a journal, `OUT/.kitti2pgm-frames`: its first line records the parameters
-//! (the exact JSON of [`ConvertParams`]), each further line the id of a frame whose `.npy` and
-//! `.label` files were written, whole, with them (appended after the files were renamed into
-//! place). A re-run keeps a frame only when the journal's parameters are this run's, the frame
-//! is listed, and its files are present and of the right size. A run with other parameters (or
-//! `--overwrite`) first removes every converted output of the folder (maps, labels, shards) and
-//! starts a new journal, so that a folder never holds artefacts of two parameter sets.
+//! Provenance is a journal, `OUT/.kitti2pgm-frames` ([`crate::format::journal`]): the
+//! parameters and the dataset root, then each frame whose files were written whole with them
+//! (appended after the files were renamed into place), with every input it was made from. A
+//! re-run keeps a frame only when the journal's parameters and root are this run's, the frame is
+//! listed, its files are present and of the right size, and every input it read is as it was
+//! (same content; a file that appeared where it found none counts as changed) ([`Verdict`]).
+//! A run with other parameters, another root, an older journal (or `--overwrite`) first
+//! removes every converted output of the folder (maps, labels, shards) and starts a new journal,
+//! so that a folder never holds artefacts of two parameter sets or two datasets.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fs::File;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -23,21 +25,17 @@ use std::sync::Mutex;
 
 use super::ConvertOptions;
 use crate::error::{Error, Result};
+use crate::format::journal::{self, JournalRecord, JOURNAL_FILE};
 use crate::format::layout::{self, OutputDir};
 use crate::format::{npy, Durability};
+use crate::fs::inputs::Change;
+use crate::fs::{Fingerprint, Inputs};
 use crate::kitti::velodyne::POINT_BYTES;
 use crate::kitti::FrameId;
-use crate::params::ConvertParams;
-use crate::plan::DrivePlan;
+use crate::plan::{DrivePlan, Reconverted, Restart};
 
 /// Name of the lock file in the output folder.
 pub const LOCK_FILE: &str = ".kitti2pgm.lock";
-
-/// Name of the journal of finished frames in the output folder.
-pub const JOURNAL_FILE: &str = ".kitti2pgm-frames";
-
-/// First word of the journal's header line (format version 1).
-const JOURNAL_MAGIC: &str = "kitti2pgm-frames/1";
 
 /// Takes the output folder's lock; it is released when the returned file is dropped.
 pub fn lock(out: &OutputDir) -> Result<File> {
@@ -130,59 +128,23 @@ pub fn converted_outputs(out: &OutputDir) -> Result<Vec<PathBuf>> {
     Ok(found)
 }
 
-/// The journal of a folder, as read back: the parameters it was started with (as recorded)
-/// and the frames finished under them.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct JournalRecord {
-    /// The parameters' JSON, as recorded.
-    pub params: String,
-    /// Frames whose files were written whole with these parameters.
-    pub frames: BTreeSet<String>,
-}
-
-impl JournalRecord {
-    /// Whether the journal was started with `params`.
-    pub fn made_with(&self, params: &ConvertParams) -> bool {
-        self.params == params_key(params)
-    }
-}
-
-/// The parameters as the journal records them: one line of JSON.
-fn params_key(params: &ConvertParams) -> String {
-    serde_json::to_string(params).expect("the parameters serialise")
-}
-
-/// Reads `OUT/.kitti2pgm-frames`; `Ok(None)` when there is none. A last line without its
-/// newline (the run was killed while appending it) is not counted.
+/// Reads the folder's journal (`OUT/.kitti2pgm-frames`); `Ok(None)` when there is none.
 pub fn read_journal(out: &OutputDir) -> Result<Option<JournalRecord>> {
-    let path = out.root.join(JOURNAL_FILE);
-    let text = match std::fs::read(&path) {
-        Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(Error::io(&path, e)),
-    };
-    let text = String::from_utf8_lossy(&text);
-    let mut lines = text.split_inclusive('\n');
-    let header = lines.next().unwrap_or("");
-    let params = header
-        .strip_suffix('\n')
-        .and_then(|h| h.strip_prefix(JOURNAL_MAGIC))
-        .and_then(|h| h.strip_prefix(' '))
-        .ok_or_else(|| Error::NotFormat {
-            path: path.clone(),
-            format: "a kitti2pgm journal",
-            detail: format!("its first line is not `{JOURNAL_MAGIC} PARAMETERS`"),
-        })?;
-    let frames = lines
-        .filter_map(|l| l.strip_suffix('\n'))
-        .filter(|l| !l.is_empty())
-        .map(str::to_string)
-        .collect();
-    Ok(Some(JournalRecord {
-        params: params.to_string(),
-        frames,
-    }))
+    journal::read(&out.root.join(JOURNAL_FILE))
 }
+
+/// What a run does with one planned frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Verdict {
+    /// Keep its files: the journal proves they were made with these parameters from the inputs
+    /// as they are now.
+    Keep,
+    /// Convert it (again, when the reason is given).
+    Convert(Option<(Reconverted, Option<Change>)>),
+}
+
+/// A fingerprint of an input as it is now, or why it cannot be taken.
+type Now = std::result::Result<Option<Fingerprint>, String>;
 
 /// What a run starts from: the frames it may keep, and what it removed.
 #[derive(Debug)]
@@ -190,53 +152,73 @@ pub struct Journal {
     file: Mutex<File>,
     path: PathBuf,
     header: String,
-    /// Frames recorded by this run.
-    recorded: Mutex<BTreeSet<String>>,
+    /// The dataset root as given and resolved (input paths are recorded relative to it).
+    root: [PathBuf; 2],
+    /// Frames converted, or proved unchanged, by this run, with their inputs.
+    recorded: Mutex<BTreeMap<FrameId, Inputs>>,
     durability: Durability,
-    /// Frames an earlier run with the same parameters finished (empty when starting afresh).
-    pub finished: BTreeSet<String>,
-    /// Converted outputs of other parameters (or of `--overwrite`) removed before converting.
+    /// Frames an earlier run with the same parameters and root finished (empty when starting
+    /// afresh), not yet proved unchanged.
+    finished: BTreeMap<FrameId, Inputs>,
+    /// Inputs fingerprinted this run (a drive's tracklets serve all its frames).
+    now: Mutex<HashMap<PathBuf, Now>>,
+    /// Converted outputs of other parameters, another root or an older journal (or of
+    /// `--overwrite`) removed before converting.
     pub stale_removed: u64,
+    /// Why the earlier run's outputs were removed, if they were.
+    pub restarted: Option<Restart>,
 }
 
 impl Journal {
-    /// Opens the folder's journal for this run: continued when it was started with
-    /// `opts.params` (and `--overwrite` is off); otherwise every converted output of the
-    /// folder is removed and a new journal is started. A folder holding converted outputs but
-    /// no record of their parameters (neither journal nor summary) is refused unless
+    /// Opens the folder's journal for this run of `root`: continued when it was started with
+    /// `opts.params` from the same root (and `--overwrite` is off); otherwise every converted
+    /// output of the folder is removed and a new journal is started. A folder holding converted
+    /// outputs but no record of their parameters (neither journal nor summary) is refused unless
     /// `--overwrite` is given: they are somebody else's files.
-    pub fn start(opts: &ConvertOptions) -> Result<Journal> {
+    pub fn start(opts: &ConvertOptions, root: &Path) -> Result<Journal> {
         let out = &opts.out;
         let path = out.root.join(JOURNAL_FILE);
+        let resolved_root = crate::fs::resolved(root);
         let record = read_journal(out).ok().flatten();
-        let continued =
-            !opts.overwrite && record.as_ref().is_some_and(|r| r.made_with(&opts.params));
+        let restart = match &record {
+            _ if opts.overwrite => Some(Restart::Overwrite),
+            None => None,
+            Some(r) if r.root.is_none() => Some(Restart::OldJournal),
+            Some(r) if r.params != journal::params_key(&opts.params) => Some(Restart::Parameters),
+            Some(r) if !r.made_with(&opts.params, &resolved_root) => Some(Restart::Root),
+            Some(_) => None,
+        };
         let mut stale_removed = 0;
-        let header = format!("{JOURNAL_MAGIC} {}\n", params_key(&opts.params));
-        let finished = if continued {
-            record.map(|r| r.frames).unwrap_or_default()
-        } else {
-            let outputs = converted_outputs(out)?;
-            let recorded = record.is_some() || out.summary_path().is_file();
-            if !outputs.is_empty() && !recorded && !opts.overwrite {
-                return Err(Error::Input {
-                    path: out.root.clone(),
-                    message: format!(
-                        "holds {} converted files (first: {}) but no record of how they were made \
-                         ({JOURNAL_FILE} or {}); write into an empty folder, or replace them \
-                         with overwrite",
-                        outputs.len(),
-                        outputs[0].display(),
-                        layout::SUMMARY_FILE
-                    ),
-                });
+        let header = journal::header(&opts.params, &resolved_root);
+        let finished = match (restart, record) {
+            (None, Some(r)) => r
+                .frames
+                .into_iter()
+                .filter_map(|(id, inputs)| Some((id, inputs?)))
+                .collect(),
+            (_, record) => {
+                let outputs = converted_outputs(out)?;
+                let recorded = record.is_some() || out.summary_path().is_file();
+                if !outputs.is_empty() && !recorded && !opts.overwrite {
+                    return Err(Error::Input {
+                        path: out.root.clone(),
+                        message: format!(
+                            "holds {} converted files (first: {}) but no record of how they were made \
+                             ({JOURNAL_FILE} or {}); write into an empty folder, or replace them \
+                             with overwrite",
+                            outputs.len(),
+                            outputs[0].display(),
+                            layout::SUMMARY_FILE
+                        ),
+                    });
+                }
+                for p in &outputs {
+                    remove(p)?;
+                }
+                stale_removed = outputs.len() as u64;
+                crate::format::atomic_write(&path, header.as_bytes(), Durability::Synced)?;
+                BTreeMap::new()
             }
-            for p in &outputs {
-                remove(p)?;
-            }
-            stale_removed = outputs.len() as u64;
-            crate::format::atomic_write(&path, header.as_bytes(), Durability::Synced)?;
-            BTreeSet::new()
         };
         let file = File::options()
             .append(true)
@@ -249,51 +231,124 @@ impl Journal {
             file: Mutex::new(file),
             path,
             header,
+            root: [root.to_path_buf(), resolved_root],
             recorded: Mutex::default(),
             durability: opts.durability,
             finished,
+            now: Mutex::default(),
             stale_removed,
+            restarted: restart,
         })
     }
 
-    /// Records that `id`'s files were written whole with this run's parameters.
-    pub fn record(&self, id: &FrameId) -> Result<()> {
+    /// Records that `id`'s files were written whole with this run's parameters from `inputs`
+    /// (paths as read); returns the digest of the inputs as recorded (relative to the root).
+    pub fn record(&self, id: &FrameId, inputs: &Inputs) -> Result<u64> {
+        let inputs = self.relative(inputs);
+        let digest = inputs.digest();
         let mut f = self.file.lock().expect("no panic while holding the lock");
         let werr = |source| Error::Write {
             path: self.path.clone(),
             source,
         };
-        f.write_all(format!("{id}\n").as_bytes()).map_err(werr)?;
+        f.write_all(journal::frame_line(id, &inputs).as_bytes())
+            .map_err(werr)?;
         self.durability.flush(&f).map_err(werr)?;
         drop(f);
+        self.recorded().insert(id.clone(), inputs);
+        Ok(digest)
+    }
+
+    fn recorded(&self) -> std::sync::MutexGuard<'_, BTreeMap<FrameId, Inputs>> {
         self.recorded
             .lock()
             .expect("no panic while holding the lock")
-            .insert(id.to_string());
-        Ok(())
+    }
+
+    /// `inputs` (paths as read) as the journal records them: relative to the root.
+    fn relative(&self, inputs: &Inputs) -> Inputs {
+        inputs.relative_to(&[&self.root[0], &self.root[1]])
+    }
+
+    /// The digest of `inputs` (paths as read) as the journal records them.
+    pub fn digest_of(&self, inputs: &Inputs) -> u64 {
+        self.relative(inputs).digest()
+    }
+
+    /// The digest of the inputs this run recorded or proved for `id`.
+    pub fn digest(&self, id: &FrameId) -> Option<u64> {
+        self.recorded().get(id).map(Inputs::digest)
+    }
+
+    /// The fingerprint of `path` now (each path fingerprinted once a run).
+    fn now(&self, path: &Path) -> Result<Option<Fingerprint>> {
+        let cached = self
+            .now
+            .lock()
+            .expect("no panic while holding the lock")
+            .get(path)
+            .cloned();
+        let now = match cached {
+            Some(n) => n,
+            None => {
+                let n = crate::fs::fingerprint(path).map_err(|e| e.to_string());
+                self.now
+                    .lock()
+                    .expect("no panic while holding the lock")
+                    .insert(path.to_path_buf(), n.clone());
+                n
+            }
+        };
+        now.map_err(|e| Error::Input {
+            path: path.into(),
+            message: e,
+        })
+    }
+
+    /// Whether frame `frame` of `dp` is kept or converted, and why: kept when this run already
+    /// recorded it, or when an earlier run finished it, every file `opts` asks for is present
+    /// and of the right size, and every input it was made from is as it was.
+    pub fn verdict(&self, dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> Verdict {
+        let id = dp.drive.frame_id(frame);
+        if self.recorded().contains_key(&id) {
+            return Verdict::Keep;
+        }
+        let Some(inputs) = self.finished.get(&id) else {
+            return Verdict::Convert(None);
+        };
+        if !files_present(dp, frame, opts) {
+            return Verdict::Convert(Some((Reconverted::OutputMissing, None)));
+        }
+        match inputs.first_change(&self.root[1], &|p| self.now(p)) {
+            Some(change) => Verdict::Convert(Some((Reconverted::InputChanged, Some(change)))),
+            None => {
+                self.recorded().insert(id, inputs.clone());
+                Verdict::Keep
+            }
+        }
+    }
+
+    /// Frames an earlier run finished that this run neither kept nor converted (no longer
+    /// planned: their scan went, their annotation changed): their files no longer match the
+    /// inputs.
+    pub fn unplanned(&self, planned: &BTreeSet<FrameId>) -> Vec<FrameId> {
+        self.finished
+            .keys()
+            .filter(|id| !planned.contains(*id))
+            .cloned()
+            .collect()
     }
 
     /// Rewrites the journal in frame order (atomically), so that a finished folder's bytes do
-    /// not depend on the thread count: the frames kept from earlier runs and those recorded now.
+    /// not depend on the thread count: the frames this run recorded or proved unchanged.
     pub fn finish(self) -> Result<()> {
         let recorded = self
             .recorded
             .into_inner()
             .expect("no panic while holding the lock");
-        let mut text = self.header;
-        for id in self.finished.union(&recorded) {
-            text.push_str(id);
-            text.push('\n');
-        }
+        let text = journal::encode(&self.header, &recorded);
         drop(self.file);
         crate::format::atomic_write(&self.path, text.as_bytes(), self.durability)
-    }
-
-    /// Whether an earlier run with these parameters finished `frame` of `dp` and its files are
-    /// still present and of the right size.
-    pub fn frame_is_complete(&self, dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> bool {
-        let id = dp.drive.frame_id(frame);
-        self.finished.contains(&id.to_string()) && files_present(dp, frame, opts)
     }
 }
 
@@ -317,12 +372,14 @@ fn files_present(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> bool {
 }
 
 /// Removes a frame's `.npy` and `.label` files if present (after it failed: whatever is there
-/// was not made by this run).
-pub fn remove_frame_files(id: &FrameId, opts: &ConvertOptions) -> Result<()> {
+/// was not made by this run); returns how many.
+pub fn remove_frame_files(id: &FrameId, opts: &ConvertOptions) -> Result<u64> {
+    let mut removed = 0;
     for p in [opts.out.npy_path(id), opts.out.label_path(id)] {
         if p.is_file() {
             remove(&p)?;
+            removed += 1;
         }
     }
-    Ok(())
+    Ok(removed)
 }

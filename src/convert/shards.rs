@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use prost::Message as _;
 
 use super::frame::{load, write_frame_files, Converted, Viz};
+use super::resume::Verdict;
 use super::{ConvertOptions, FrameOutcome, Run};
 use crate::error::Result;
 use crate::format::create_dir;
@@ -83,16 +84,14 @@ pub(crate) fn convert_to_shards(
             .iter()
             .map(|&(d, f)| plan.drives[d].drive.frame_id(f))
             .collect();
-        // The frames' .npy / .label files, when asked for, must be journalled with these
-        // parameters too.
-        let others_present = !pass.primary
-            || !(opts.params.npy || opts.params.labels)
-            || sp
-                .jobs
-                .iter()
-                .all(|&(d, f)| run.journal.frame_is_complete(&plan.drives[d], f, opts));
-        let intact = || shard_is_intact(&path, &ids, &opts.params, pass.kind);
-        if !opts.overwrite && others_present && intact() {
+        let job = ShardJob {
+            plan,
+            opts,
+            sh,
+            pass,
+            run,
+        };
+        if !opts.overwrite && shard_kept(&job, sp, &ids, &path) {
             run.produced(&path);
             if pass.primary {
                 run.kept(ids.len() as u64, crate::plan::SkipReason::InIntactShard);
@@ -108,16 +107,10 @@ pub(crate) fn convert_to_shards(
             failed: Vec::new(),
             split: sp.split,
             content: pass.kind,
+            inputs: Default::default(),
         };
         let frames = sp.jobs.len() as u64;
         let mut failed_alone = 0u64;
-        let job = ShardJob {
-            plan,
-            opts,
-            sh,
-            pass,
-            run,
-        };
         match write_shard(&job, sp, &path, meta, &mut failed_alone) {
             // Every frame failed (each reported): no empty shard is left behind.
             Ok(reports) if reports.is_empty() => {}
@@ -135,6 +128,31 @@ pub(crate) fn convert_to_shards(
         }
     });
     Ok(())
+}
+
+/// Whether the shard at `path`, planned to hold `sp`'s frames `ids`, is kept as it is: every
+/// frame journalled with these parameters from its inputs as they are now (and its .npy /
+/// .label files present, when asked for), and the shard intact, made from those inputs. The
+/// primary pass counts why frames are converted again.
+fn shard_kept(job: &ShardJob<'_, '_>, sp: &ShardPlan, ids: &[FrameId], path: &Path) -> bool {
+    let (plan, opts, pass, run) = (job.plan, job.opts, job.pass, job.run);
+    let kept = sp.jobs.iter().fold(true, |all, &(d, f)| {
+        let verdict = run.journal.verdict(&plan.drives[d], f, opts);
+        let keep = if pass.primary {
+            run.keeps(verdict)
+        } else {
+            verdict == Verdict::Keep
+        };
+        all && keep
+    });
+    let digests: Option<Vec<(FrameId, u64)>> = kept
+        .then(|| {
+            ids.iter()
+                .map(|id| Some((id.clone(), run.journal.digest(id)?)))
+                .collect()
+        })
+        .flatten();
+    digests.is_some_and(|d| shard_is_intact(path, &d, &opts.params, pass.kind))
 }
 
 /// Assigns each job to a split by its drive, then cuts each split into shards, in frame-id order.
@@ -237,7 +255,7 @@ fn shard_frame(
     };
     if pass.primary {
         write_frame_files(dp, f, &p, opts)?;
-        job.run.journal.record(&dp.drive.frame_id(f))?;
+        job.run.journal.record(&dp.drive.frame_id(f), &p.inputs)?;
     }
     Ok((p, msg, log_time))
 }
@@ -270,6 +288,8 @@ fn write_shard(
                 match r {
                     Ok((p, msg, log_time)) => {
                         writer.write(&msg, log_time, p.viz.as_ref())?;
+                        let id = plan.drives[d].drive.frame_id(f);
+                        meta.inputs.insert(id, run.journal.digest_of(&p.inputs));
                         if pass.primary {
                             (run.progress)(FrameOutcome::Done(&p.report));
                         }

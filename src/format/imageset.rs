@@ -8,7 +8,7 @@ use crate::kitti::FrameId;
 
 /// Reads an ImageSet list; blank lines are ignored, anything else must be a frame id.
 pub fn read(path: &Path) -> Result<Vec<FrameId>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
     text.lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())

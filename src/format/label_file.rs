@@ -25,7 +25,7 @@ pub fn encode_raw(entries: &[u32]) -> Vec<u8> {
 
 /// The raw u32 entries of a `.label` file.
 pub fn read_raw(path: &Path) -> Result<Vec<u32>> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::fs::read(path, crate::fs::Limit::Data)?;
     if bytes.len() % 4 != 0 {
         return Err(Error::Truncated {
             path: path.into(),

@@ -11,6 +11,7 @@
 //! | [`layout`] | the output folder: paths, discovery of converted frames and shards |
 //! | [`summary`] | `convert_summary.json`, with the typed [`ConvertParams`](crate::params::ConvertParams) |
 //! | [`imageset`] | `ImageSet/*.txt` frame lists |
+//! | [`journal`] | `OUT/.kitti2pgm-frames`, the provenance journal: parameters, dataset root, each frame's inputs |
 //! | [`shard`] | MCAP training and prediction shards (records, write, read, viz topics) |
 //! | [`png`] | PNG pictures |
 //!
@@ -18,6 +19,7 @@
 //! place, so a crash or a full disk never leaves a half-written file under a final name.
 
 pub mod imageset;
+pub mod journal;
 pub mod label_file;
 pub mod layout;
 pub mod npy;

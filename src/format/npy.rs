@@ -79,7 +79,7 @@ impl NpyArray {
 /// npyz parses and checks the header; the data, little-endian `<f4` in C order, is then copied
 /// straight from the file's tail, which is several times faster than decoding it value by value.
 pub fn read_f32(path: &Path) -> Result<(Vec<u64>, Vec<f32>)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::fs::read(path, crate::fs::Limit::Data)?;
     let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| not_npy(path, e))?;
     let shape = npy.shape().to_vec();
     let dtype = npy.dtype().descr();
@@ -173,7 +173,7 @@ fn values<T: npyz::Deserialize>(
 /// Reads a numeric `.npy` file of any common dtype, converting values to f64 and Fortran order
 /// to C order.
 pub fn read_any(path: &Path) -> Result<NpyArray> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::fs::read(path, crate::fs::Limit::Data)?;
     let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| not_npy(path, e))?;
     let shape = npy.shape().to_vec();
     let fortran = npy.order() == npyz::Order::Fortran;

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::params::ConvertParams;
-use crate::plan::{FrameFailure, SkipReason};
+use crate::plan::{FrameFailure, Reconverted, Restart, SkipReason};
 use crate::project::ProjectionStats;
 
 /// Totals of a conversion.
@@ -33,6 +33,17 @@ pub struct ConvertSummary {
     /// `--overwrite`) removed before converting, so that the folder holds one conversion.
     #[serde(default)]
     pub stale_removed: u64,
+    /// Why every converted output of an earlier run was removed first (absent: the earlier
+    /// run, if any, was continued).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub restarted: Option<Restart>,
+    /// Frames an earlier run had finished that this run converted again, by why.
+    #[serde(default)]
+    pub reconverted: BTreeMap<Reconverted, u64>,
+    /// The inputs found changed since the earlier run (paths relative to the dataset root, with
+    /// what changed), sorted.
+    #[serde(default)]
+    pub changed_inputs: Vec<String>,
     /// The dataset the frames come from (its layout).
     #[serde(default)]
     pub source: crate::kitti::Layout,
@@ -110,11 +121,10 @@ pub fn write(path: &Path, summary: &ConvertSummary, durability: super::Durabilit
 
 /// Reads the summary at `path`; `Ok(None)` when there is no such file.
 pub fn read(path: &Path) -> Result<Option<ConvertSummary>> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(Error::io(path, e)),
-    };
+    if !crate::fs::present(path) {
+        return Ok(None);
+    }
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
     serde_json::from_str(&text)
         .map(Some)
         .map_err(|e| Error::NotFormat {

@@ -83,7 +83,7 @@ impl CalibFile {
 
     /// Reads and parses a calibration file.
     pub fn read(path: &Path) -> Result<CalibFile> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
         CalibFile::parse(&text, path)
     }
 
@@ -276,7 +276,7 @@ impl Calibration {
         let cam_to_cam = CamToCam::from_file(&CalibFile::read(&dir.join(CAM_TO_CAM))?)?;
         let velo_to_cam = VeloToCam::from_file(&CalibFile::read(&dir.join(VELO_TO_CAM))?)?;
         let imu_path = dir.join(IMU_TO_VELO);
-        let imu_to_velo = if imu_path.exists() {
+        let imu_to_velo = if crate::fs::present(&imu_path) {
             Some(ImuToVelo::from_file(&CalibFile::read(&imu_path)?)?)
         } else {
             None

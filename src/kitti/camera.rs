@@ -9,7 +9,7 @@ pub type RgbImage = image::RgbImage;
 
 /// Reads and decodes a camera PNG.
 pub fn read_image(path: &Path) -> Result<RgbImage> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::fs::read(path, crate::fs::Limit::Data)?;
     decode_image(&bytes, path)
 }
 

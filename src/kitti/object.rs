@@ -99,7 +99,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Vec<ObjectLabel>> {
 
 /// Reads a `label_2` file.
 pub fn read(path: &Path) -> Result<Vec<ObjectLabel>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
     parse(&text, path)
 }
 

@@ -135,7 +135,7 @@ impl Oxts {
 
     /// Reads a record file.
     pub fn read(path: &Path) -> Result<Oxts> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
         Oxts::parse(&text, path)
     }
 }

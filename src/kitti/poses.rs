@@ -8,7 +8,7 @@ use crate::geom::Matrix3x4;
 
 /// The poses of a sequence, one per scan.
 pub fn read(path: &Path) -> Result<Vec<Matrix3x4>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
     parse(&text, path)
 }
 
@@ -41,7 +41,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Vec<Matrix3x4>> {
 
 /// The number of non-empty lines of a text file (`times.txt`).
 pub fn count_lines(path: &Path) -> Result<usize> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
     Ok(text.lines().filter(|l| !l.trim().is_empty()).count())
 }
 

@@ -28,7 +28,7 @@ impl Timestamp {
 
 /// Reads a timestamps file: entry `i` is frame `i`.
 pub fn read(path: &Path) -> Result<Vec<Option<Timestamp>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
     parse(&text, path)
 }
 

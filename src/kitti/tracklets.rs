@@ -239,7 +239,7 @@ impl Tracklets {
 
     /// Reads and parses a `tracklet_labels.xml`.
     pub fn read(path: &Path) -> Result<Tracklets> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
         Tracklets::parse(&text, path)
     }
 

@@ -89,7 +89,7 @@ impl Scan {
 
     /// Reads and decodes a `.bin` file.
     pub fn read(path: &Path) -> Result<Scan> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = crate::fs::read(path, crate::fs::Limit::Data)?;
         Scan::from_bytes(&bytes, path)
     }
 

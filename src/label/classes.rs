@@ -142,7 +142,7 @@ impl ClassMap {
         if let Some(m) = name_or_path.to_str().and_then(ClassMap::builtin) {
             return Ok(m);
         }
-        let text = std::fs::read_to_string(name_or_path).map_err(|e| Error::io(name_or_path, e))?;
+        let text = crate::fs::read_text(name_or_path, crate::fs::Limit::Text)?;
         ClassMap::from_semantic_kitti_yaml(&text, name_or_path)
     }
 

@@ -16,16 +16,20 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::fs::Inputs;
 use crate::geom::Matrix3x4;
 use crate::kitti::calib::{Calibration, FrameCalib};
 use crate::kitti::timestamps::{self, Timestamp};
 use crate::kitti::tracklets::{ObjectType, Tracklets};
 use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::label::{tracklet_boxes, ClassMap, LabelBox};
-pub use selection::{FrameSelection, SkipReason};
+pub use selection::{FrameSelection, Reconverted, Restart, SkipReason};
+
+/// A day's calibration (or why it could not be read), and the files read for it.
+type DayCalibration = (std::result::Result<Arc<Calibration>, String>, Inputs);
 
 /// Each recording day's calibration, read once (or why it could not be).
-struct DayCalibrations(BTreeMap<PathBuf, std::result::Result<Arc<Calibration>, String>>);
+struct DayCalibrations(BTreeMap<PathBuf, DayCalibration>);
 
 impl DayCalibrations {
     fn new() -> Self {
@@ -33,13 +37,12 @@ impl DayCalibrations {
     }
 
     /// The calibration of the day folder `date_dir`.
-    fn of(&mut self, date_dir: &Path) -> std::result::Result<Arc<Calibration>, String> {
+    fn of(&mut self, date_dir: &Path) -> DayCalibration {
         self.0
             .entry(date_dir.to_path_buf())
             .or_insert_with(|| {
-                Calibration::read_dir(date_dir)
-                    .map(Arc::new)
-                    .map_err(|e| e.to_string())
+                let (c, inputs) = crate::fs::recording(|| Calibration::read_dir(date_dir));
+                (c.map(Arc::new).map_err(|e| e.to_string()), inputs)
             })
             .clone()
     }
@@ -61,20 +64,30 @@ pub struct DrivePlan {
     pub tracklets: Arc<Tracklets>,
     /// Velodyne timestamps, when the file exists.
     pub timestamps: Option<Arc<Vec<Option<Timestamp>>>>,
+    /// The drive's own files every frame depends on (tracklets, timestamps; read or found
+    /// absent), fingerprinted: part of each frame's inputs.
+    pub inputs: Inputs,
+    /// The files of the day calibration (raw), part of the inputs of a frame that uses it.
+    pub calib_inputs: Inputs,
 }
 
 impl DrivePlan {
-    /// Reads a drive's tracklets and timestamps (raw; none elsewhere); `calib` is its day's
-    /// calibration (raw).
+    /// Reads a drive's tracklets and timestamps (raw; none elsewhere), recording them in
+    /// [`DrivePlan::inputs`]; `calib` is its day's calibration (raw).
     pub fn load(drive: Drive, calib: Option<Arc<Calibration>>) -> Result<DrivePlan> {
+        let (dp, inputs) = crate::fs::recording(|| DrivePlan::read(drive, calib));
+        Ok(DrivePlan { inputs, ..dp? })
+    }
+
+    fn read(drive: Drive, calib: Option<Arc<Calibration>>) -> Result<DrivePlan> {
         let tpath = drive.tracklets_path();
-        let tracklets = if tpath.exists() {
+        let tracklets = if crate::fs::present(&tpath) {
             Tracklets::read(&tpath)?
         } else {
             Tracklets::default()
         };
         let ts_path = drive.scan_timestamps_path();
-        let timestamps = if ts_path.exists() {
+        let timestamps = if crate::fs::present(&ts_path) {
             Some(Arc::new(timestamps::read(&ts_path)?))
         } else {
             None
@@ -105,6 +118,8 @@ impl DrivePlan {
             calib_error: None,
             tracklets: Arc::new(tracklets),
             timestamps,
+            inputs: Inputs::default(),
+            calib_inputs: Inputs::default(),
         })
     }
 
@@ -121,6 +136,7 @@ impl DrivePlan {
     pub fn camera(&self, frame: u32, camera: u8) -> Result<(Matrix3x4, Option<[f64; 2]>, PathBuf)> {
         match &self.calib {
             Some(c) => {
+                crate::fs::note(&self.calib_inputs);
                 let size = c.cam_to_cam.cameras[camera as usize].size_rect;
                 let file = self.drive.date_dir().join(crate::kitti::calib::CAM_TO_CAM);
                 Ok((
@@ -215,6 +231,8 @@ pub struct FrameFailure {
 /// The work: drives and frames.
 #[derive(Debug, Clone)]
 pub struct Plan {
+    /// The dataset root it was built from, as given.
+    pub root: PathBuf,
     /// Drives that could be read.
     pub drives: Vec<DrivePlan>,
     /// (index into `drives`, frame) to convert, in frame-id order.
@@ -270,6 +288,7 @@ impl Plan {
         source: Option<Layout>,
     ) -> Result<Plan> {
         let mut plan = Plan {
+            root: root.to_path_buf(),
             drives: Vec::new(),
             jobs: Vec::new(),
             skipped: BTreeMap::new(),
@@ -293,13 +312,16 @@ impl Plan {
             };
             let calib = (drive.layout == Layout::Raw).then(|| calibs.of(&drive.date_dir()));
             // A raw day without a readable calibration still converts without colour.
-            let (calib, calib_error) = match calib {
-                Some(Ok(c)) => (Some(c), None),
-                Some(Err(e)) => (None, Some(e)),
-                None => (None, None),
+            let (calib, calib_error, calib_inputs) = match calib {
+                Some((Ok(c), inputs)) => (Some(c), None, inputs),
+                Some((Err(e), inputs)) => (None, Some(e), inputs),
+                None => (None, None, Inputs::default()),
             };
-            let loaded =
-                DrivePlan::load(drive.clone(), calib).map(|dp| DrivePlan { calib_error, ..dp });
+            let loaded = DrivePlan::load(drive.clone(), calib).map(|dp| DrivePlan {
+                calib_error,
+                calib_inputs,
+                ..dp
+            });
             match loaded {
                 Ok(dp) => plan.add_drive(dp, &frames, selection),
                 Err(e) => plan.failed.push(FrameFailure {
@@ -348,7 +370,7 @@ impl Plan {
         }
         let index = self.drives.len();
         let raw = dp.drive.layout == Layout::Raw;
-        let why = if dp.drive.tracklets_path().exists() {
+        let why = if crate::fs::present(&dp.drive.tracklets_path()) {
             SkipReason::NoPose
         } else {
             SkipReason::NoTrackletFile

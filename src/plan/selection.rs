@@ -63,3 +63,56 @@ impl std::fmt::Display for SkipReason {
         f.write_str(self.as_str())
     }
 }
+
+/// Why a frame an earlier run with the same parameters finished was converted again (the
+/// summary's `reconverted` keys).
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
+pub enum Reconverted {
+    /// A file it was made from changed, appeared or went (scan, labels, tracklets,
+    /// calibration, image): the summary's `changed_inputs` names them.
+    #[serde(rename = "input changed")]
+    InputChanged,
+    /// One of its output files is missing or of the wrong size.
+    #[serde(rename = "output missing or damaged")]
+    OutputMissing,
+}
+
+/// Why a run removed every converted output of its folder before converting (the summary's
+/// `restarted`), instead of continuing the earlier run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Restart {
+    /// The earlier run had other parameters.
+    #[serde(rename = "parameters changed")]
+    Parameters,
+    /// The earlier run converted another dataset root.
+    #[serde(rename = "dataset root changed")]
+    Root,
+    /// The earlier run's journal records no inputs (an older version): nothing can be proved.
+    #[serde(rename = "journal without inputs (older version)")]
+    OldJournal,
+    /// Asked for (`--overwrite`).
+    #[serde(rename = "overwrite asked")]
+    Overwrite,
+}
+
+impl std::fmt::Display for Reconverted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Reconverted::InputChanged => "input changed",
+            Reconverted::OutputMissing => "output missing or damaged",
+        })
+    }
+}
+
+impl std::fmt::Display for Restart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Restart::Parameters => "parameters changed",
+            Restart::Root => "dataset root changed",
+            Restart::OldJournal => "journal without inputs (older version)",
+            Restart::Overwrite => "overwrite asked",
+        })
+    }
+}

@@ -202,7 +202,7 @@ pub fn drive_frames(drive: &Drive, selection: FrameSelection) -> Result<Vec<u32>
         return Ok(scans);
     }
     let path = drive.tracklets_path();
-    let t = if path.exists() {
+    let t = if crate::fs::present(&path) {
         Tracklets::read(&path)?
     } else {
         Tracklets::default()

@@ -8,8 +8,8 @@
 use std::path::{Path, PathBuf};
 
 use super::truth::{GroundTruth, Source};
-use crate::convert::resume::{read_journal, JOURNAL_FILE};
 use crate::error::Result;
+use crate::format::journal::{self, JOURNAL_FILE};
 use crate::format::layout::{self, OutputDir};
 use crate::format::shard::Shard;
 use crate::format::summary;
@@ -82,12 +82,8 @@ pub(crate) fn problem(gt: &GroundTruth) -> Result<Option<String>> {
             )));
         }
     }
-    if let (Source::Npy(_), Some(j)) = (&gt.source, read_journal(&dir)?) {
-        let stray: Vec<&FrameId> = gt
-            .frames
-            .iter()
-            .filter(|f| !j.frames.contains(&f.to_string()))
-            .collect();
+    if let (Source::Npy(_), Some(j)) = (&gt.source, journal::read(&dir.root.join(JOURNAL_FILE))?) {
+        let stray: Vec<&FrameId> = gt.frames.iter().filter(|f| !j.lists(f)).collect();
         if let Some(first) = stray.first() {
             return Ok(Some(format!(
                 "{} of the {} maps (first: {first}) were not made by the conversion recorded in {} (copied in, or left by another run)",

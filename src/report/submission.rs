@@ -237,7 +237,7 @@ pub fn write_zip(
             let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
             z.start_file(format!("sequences/{seq}/predictions/{name}"), options)
                 .map_err(zerr)?;
-            let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+            let bytes = crate::fs::read(&p, crate::fs::Limit::Data)?;
             z.write_all(&bytes).map_err(werr)?;
         }
     }

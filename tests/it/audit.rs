@@ -78,7 +78,7 @@ fn inspect_names_a_folder() {
     let t = tmp();
     let (code, _, stderr) = run_text(&["inspect", s(t.path())]);
     assert_ne!(code, 0);
-    assert!(stderr.contains("a folder, not a shard"), "{stderr}");
+    assert!(stderr.contains("a folder, not a regular file"), "{stderr}");
 }
 
 const D1: &str = "2011_09_26/2011_09_26_drive_0001_sync";

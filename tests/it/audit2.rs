@@ -17,19 +17,18 @@ fn resume_never_mixes_parameters() {
     let out = t.path().join("out");
     let fresh = t.path().join("fresh");
     convert_fixtures(&fresh, &["--fov-deg", "360"]);
-    // 90 degrees everywhere, then 360 on one drive only (as an interrupted run leaves it),
-    // then 360 on all: every map must be a 360-degree one.
+    // 90 degrees everywhere, then 360 on one drive only, then 360 on all: every map must be a
+    // 360-degree one. (The drive folder is another dataset root: nothing is resumed across
+    // roots.)
     convert_fixtures(&out, &[]);
     let (code, j, e) = convert_json(&fixture_drive(1), &out, &["--fov-deg", "360"]);
     assert_eq!(code, 0, "{e}");
     assert!(j["stale_removed"].as_u64().unwrap() > 0, "{j}");
-    let drive_frames = j["frames_converted"].clone();
+    assert_eq!(j["restarted"], "parameters changed", "{j}");
     let (code, j, e) = convert_json(&fixtures(), &out, &["--fov-deg", "360"]);
     assert_eq!(code, 0, "{e}");
-    assert_eq!(
-        j["resumed_frames"], drive_frames,
-        "drive 0001's frames kept: {j}"
-    );
+    assert_eq!(j["resumed_frames"], 0, "{j}");
+    assert_eq!(j["restarted"], "dataset root changed", "{j}");
     assert_eq!(maps(&out), maps(&fresh), "every map is a 360-degree map");
     // An interrupted run (the summary says so) that changed parameters: the same.
     convert_fixtures(&out, &[]);

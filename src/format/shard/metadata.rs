@@ -27,6 +27,10 @@ pub struct ShardMetadata {
     pub split: crate::plan::split::Split,
     /// What the shard holds.
     pub content: super::ShardKind,
+    /// The digest of each written frame's inputs ([`crate::fs::Inputs::digest`], paths relative
+    /// to the dataset root): a re-run keeps the shard only when its frames' inputs are unchanged.
+    /// Empty in shards of earlier versions.
+    pub inputs: BTreeMap<FrameId, u64>,
 }
 
 /// Frame ids one a line, as the record stores them.
@@ -51,6 +55,14 @@ impl ShardMetadata {
             ("failed".into(), ids_text(&self.failed)),
             ("split".into(), self.split.to_string()),
             ("content".into(), self.content.name().into()),
+            (
+                "inputs".into(),
+                self.inputs
+                    .iter()
+                    .map(|(id, d)| format!("{id} {d:016x}"))
+                    .collect::<Vec<_>>()
+                    .join("\n"),
+            ),
             // The topics, so that readers (the Python package) need no copy of them.
             ("frame_topic".into(), super::FRAME_TOPIC.into()),
             ("prediction_topic".into(), super::PREDICTION_TOPIC.into()),
@@ -99,6 +111,7 @@ impl ShardMetadata {
             split: get("split")?
                 .parse()
                 .map_err(|e: Error| Error::format(path, format!("metadata `split`: {e}")))?,
+            inputs: input_digests(m.get("inputs"), path)?,
             // Shards written before point shards existed hold maps.
             content: match m.get("content").map(String::as_str) {
                 None | Some("maps") => super::ShardKind::Maps,
@@ -112,4 +125,21 @@ impl ShardMetadata {
             },
         })
     }
+}
+
+/// The `inputs` entry: `FRAME_ID DIGEST` lines (absent in shards of earlier versions).
+fn input_digests(entry: Option<&String>, path: &Path) -> Result<BTreeMap<FrameId, u64>> {
+    let bad = |line: &str| {
+        Error::format(
+            path,
+            format!("metadata `inputs`: line {line:?} is not `FRAME_ID DIGEST`"),
+        )
+    };
+    let mut out = BTreeMap::new();
+    for line in entry.map(String::as_str).unwrap_or("").lines() {
+        let (id, digest) = line.split_once(' ').ok_or_else(|| bad(line))?;
+        let id = id.parse().map_err(|e: NotAFrameId| e.in_file(path))?;
+        out.insert(id, u64::from_str_radix(digest, 16).map_err(|_| bad(line))?);
+    }
+    Ok(out)
 }

@@ -53,13 +53,7 @@ pub struct Shard {
 impl Shard {
     /// Opens a shard (no check of its contents: see [`Shard::open_verified`]).
     pub fn open(path: &Path) -> Result<Shard> {
-        if path.is_dir() {
-            return Err(Error::Input {
-                path: path.into(),
-                message: "a folder, not a shard (.mcap file)".into(),
-            });
-        }
-        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let (file, _) = crate::fs::open(path)?;
         // SAFETY: the file is opened read-only and only read; a shard is never modified in
         // place (it is written under a temporary name and renamed), so the mapping is stable.
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(path, e))?;
@@ -357,11 +351,11 @@ impl Shard {
     }
 }
 
-/// Whether the shard at `path` is finished, intact, holds `kind` and exactly `frames`, made with
-/// the same map and shard parameters as `params`.
+/// Whether the shard at `path` is finished, intact, holds `kind` and exactly `frames`, each made
+/// from inputs of the given digest, with the same map and shard parameters as `params`.
 pub fn shard_is_intact(
     path: &Path,
-    frames: &[FrameId],
+    frames: &[(FrameId, u64)],
     params: &crate::params::ConvertParams,
     kind: ShardKind,
 ) -> bool {
@@ -390,7 +384,11 @@ pub fn shard_is_intact(
         })
         .sum::<u64>();
     md.failed.is_empty()
-        && md.frames == frames
+        && md.frames.len() == frames.len()
+        && frames
+            .iter()
+            .zip(&md.frames)
+            .all(|((id, digest), listed)| id == listed && md.inputs.get(id) == Some(digest))
         && md.params.map == params.map
         && md.content == kind
         && params.shards_of(kind) == md.params.shards_of(kind)
