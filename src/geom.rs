@@ -74,6 +74,38 @@ pub fn check_rotation(m: &na::Matrix3<f64>) -> Result<(), String> {
     Ok(())
 }
 
+/// The largest extent a box may have along any axis, metres: three times the longest box of
+/// KITTI's tracklets (a tram, 35.2 m), far below what would label a strip of the scene.
+pub const MAX_BOX_EXTENT_M: f64 = 100.0;
+
+/// Checks a box's extents (any order; metres): finite in single precision (the labeller's),
+/// positive, at most [`MAX_BOX_EXTENT_M`]. The rule of every box source (tracklets, `label_2`,
+/// the Python module); the error names the bad value.
+pub fn check_box_extents(extents: &[f64; 3], names: [&str; 3]) -> Result<(), String> {
+    for (&x, name) in extents.iter().zip(names) {
+        // 1e38, not 39 digits.
+        let v = if x.abs() >= 1e6 {
+            format!("{x:e}")
+        } else {
+            format!("{x}")
+        };
+        if !(x as Real).is_finite() {
+            return Err(format!(
+                "box size {name}={v} is not finite in single precision"
+            ));
+        }
+        if x <= 0.0 {
+            return Err(format!("box size must be positive, found {name}={v}"));
+        }
+        if x > MAX_BOX_EXTENT_M {
+            return Err(format!(
+                "box size {name}={v} m is implausible (at most {MAX_BOX_EXTENT_M} m)"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The rotation nearest to `m`, found in a bounded number of iterations (nalgebra's
 /// `from_matrix` iterates until it converges, which a wild matrix never does).
 pub fn nearest_rotation<T: na::RealField + Copy>(m: &na::Matrix3<T>) -> na::Rotation3<T> {

@@ -100,6 +100,12 @@ pub fn run(a: CheckArgs, g: &Global) -> anyhow::Result<Outcome> {
         return Ok(Outcome::Ok);
     }
     let root = a.root.clone().expect("clap requires ROOT without --list");
+    if let Some(dir) = &a.pictures {
+        use kitti2pgm::fs::Role;
+        let mut inputs = vec![(Role::Dataset, root.as_path())];
+        inputs.extend(a.imageset.as_deref().map(|p| (Role::List, p)));
+        kitti2pgm::fs::refuse_overlap(dir, &inputs)?;
+    }
     let pb = progress::bar(0, g.progress, "checking scans");
     let pool = g.pool()?;
     let report = pool.install(|| check(&root, &opts, &|n| pb.inc(n)))?;

@@ -5,6 +5,7 @@ use kitti2pgm::draw::preview::{render, render_labels};
 use kitti2pgm::format::layout::OutputDir;
 use kitti2pgm::format::npy::read_any;
 use kitti2pgm::format::{pgm, png, summary};
+use kitti2pgm::fs::Role;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::report::score::read_cell_prediction;
 use kitti2pgm::report::truth::{GroundTruth, MapFrame};
@@ -66,6 +67,14 @@ fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome>
 }
 
 pub fn run(a: PreviewArgs, g: &super::Global) -> anyhow::Result<Outcome> {
+    let mut inputs: Vec<(Role, &std::path::Path)> = a
+        .inputs
+        .iter()
+        .map(|p| (Role::Converted, p.as_path()))
+        .collect();
+    inputs.extend(a.raw.as_deref().map(|p| (Role::Dataset, p)));
+    inputs.extend(a.gt.as_deref().map(|p| (Role::GroundTruth, p)));
+    kitti2pgm::fs::refuse_overlap(&a.out, &inputs)?;
     if let Some(raw) = a.raw.clone() {
         return run_points(&a, &raw);
     }

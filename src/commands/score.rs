@@ -68,7 +68,27 @@ fn options(
     (opts, unproject)
 }
 
+/// Refuses pictures (`--confusion`, `--worst`'s folder) over an input.
+fn refuse_pictures_over_inputs(a: &ScoreArgs) -> anyhow::Result<()> {
+    use kitti2pgm::fs::Role;
+    let mut inputs = vec![
+        (Role::GroundTruth, a.gt.as_path()),
+        (Role::Predictions, a.pred.as_path()),
+    ];
+    inputs.extend(a.raw.as_deref().map(|p| (Role::Dataset, p)));
+    inputs.extend(a.imageset.as_deref().map(|p| (Role::List, p)));
+    let worst = a.worst.map(|_| a.worst_dir.as_path());
+    for out in a.confusion.as_deref().into_iter().chain(worst) {
+        kitti2pgm::fs::refuse_overlap(out, &inputs)?;
+    }
+    Ok(())
+}
+
 pub fn run(a: ScoreArgs, g: &Global) -> anyhow::Result<Outcome> {
+    refuse_pictures_over_inputs(&a)?;
+    a.knn
+        .method(kitti2pgm::project::unproject::MethodKind::Knn)
+        .validate()?;
     let preds = Predictions::index(&a.pred)?;
     let gt = GroundTruth::open_with(&a.gt, completeness(a.partial))?;
     if gt.provenance == Provenance::Assumed || gt.partial.is_some() {

@@ -9,6 +9,10 @@ use crate::cli::SplitArgs;
 use crate::Outcome;
 
 pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
+    kitti2pgm::fs::refuse_overlap(
+        &a.out,
+        &[(kitti2pgm::fs::Role::Dataset, a.raw_root.as_path())],
+    )?;
     let source = a.source;
     let rule = a.split.rule()?;
     let selection = if a.all_frames {

@@ -50,6 +50,13 @@ fn split_lists(paths: &[std::path::PathBuf]) -> anyhow::Result<Vec<SplitFrames>>
 }
 
 pub fn run(a: StatsArgs, g: &Global) -> anyhow::Result<Outcome> {
+    if let Some(chart) = &a.chart {
+        use kitti2pgm::fs::Role;
+        let mut inputs = vec![(Role::Converted, a.dir.as_path())];
+        inputs.extend(a.imageset.iter().map(|p| (Role::List, p.as_path())));
+        inputs.extend(a.raw.as_deref().map(|p| (Role::Dataset, p)));
+        kitti2pgm::fs::refuse_overlap(chart, &inputs)?;
+    }
     let gt = GroundTruth::open_with(&a.dir, completeness(a.partial))?;
     if gt.provenance == Provenance::Assumed || gt.partial.is_some() {
         eprintln!("kitti2pgm: {}", gt.provenance_note());

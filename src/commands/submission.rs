@@ -37,6 +37,14 @@ pub struct SubmissionArgs {
 }
 
 pub fn run(a: SubmissionArgs) -> anyhow::Result<Outcome> {
+    if let Some(zip) = &a.zip {
+        use kitti2pgm::fs::Role;
+        let inputs = [
+            (Role::Predictions, a.pred.as_path()),
+            (Role::Dataset, a.gt.as_path()),
+        ];
+        kitti2pgm::fs::refuse_overlap(zip, &inputs)?;
+    }
     let map = ClassMap::named_or_file(&a.class_map)?;
     let seqs = (!a.sequences.is_empty()).then_some(&a.sequences[..]);
     let c = check_submission(&a.pred, &a.gt, seqs, &map)?;
@@ -63,7 +71,9 @@ pub fn run(a: SubmissionArgs) -> anyhow::Result<Outcome> {
     }
     if let Some(zip) = &a.zip {
         let description = match &a.description {
-            Some(d) if std::path::Path::new(d).is_file() => std::fs::read_to_string(d)?,
+            Some(d) if std::path::Path::new(d).is_file() => {
+                kitti2pgm::fs::read_text(d.as_ref(), kitti2pgm::fs::Limit::Text)?
+            }
             Some(d) => d.clone(),
             None => format!(
                 "Predictions of sequences {} written by kitti2pgm {}.\n",

@@ -7,7 +7,10 @@ use kitti2pgm::format::imageset;
 use kitti2pgm::project::unproject::{KnnParams, Method, MethodKind};
 use kitti2pgm::report::score::Predictions;
 use kitti2pgm::report::truth::GroundTruth;
-use kitti2pgm::report::unproject::{unproject_all, write_viz, UnprojectOptions, NOT_PREDICTED};
+use kitti2pgm::report::unproject::{
+    refuse_output_over_inputs, unproject_all, write_viz, UnprojectOptions, UnprojectSummary,
+    NOT_PREDICTED,
+};
 
 use super::{completeness, durability, progress, Global};
 use crate::Outcome;
@@ -89,7 +92,25 @@ pub struct UnprojectArgs {
     pub json: bool,
 }
 
+/// Refuses a `--viz` file over an input (or the output folder).
+fn refuse_viz_over_inputs(a: &UnprojectArgs) -> anyhow::Result<()> {
+    use kitti2pgm::fs::Role;
+    if let Some(viz) = &a.viz {
+        let inputs = [
+            (Role::GroundTruth, a.gt.as_path()),
+            (Role::Predictions, a.pred.as_path()),
+            (Role::Dataset, a.raw.as_path()),
+            (Role::Predictions, a.out.as_path()),
+        ];
+        kitti2pgm::fs::refuse_overlap(viz, &inputs)?;
+    }
+    Ok(())
+}
+
 pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
+    // Parameters first: a usage error before anything is read.
+    let method = a.knn.method(a.method);
+    method.validate()?;
     let gt = GroundTruth::open_with(&a.gt, completeness(a.partial))?;
     if let Some(p) = &gt.partial {
         eprintln!("kitti2pgm: PARTIAL: {p}");
@@ -107,12 +128,14 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
         None => None,
     };
     let opts = UnprojectOptions {
-        method: a.knn.method(a.method),
+        method,
         raw: a.raw.clone(),
         out: a.out.clone(),
         only,
         durability: durability(a.sync),
     };
+    refuse_output_over_inputs(&opts.out, &gt, &preds, &opts)?;
+    refuse_viz_over_inputs(&a)?;
     let total = opts.only.as_ref().map_or(gt.frames.len(), |o| o.len());
     let pb = progress::bar(total as u64, g.progress, "unprojecting");
     let pool = g.pool()?;
@@ -121,26 +144,7 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
     } else {
-        println!("method           {:>10}", s.method);
-        println!(
-            "frames written   {:>10}  (into {})",
-            s.frames,
-            s.written_to.display()
-        );
-        println!("points           {:>10}", s.points);
-        println!(
-            "not predicted    {:>10}  (outside the map's field of view: {})",
-            s.not_predicted,
-            if gt
-                .frames
-                .iter()
-                .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence)
-            {
-                "raw id 0, unlabeled".to_string()
-            } else {
-                format!("class {NOT_PREDICTED:#06x}")
-            }
-        );
+        print!("{}", table(&s, &gt));
     }
     for f in &s.failures {
         eprintln!("kitti2pgm: {}: {}", f.frame, f.error);
@@ -157,4 +161,40 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
         (false, 0) => anyhow::bail!("no frame could be carried back"),
         (false, _) => Outcome::Partial,
     })
+}
+
+/// The summary as a table.
+fn table(s: &UnprojectSummary, gt: &GroundTruth) -> String {
+    use std::fmt::Write;
+    let mut t = String::new();
+    let _ = writeln!(t, "method           {:>10}", s.method);
+    let _ = writeln!(
+        t,
+        "frames written   {:>10}  (into {})",
+        s.frames,
+        s.written_to.display()
+    );
+    if s.not_carried > 0 {
+        let _ = writeln!(
+            t,
+            "not carried      {:>10}  (ground-truth frames not listed, or of drives without any prediction)",
+            s.not_carried
+        );
+    }
+    let _ = writeln!(t, "points           {:>10}", s.points);
+    let _ = writeln!(
+        t,
+        "not predicted    {:>10}  (outside the map's field of view: {})",
+        s.not_predicted,
+        if gt
+            .frames
+            .iter()
+            .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence)
+        {
+            "raw id 0, unlabeled".to_string()
+        } else {
+            format!("class {NOT_PREDICTED:#06x}")
+        }
+    );
+    t
 }

@@ -300,6 +300,7 @@ pub fn convert(
     let params = &opts.params;
     params.validate()?;
     plan.check_class_map(&params.map.class_map)?;
+    crate::fs::refuse_overlap(&opts.out.root, &[(crate::fs::Role::Dataset, &plan.root)])?;
     create_dir(&opts.out.root)?;
     let _lock = resume::lock(&opts.out)?;
     let leftovers_removed = resume::remove_leftovers(&opts.out)?;

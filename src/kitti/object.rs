@@ -81,11 +81,8 @@ pub fn parse(text: &str, path: &Path) -> Result<Vec<ObjectLabel>> {
             num(k)?;
         }
         let hwl = [num(8)?, num(9)?, num(10)?];
-        if fields[0] != "DontCare" && hwl.iter().any(|v| *v <= 0.0) {
-            return Err(bad(format!(
-                "box size must be positive, found h={} w={} l={}",
-                hwl[0], hwl[1], hwl[2]
-            )));
+        if fields[0] != "DontCare" {
+            crate::geom::check_box_extents(&hwl, ["h", "w", "l"]).map_err(bad)?;
         }
         out.push(ObjectLabel {
             kind: fields[0].to_string(),

@@ -384,12 +384,7 @@ impl Parser<'_> {
             ));
         }
         let (h, w, l) = (self.real(n, "h")?, self.real(n, "w")?, self.real(n, "l")?);
-        if h <= 0.0 || w <= 0.0 || l <= 0.0 {
-            return Err(self.err(
-                n,
-                format!("box size must be positive, found h={h} w={w} l={l}"),
-            ));
-        }
+        crate::geom::check_box_extents(&[h, w, l], ["h", "w", "l"]).map_err(|m| self.err(n, m))?;
         let poses = self
             .counted_items(self.child(n, "poses")?)?
             .into_iter()

@@ -112,6 +112,14 @@ pub enum Method {
 }
 
 impl Method {
+    /// Checks the parameters (the kNN's): an [`Error::Config`] before any work.
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            Method::Cell => Ok(()),
+            Method::Knn(p) => p.validate(),
+        }
+    }
+
     /// The method's name.
     pub fn kind(&self) -> MethodKind {
         match self {

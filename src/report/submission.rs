@@ -38,6 +38,10 @@ pub struct SubmissionCheck {
     pub valid: u64,
     /// Every problem, sorted by path.
     pub problems: Vec<Problem>,
+    /// The valid prediction files as checked: (sequence, file, its size); what the archive
+    /// packs, and nothing else.
+    #[serde(skip)]
+    pub checked: Vec<(String, PathBuf, u64)>,
 }
 
 impl SubmissionCheck {
@@ -74,6 +78,7 @@ pub fn check_submission(
     }
     let drives = select_sequences(root, sequences)?;
     let mut problems = Vec::new();
+    let mut checked = Vec::new();
     let (mut expected, mut valid) = (0u64, 0u64);
     let names: Vec<String> = drives.iter().map(|d| format!("{:02}", d.number)).collect();
     for (d, seq) in drives.iter().zip(&names) {
@@ -83,7 +88,10 @@ pub fn check_submission(
             expected += 1;
             let file = dir.join(format!("{f:06}.label"));
             match check_file(&file, &d.scan_path(f), map) {
-                Ok(()) => valid += 1,
+                Ok(size) => {
+                    valid += 1;
+                    checked.push((seq.clone(), file, size));
+                }
                 Err(problem) => problems.push(Problem {
                     path: file,
                     problem,
@@ -115,6 +123,7 @@ pub fn check_submission(
         expected,
         valid,
         problems,
+        checked,
     })
 }
 
@@ -124,6 +133,12 @@ fn select_sequences(root: &Path, sequences: Option<&[u32]>) -> Result<Vec<Drive>
     let Some(want) = sequences else {
         return Ok(all);
     };
+    let mut seen = std::collections::BTreeSet::new();
+    if let Some(twice) = want.iter().find(|n| !seen.insert(**n)) {
+        return Err(Error::Config(format!(
+            "sequence {twice:02} is asked for twice"
+        )));
+    }
     want.iter()
         .map(|&n| {
             all.iter()
@@ -158,8 +173,8 @@ fn extra_files(dir: &Path, scans: &[u32]) -> Result<Vec<Problem>> {
     Ok(extra)
 }
 
-/// What is wrong with one prediction file, if anything.
-fn check_file(file: &Path, scan: &Path, map: &ClassMap) -> std::result::Result<(), String> {
+/// What is wrong with one prediction file, if anything; its size when nothing is.
+fn check_file(file: &Path, scan: &Path, map: &ClassMap) -> std::result::Result<u64, String> {
     let meta = match std::fs::metadata(file) {
         Ok(m) => m,
         Err(_) => {
@@ -193,7 +208,7 @@ fn check_file(file: &Path, scan: &Path, map: &ClassMap) -> std::result::Result<(
             bad.len()
         ));
     }
-    Ok(())
+    Ok(meta.len())
 }
 
 /// Packs the checked, valid submission `pred` into a zip archive at `zip_path` (written
@@ -211,6 +226,7 @@ pub fn write_zip(
             message: format!("{} problems: not packed", check.problems.len()),
         });
     }
+    crate::fs::refuse_overlap(zip_path, &[(crate::fs::Role::Predictions, pred)])?;
     let dir = zip_path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -231,15 +247,22 @@ pub fn write_zip(
         .compression_method(zip::CompressionMethod::Deflated);
     z.start_file("description.txt", options).map_err(zerr)?;
     z.write_all(description.as_bytes()).map_err(werr)?;
-    for seq in &check.sequences {
-        let d = predictions_dir(pred, seq);
-        for p in crate::fs::sorted_dir(&d)? {
-            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-            z.start_file(format!("sequences/{seq}/predictions/{name}"), options)
-                .map_err(zerr)?;
-            let bytes = crate::fs::read(&p, crate::fs::Limit::Data)?;
-            z.write_all(&bytes).map_err(werr)?;
+    // Exactly the files checked, as checked: a file that changed since is not packed.
+    for (seq, p, size) in &check.checked {
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+        z.start_file(format!("sequences/{seq}/predictions/{name}"), options)
+            .map_err(zerr)?;
+        let bytes = crate::fs::read(p, crate::fs::Limit::Data)?;
+        if bytes.len() as u64 != *size {
+            return Err(Error::Length {
+                path: p.clone(),
+                what: "the prediction (changed since it was checked)".into(),
+                found: bytes.len(),
+                expected: *size as usize,
+                unit: "bytes",
+            });
         }
+        z.write_all(&bytes).map_err(werr)?;
     }
     z.finish().map_err(zerr)?;
     tmp.persist(zip_path).map_err(|e| werr(e.error))?;

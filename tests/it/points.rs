@@ -109,7 +109,7 @@ fn reports_refuse_point_shards_by_name() {
     for args in [
         vec!["stats", s(&out)],
         vec!["stats", s(&shard)],
-        vec!["preview", s(&shard), "--out", s(t.path())],
+        vec!["preview", s(&shard), "--out", s(&t.path().join("pics"))],
     ] {
         let (code, _, err) = run_text(&args);
         assert_ne!(code, 0, "{args:?}");

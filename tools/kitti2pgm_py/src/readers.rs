@@ -177,11 +177,11 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
     }
     // Finite in single precision, the labeller's (1e39 overflows f32 to inf).
     let f32_finite = |v: &f64| (*v as Real).is_finite();
-    if !size.iter().all(|v| f32_finite(v) && *v >= 0.0) || !centre.iter().all(f32_finite) {
-        return Err(err(
-            "centre and size must be finite (in float32), sizes >= 0",
-        ));
+    if !centre.iter().all(f32_finite) {
+        return Err(err("centre must be finite (in float32)"));
     }
+    kitti2pgm::geom::check_box_extents(&[size[0], size[1], size[2]], ["l", "w", "h"])
+        .map_err(|m| err(&m))?;
     let rot = match get("rotation") {
         Ok(r) => {
             let m: Vec<Vec<f64>> = r.extract()?;

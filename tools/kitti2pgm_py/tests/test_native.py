@@ -251,8 +251,13 @@ def test_wild_boxes_are_refused_not_hung():
             k2.label_points(pts, [dict(box, rotation=rot)])
     with pytest.raises(ValueError, match="yaw must be finite"):
         k2.label_points(pts, [dict(box, yaw=float("nan"))])
-    with pytest.raises(ValueError, match="finite \\(in float32\\)"):
+    with pytest.raises(ValueError, match="not finite in single precision"):
         k2.label_points(pts, [dict(box, size=[1e39, 1, 1], yaw=0.0)])
+    # (Issue 26) The bounds of every box source: positive, at most MAX_BOX_EXTENT_M.
+    with pytest.raises(ValueError, match="l=1e38 m is implausible"):
+        k2.label_points(pts, [dict(box, size=[1e38, 1, 1], yaw=0.0)])
+    with pytest.raises(ValueError, match="must be positive, found w=0"):
+        k2.label_points(pts, [dict(box, size=[1, 0, 1], yaw=0.0)])
     cls, _ = k2.label_points(pts, [dict(box, rotation=np.eye(3).tolist())])
     assert cls.tolist() == [1]
 

@@ -19,6 +19,8 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+mod viz;
+
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -37,6 +39,8 @@ use crate::project::{norm, project_with_point_cells};
 /// The class written (low 16 bits of a `.label` entry) for a point outside the map, in the
 /// class-id layout of KITTI raw and object outputs.
 pub const NOT_PREDICTED: u32 = 0xFFFF;
+
+pub use viz::write_viz;
 
 /// What to carry back, from where, to where.
 #[derive(Debug, Clone)]
@@ -73,8 +77,12 @@ pub struct UnprojectSummary {
     pub points: u64,
     /// Points outside the map's field of view (or dropped when read): `not predicted`.
     pub not_predicted: u64,
-    /// Frames that failed.
+    /// Frames that failed (a frame without a prediction in a drive that has predictions, or
+    /// one listed in `only`, among them).
     pub failures: Vec<UnprojectFailure>,
+    /// Ground-truth frames not carried back: not listed in `only`, or of drives (sequences)
+    /// without any prediction.
+    pub not_carried: u64,
     /// Where the files are (`OUT/sequences` or `OUT/labels`).
     pub written_to: PathBuf,
     /// The frames written, in order.
@@ -94,6 +102,36 @@ pub fn prediction_path(out: &Path, id: &FrameId) -> PathBuf {
     }
 }
 
+/// Refuses an output (`--out`, `--viz`) that is, lies inside or holds the ground truth, the
+/// predictions or the dataset, or that is a conversion's folder (its journal would list files
+/// this command replaces).
+pub fn refuse_output_over_inputs(
+    out: &Path,
+    gt: &GroundTruth,
+    preds: &Predictions,
+    opts: &UnprojectOptions,
+) -> Result<()> {
+    use crate::fs::Role;
+    crate::fs::refuse_overlap(
+        out,
+        &[
+            (Role::GroundTruth, &gt.path),
+            (Role::Predictions, &preds.root),
+            (Role::Dataset, &opts.raw),
+        ],
+    )?;
+    let journal = out.join(crate::format::journal::JOURNAL_FILE);
+    if crate::fs::present(&journal) {
+        return Err(Error::OutputOverInput {
+            output: out.into(),
+            how: crate::fs::Overlap::Holds,
+            role: crate::fs::Role::Converted,
+            input: journal,
+        });
+    }
+    Ok(())
+}
+
 /// One frame: its scan read, projected, its points given their classes, written.
 fn one(
     gt: &GroundTruth,
@@ -105,9 +143,10 @@ fn one(
     let spec = &gt.params.spec;
     let pred = preds
         .cell_labels(id, (spec.rows, spec.cols), map)?
-        .ok_or_else(|| Error::Input {
-            path: preds.root.clone(),
-            message: format!("no prediction for frame {id}"),
+        .ok_or_else(|| Error::MissingPrediction {
+            root: preds.root.clone(),
+            frame: id.to_string(),
+            expected: None,
         })?;
     let drive = raw_drive(&opts.raw, id)?;
     let scan_path = drive.scan_path(id.frame);
@@ -169,6 +208,8 @@ pub fn unproject_all(
     opts: &UnprojectOptions,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<UnprojectSummary> {
+    refuse_output_over_inputs(&opts.out, gt, preds, opts)?;
+    opts.method.validate()?;
     let map = &gt.params.class_map;
     let sequence = gt.frames.iter().any(|f| f.layout == Layout::Sequence);
     if sequence && map.learning_map_inv.is_empty() {
@@ -178,6 +219,7 @@ pub fn unproject_all(
         )));
     }
     let frames = frames_to_carry(gt, preds, opts.only.as_ref())?;
+    let not_carried = (gt.frames.len() - frames.len()) as u64;
     let (points, missing) = (AtomicU64::new(0), AtomicU64::new(0));
     let mut failures: Vec<UnprojectFailure> = frames
         .par_iter()
@@ -212,13 +254,14 @@ pub fn unproject_all(
         points: points.into_inner(),
         not_predicted: missing.into_inner(),
         failures,
+        not_carried,
         written_to: opts.out.join(if sequence { "sequences" } else { "labels" }),
         written,
     })
 }
 
 /// The ground-truth frames to carry back: those of `only` (each must be in the ground truth),
-/// or every frame with a prediction; an error when there is none.
+/// or every frame of the drives (sequences) that have predictions; an error when there is none.
 fn frames_to_carry<'a>(
     gt: &'a GroundTruth,
     preds: &Predictions,
@@ -234,7 +277,20 @@ fn frames_to_carry<'a>(
             }
             gt.frames.iter().filter(|f| only.contains(f)).collect()
         }
-        None => gt.frames.iter().filter(|f| preds.has(f)).collect(),
+        // Every frame of a drive (sequence) that has predictions: one missing in such a drive
+        // fails, named, instead of passing unnoticed.
+        None => {
+            let predicted: BTreeSet<String> = gt
+                .frames
+                .iter()
+                .filter(|f| preds.has(f))
+                .map(FrameId::drive_name)
+                .collect();
+            gt.frames
+                .iter()
+                .filter(|f| predicted.contains(&f.drive_name()))
+                .collect()
+        }
     };
     if frames.is_empty() {
         return Err(Error::Input {
@@ -368,77 +424,4 @@ pub fn load_point_frame(
         truth: truth.as_deref().map(pick),
         scan,
     })
-}
-
-/// Writes the per-point predictions of `frames` (as [`unproject_all`] wrote them under
-/// `opts.out`) to an MCAP file for Foxglove (`/kitti2pgm/viz/points`, atomically): each scan's
-/// points coloured by their predicted class, the points whose prediction differs from the truth
-/// (where there is one) in red with class number `classes.len()`, points outside the map left
-/// out. One message per frame, in frame order, 100 ms apart.
-pub fn write_viz(
-    gt: &GroundTruth,
-    opts: &UnprojectOptions,
-    frames: &[FrameId],
-    path: &Path,
-) -> Result<()> {
-    use crate::format::shard::viz::{VizChannels, VizFrame};
-    let map = &gt.params.class_map;
-    let wrong = map.len() as ClassId;
-    let mut colours: Vec<[u8; 3]> = (0..map.len()).map(|c| map.colour(c as ClassId)).collect();
-    colours.push([255, 0, 0]);
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    crate::format::create_dir(dir)?;
-    let werr = |source| Error::Write {
-        path: path.into(),
-        source,
-    };
-    let merr = |e: mcap::McapError| Error::mcap(path, "MCAP writer", e);
-    let tmp = crate::format::temp_builder()
-        .suffix(".mcap")
-        .tempfile_in(dir)
-        .map_err(werr)?;
-    let (file, tmp) = tmp.into_parts();
-    let mut w = mcap::WriteOptions::new()
-        .profile("kitti2pgm")
-        .library(format!("kitti2pgm {}", env!("CARGO_PKG_VERSION")))
-        .create(std::io::BufWriter::new(file))
-        .map_err(merr)?;
-    let channels = VizChannels::add(&mut w).map_err(merr)?;
-    for (k, id) in frames.iter().enumerate() {
-        let f = load_point_frame(
-            &opts.raw,
-            id,
-            &prediction_path(&opts.out, id),
-            map,
-            gt.dir.as_ref(),
-        )?;
-        let mut v = VizFrame {
-            colours: colours.clone(),
-            ..Default::default()
-        };
-        for (i, p) in f.pred.iter().enumerate() {
-            let Some(p) = *p else {
-                continue;
-            };
-            let t = f.truth.as_ref().and_then(|t| t[i]);
-            let c = match t {
-                Some(t) if map.is_scored(t) && t != p => wrong,
-                _ => p,
-            };
-            v.points.push((f.scan.points[i], f.scan.reflectance[i], c));
-        }
-        let time = k as u64 * 100_000_000;
-        channels.write(&mut w, &v, k as u32, time).map_err(merr)?;
-    }
-    w.finish().map_err(merr)?;
-    let file = w
-        .into_inner()
-        .into_inner()
-        .map_err(|e| werr(e.into_error()))?;
-    file.sync_data().map_err(werr)?;
-    tmp.persist(path).map_err(|e| werr(e.error))?;
-    Ok(())
 }

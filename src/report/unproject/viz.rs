@@ -1,0 +1,90 @@
+//! The per-point predictions as a Foxglove file (`unproject --viz`).
+
+use std::path::Path;
+
+use super::{load_point_frame, prediction_path, UnprojectOptions};
+use crate::error::{Error, Result};
+use crate::kitti::FrameId;
+use crate::label::ClassId;
+use crate::report::truth::GroundTruth;
+
+/// Writes the per-point predictions of `frames` (as [`super::unproject_all`] wrote them under
+/// `opts.out`) to an MCAP file for Foxglove (`/kitti2pgm/viz/points`, atomically): each scan's
+/// points coloured by their predicted class, the points whose prediction differs from the truth
+/// (where there is one) in red with class number `classes.len()`, points outside the map left
+/// out. One message per frame, in frame order, 100 ms apart.
+pub fn write_viz(
+    gt: &GroundTruth,
+    opts: &UnprojectOptions,
+    frames: &[FrameId],
+    path: &Path,
+) -> Result<()> {
+    use crate::format::shard::viz::{VizChannels, VizFrame};
+    crate::fs::refuse_overlap(
+        path,
+        &[
+            (crate::fs::Role::GroundTruth, &gt.path),
+            (crate::fs::Role::Dataset, &opts.raw),
+            (crate::fs::Role::Predictions, &opts.out),
+        ],
+    )?;
+    let map = &gt.params.class_map;
+    let wrong = map.len() as ClassId;
+    let mut colours: Vec<[u8; 3]> = (0..map.len()).map(|c| map.colour(c as ClassId)).collect();
+    colours.push([255, 0, 0]);
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    crate::format::create_dir(dir)?;
+    let werr = |source| Error::Write {
+        path: path.into(),
+        source,
+    };
+    let merr = |e: mcap::McapError| Error::mcap(path, "MCAP writer", e);
+    let tmp = crate::format::temp_builder()
+        .suffix(".mcap")
+        .tempfile_in(dir)
+        .map_err(werr)?;
+    let (file, tmp) = tmp.into_parts();
+    let mut w = mcap::WriteOptions::new()
+        .profile("kitti2pgm")
+        .library(format!("kitti2pgm {}", env!("CARGO_PKG_VERSION")))
+        .create(std::io::BufWriter::new(file))
+        .map_err(merr)?;
+    let channels = VizChannels::add(&mut w).map_err(merr)?;
+    for (k, id) in frames.iter().enumerate() {
+        let f = load_point_frame(
+            &opts.raw,
+            id,
+            &prediction_path(&opts.out, id),
+            map,
+            gt.dir.as_ref(),
+        )?;
+        let mut v = VizFrame {
+            colours: colours.clone(),
+            ..Default::default()
+        };
+        for (i, p) in f.pred.iter().enumerate() {
+            let Some(p) = *p else {
+                continue;
+            };
+            let t = f.truth.as_ref().and_then(|t| t[i]);
+            let c = match t {
+                Some(t) if map.is_scored(t) && t != p => wrong,
+                _ => p,
+            };
+            v.points.push((f.scan.points[i], f.scan.reflectance[i], c));
+        }
+        let time = k as u64 * 100_000_000;
+        channels.write(&mut w, &v, k as u32, time).map_err(merr)?;
+    }
+    w.finish().map_err(merr)?;
+    let file = w
+        .into_inner()
+        .into_inner()
+        .map_err(|e| werr(e.into_error()))?;
+    file.sync_data().map_err(werr)?;
+    tmp.persist(path).map_err(|e| werr(e.error))?;
+    Ok(())
+}
