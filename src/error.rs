@@ -401,6 +401,19 @@ impl std::fmt::Display for Overlap {
     }
 }
 
+/// A number as a message shows it: `1e38`, not 39 digits; `35.2` as written.
+pub fn shown<T>(x: T) -> String
+where
+    T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp,
+{
+    let v: f64 = x.into();
+    if v.is_finite() && v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// `4x512x6`: dimensions as people write them.
 fn dims(d: &[usize]) -> String {
     let parts: Vec<String> = d.iter().map(ToString::to_string).collect();

@@ -83,12 +83,7 @@ pub const MAX_BOX_EXTENT_M: f64 = 100.0;
 /// the Python module); the error names the bad value.
 pub fn check_box_extents(extents: &[f64; 3], names: [&str; 3]) -> Result<(), String> {
     for (&x, name) in extents.iter().zip(names) {
-        // 1e38, not 39 digits.
-        let v = if x.abs() >= 1e6 {
-            format!("{x:e}")
-        } else {
-            format!("{x}")
-        };
+        let v = crate::error::shown(x);
         if !(x as Real).is_finite() {
             return Err(format!(
                 "box size {name}={v} is not finite in single precision"

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use super::{
     frame_ranges, layouts, CheckName as C, Collector, DriveInventory, ObjectRef, Severity as S,
 };
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geom::Matrix3x4;
 use crate::kitti::calib::{Calibration, FrameCalib};
 use crate::kitti::object::ObjectLabel;
@@ -218,7 +218,7 @@ fn list_scans(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     }
     for f in listing.frames {
         let path = drive.scan_path(f);
-        match std::fs::metadata(&path) {
+        match crate::fs::regular(&path) {
             Ok(m) if (m.len() as usize).is_multiple_of(POINT_BYTES) => {
                 r.scans.insert(f, m.len() as usize / POINT_BYTES);
             }
@@ -233,14 +233,7 @@ fn list_scans(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
                     m.len()
                 ),
             ),
-            Err(e) => c.add(
-                C::Read,
-                S::Error,
-                &path,
-                Some(f),
-                None,
-                Error::io(&path, e).to_string(),
-            ),
+            Err(e) => c.add(C::Read, S::Error, &path, Some(f), None, e.to_string()),
         }
     }
     r.inventory.scans = r.scans.len();

@@ -13,7 +13,7 @@ use crate::kitti::{poses, Drive};
 /// A raw drive's velodyne timestamps and OXTS records, the latter compared with the scans.
 fn read_raw_records(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let ts = drive.scan_timestamps_path();
-    if ts.is_file() {
+    if crate::fs::present(&ts) {
         r.timestamps = read_or_note(c, C::Read, &ts, timestamps::read(&ts));
         r.inventory.timestamps = r.timestamps.as_ref().map(Vec::len);
     }
@@ -29,7 +29,7 @@ fn read_raw_records(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
 
 pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let tpath = drive.tracklets_path();
-    if tpath.is_file() {
+    if crate::fs::present(&tpath) {
         r.tracklets = read_or_note(c, C::Read, &tpath, Tracklets::read(&tpath));
     } else {
         c.add(
@@ -44,7 +44,7 @@ pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let date = drive.date_dir();
     if [CAM_TO_CAM, VELO_TO_CAM]
         .iter()
-        .all(|f| date.join(f).is_file())
+        .all(|f| crate::fs::present(&date.join(f)))
     {
         r.calib = read_or_note(c, C::Calibration, &date, Calibration::read_dir(&date));
     } else if !r.scans.is_empty() {
@@ -119,12 +119,12 @@ fn coverage_raw(drive: &Drive, r: &DriveRead, annotated: &[u32], c: &mut Collect
 /// A sequence's `poses.txt` and `times.txt`, each compared with the scans (up to `last`).
 fn read_sequence_poses(drive: &Drive, r: &mut DriveRead, c: &mut Collector, last: Option<u32>) {
     let pose_path = drive.dir.join("poses.txt");
-    if pose_path.is_file() {
+    if crate::fs::present(&pose_path) {
         r.poses = read_or_note(c, C::Read, &pose_path, poses::read(&pose_path));
         r.inventory.poses = r.poses.as_ref().map(Vec::len);
     }
     let times = drive.dir.join("times.txt");
-    if times.is_file() {
+    if crate::fs::present(&times) {
         r.inventory.timestamps = read_or_note(c, C::Read, &times, poses::count_lines(&times));
     }
     for (what, n, path) in [
@@ -174,7 +174,7 @@ fn label_counts(drive: &Drive, r: &DriveRead, c: &mut Collector) {
 
 pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let calib = drive.calib_path(0);
-    if calib.is_file() {
+    if crate::fs::present(&calib) {
         r.frame_calib = read_or_note(c, C::Calibration, &calib, FrameCalib::read(&calib));
     } else {
         c.add(
@@ -268,12 +268,10 @@ pub(crate) fn read_object(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let mut annotated = Vec::new();
     for &f in &scans {
         let (lp, cp) = (drive.object_labels_path(f), drive.calib_path(f));
-        let boxes = lp
-            .is_file()
+        let boxes = crate::fs::present(&lp)
             .then(|| read_or_note(c, C::Read, &lp, object::read(&lp)))
             .flatten();
-        let calib = cp
-            .is_file()
+        let calib = crate::fs::present(&cp)
             .then(|| read_or_note(c, C::Calibration, &cp, FrameCalib::read(&cp)))
             .flatten();
         if let (Some(b), Some(k)) = (boxes, calib) {

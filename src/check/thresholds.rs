@@ -7,8 +7,59 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 
+/// The values a threshold may take (`--set` refuses others before any work).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Domain {
+    /// A share, 0 to 1.
+    Share,
+    /// A whole number of frames or points, 0 to 1,000,000.
+    Count,
+    /// A length, speed or score above 0.
+    Positive,
+    /// A score, 0 or more.
+    NonNegative,
+    /// A factor, 1 or more.
+    Factor,
+    /// An angle of 0 to 180 degrees.
+    Degrees180,
+    /// A horizontal field of view, above 0 and at most 360 degrees.
+    FieldOfView,
+    /// A turn, above 0 and at most pi radians.
+    HalfTurn,
+}
+
+impl Domain {
+    /// Whether `v` is a value of the domain; the error says which values are.
+    pub fn check(self, v: f64) -> std::result::Result<(), &'static str> {
+        let ok = v.is_finite()
+            && match self {
+                Domain::Share => (0.0..=1.0).contains(&v),
+                Domain::Count => v.fract() == 0.0 && (0.0..=1e6).contains(&v),
+                Domain::Positive => v > 0.0,
+                Domain::NonNegative => v >= 0.0,
+                Domain::Factor => v >= 1.0,
+                Domain::Degrees180 => (0.0..=180.0).contains(&v),
+                Domain::FieldOfView => v > 0.0 && v <= 360.0,
+                Domain::HalfTurn => v > 0.0 && v <= std::f64::consts::PI,
+            };
+        if ok {
+            return Ok(());
+        }
+        Err(match self {
+            Domain::Share => "a share from 0 to 1",
+            Domain::Count => "a whole number from 0 to 1000000",
+            Domain::Positive => "a finite number above 0",
+            Domain::NonNegative => "a finite number >= 0",
+            Domain::Factor => "a finite factor >= 1",
+            Domain::Degrees180 => "an angle from 0 to 180 degrees",
+            Domain::FieldOfView => "a field of view above 0 and at most 360 degrees",
+            Domain::HalfTurn => "an angle above 0 and at most pi (3.14159) radians",
+        })
+    }
+}
+
 macro_rules! thresholds {
-    ($($field:ident $name:literal $default:literal $doc:literal;)*) => {
+    ($($field:ident $domain:ident $name:literal $default:literal $doc:literal;)*) => {
         /// Every threshold of every check (`docs/check.md` explains each).
         #[derive(Debug, Clone, PartialEq, Serialize)]
         pub struct Thresholds {
@@ -29,9 +80,9 @@ macro_rules! thresholds {
                 vec![$(($name, self.$field, $doc),)*]
             }
 
-            fn scalar_mut(&mut self, name: &str) -> Option<&mut f64> {
+            fn scalar_mut(&mut self, name: &str) -> Option<(&mut f64, Domain)> {
                 match name {
-                    $($name => Some(&mut self.$field),)*
+                    $($name => Some((&mut self.$field, Domain::$domain)),)*
                     _ => None,
                 }
             }
@@ -40,33 +91,33 @@ macro_rules! thresholds {
 }
 
 thresholds! {
-    max_rect_angle_deg "calibration.max-rect-angle-deg" 5.0 "Warning: a rectifying rotation (R_rect, R0_rect) turns by more than this many degrees (KITTI's: under 1).";
-    max_focal_ratio "calibration.max-focal-ratio" 1.05 "Warning: fx / fy of a rectified projection differs from 1 by more than this factor.";
-    overlap_warn "camera-overlap.warn-share" 0.6 "Warning: fewer of the points ahead (velodyne x > 8 m, within 35 degrees left or right and 10 degrees up or down) land inside camera 2's image than this share.";
-    overlap_error "camera-overlap.error-share" 0.2 "Error: fewer than this share land inside the image.";
-    alignment_frames "camera-alignment.frames" 3.0 "Frames per drive (evenly spaced) whose images are read to judge the alignment.";
-    alignment_min_score "camera-alignment.min-score" 1.5 "Warning: the image edges at the calibrated position stand fewer than this many standard deviations above their mean over offsets of up to 20 px.";
-    size_error_factor "box-size.error-factor" 2.0 "Error (not warning): a dimension beyond the type's maximum times this, or below its minimum divided by it.";
-    jump_warn_m "pose-jump.warn-m" 2.0 "Warning: a box's displacement changes by more than this many metres from one frame to the next (an acceleration of 200 m/s2 at 10 Hz).";
-    jump_error_m "pose-jump.error-m" 6.0 "Error: it changes by more than this.";
-    max_speed_mps "pose-jump.max-speed-mps" 70.0 "Error: a box moves faster than this relative to the sensor (two cars at 126 km/h meeting).";
-    yaw_warn_rad "yaw-flip.vehicle-rad" 0.6 "Warning: a vehicle's (Car, Van, Truck, Tram) heading turns by more than this many radians from one frame to the next.";
-    yaw_flip_rad "yaw-flip.flip-rad" 2.5 "Warning, any type: the heading turns by more than this (a box turned around).";
-    overlap_share_warn "box-overlap.warn-share" 0.3 "Warning: this share of the smaller box's volume lies inside another object's box.";
-    overlap_share_error "box-overlap.error-share" 0.9 "Error: this share (a duplicate box).";
-    ground_offset_m "box-ground.max-offset-m" 0.6 "Warning: a box's bottom is more than this many metres below or above the ground around it.";
-    ground_ring_m "box-ground.ring-m" 2.0 "The ground around a box: points within this many metres of its footprint, outside it.";
-    ground_min_points "box-ground.min-points" 30.0 "The ground is judged only from at least this many points around the box.";
-    empty_max_range_m "empty-box.max-range-m" 40.0 "Warning: a box marked fully visible (occlusion 0), nearer than this, holds no point.";
-    ends_min_points "annotation-ends.min-points" 30.0 "Warning: the box carried one frame past the annotation's end (at its last velocity) still holds at least this many points...";
-    ends_min_share "annotation-ends.min-share" 0.5 "...and at least this share of the points it held in its last annotated frame.";
-    ends_fov_deg "annotation-ends.fov-deg" 80.0 "Only boxes within this horizontal field of view (degrees, centred forward; KITTI annotates the camera's view).";
-    falloff_share "annotation-falloff.share" 0.25 "Warning: a run of frames with fewer annotated objects than this share of the drive's median count...";
-    falloff_min_frames "annotation-falloff.min-frames" 10.0 "...at least this many frames long (drives with a median of 4 objects or more).";
-    moving_still_m "moving-static.still-m" 0.05 "Warning: an instance of a moving class whose points lie within this many metres of the previous scan's points (poses applied)...";
-    moving_still_share "moving-static.share" 0.9 "...for at least this share of its points.";
-    balance_min_count "split-balance.min-count" 100.0 "Balance is judged only when train and val each hold at least this many annotations (boxes, or labelled points).";
-    balance_factor "split-balance.factor" 3.0 "Warning: a class's share in val is more than this factor above or below its share in train.";
+    max_rect_angle_deg Degrees180 "calibration.max-rect-angle-deg" 5.0 "Warning: a rectifying rotation (R_rect, R0_rect) turns by more than this many degrees (KITTI's: under 1).";
+    max_focal_ratio Factor "calibration.max-focal-ratio" 1.05 "Warning: fx / fy of a rectified projection differs from 1 by more than this factor.";
+    overlap_warn Share "camera-overlap.warn-share" 0.6 "Warning: fewer of the points ahead (velodyne x > 8 m, within 35 degrees left or right and 10 degrees up or down) land inside camera 2's image than this share.";
+    overlap_error Share "camera-overlap.error-share" 0.2 "Error: fewer than this share land inside the image.";
+    alignment_frames Count "camera-alignment.frames" 3.0 "Frames per drive (evenly spaced) whose images are read to judge the alignment.";
+    alignment_min_score NonNegative "camera-alignment.min-score" 1.5 "Warning: the image edges at the calibrated position stand fewer than this many standard deviations above their mean over offsets of up to 20 px.";
+    size_error_factor Factor "box-size.error-factor" 2.0 "Error (not warning): a dimension beyond the type's maximum times this, or below its minimum divided by it.";
+    jump_warn_m Positive "pose-jump.warn-m" 2.0 "Warning: a box's displacement changes by more than this many metres from one frame to the next (an acceleration of 200 m/s2 at 10 Hz).";
+    jump_error_m Positive "pose-jump.error-m" 6.0 "Error: it changes by more than this.";
+    max_speed_mps Positive "pose-jump.max-speed-mps" 70.0 "Error: a box moves faster than this relative to the sensor (two cars at 126 km/h meeting).";
+    yaw_warn_rad HalfTurn "yaw-flip.vehicle-rad" 0.6 "Warning: a vehicle's (Car, Van, Truck, Tram) heading turns by more than this many radians from one frame to the next.";
+    yaw_flip_rad HalfTurn "yaw-flip.flip-rad" 2.5 "Warning, any type: the heading turns by more than this (a box turned around).";
+    overlap_share_warn Share "box-overlap.warn-share" 0.3 "Warning: this share of the smaller box's volume lies inside another object's box.";
+    overlap_share_error Share "box-overlap.error-share" 0.9 "Error: this share (a duplicate box).";
+    ground_offset_m Positive "box-ground.max-offset-m" 0.6 "Warning: a box's bottom is more than this many metres below or above the ground around it.";
+    ground_ring_m Positive "box-ground.ring-m" 2.0 "The ground around a box: points within this many metres of its footprint, outside it.";
+    ground_min_points Count "box-ground.min-points" 30.0 "The ground is judged only from at least this many points around the box.";
+    empty_max_range_m Positive "empty-box.max-range-m" 40.0 "Warning: a box marked fully visible (occlusion 0), nearer than this, holds no point.";
+    ends_min_points Count "annotation-ends.min-points" 30.0 "Warning: the box carried one frame past the annotation's end (at its last velocity) still holds at least this many points...";
+    ends_min_share Share "annotation-ends.min-share" 0.5 "...and at least this share of the points it held in its last annotated frame.";
+    ends_fov_deg FieldOfView "annotation-ends.fov-deg" 80.0 "Only boxes within this horizontal field of view (degrees, centred forward; KITTI annotates the camera's view).";
+    falloff_share Share "annotation-falloff.share" 0.25 "Warning: a run of frames with fewer annotated objects than this share of the drive's median count...";
+    falloff_min_frames Count "annotation-falloff.min-frames" 10.0 "...at least this many frames long (drives with a median of 4 objects or more).";
+    moving_still_m Positive "moving-static.still-m" 0.05 "Warning: an instance of a moving class whose points lie within this many metres of the previous scan's points (poses applied)...";
+    moving_still_share Share "moving-static.share" 0.9 "...for at least this share of its points.";
+    balance_min_count Count "split-balance.min-count" 100.0 "Balance is judged only when train and val each hold at least this many annotations (boxes, or labelled points).";
+    balance_factor Factor "split-balance.factor" 3.0 "Warning: a class's share in val is more than this factor above or below its share in train.";
 }
 
 /// A plausible range of a box's length, width and height, metres.
@@ -103,14 +154,20 @@ fn default_sizes() -> BTreeMap<String, SizeRange> {
 impl Thresholds {
     /// Sets the threshold `name` (`pose-jump.warn-m`, `box-size.Pedestrian.l.max`) to `value`.
     pub fn set(&mut self, name: &str, value: f64) -> Result<()> {
-        if !value.is_finite() || value < 0.0 {
-            return Err(Error::Config(format!(
-                "threshold {name} = {value}: must be a finite number >= 0"
-            )));
-        }
-        if let Some(v) = self.scalar_mut(name) {
+        let refuse = |what: &str| {
+            Err(Error::Config(format!(
+                "threshold {name} = {value}: must be {what}"
+            )))
+        };
+        if let Some((v, domain)) = self.scalar_mut(name) {
+            if let Err(what) = domain.check(value) {
+                return refuse(what);
+            }
             *v = value;
             return Ok(());
+        }
+        if let Err(what) = Domain::Positive.check(value) {
+            return refuse(what);
         }
         let size = name.strip_prefix("box-size.").and_then(|rest| {
             let mut parts = rest.rsplitn(3, '.');
@@ -179,6 +236,13 @@ mod tests {
             "pose-jump.warn-m=x",
             "box-size.Car.q.max=1",
             "pose-jump.warn-m=-1",
+            // (Issue 26) each threshold has its domain.
+            "camera-alignment.frames=2.5",
+            "camera-alignment.frames=1e12",
+            "split-balance.factor=0",
+            "annotation-ends.fov-deg=720",
+            "camera-overlap.warn-share=1.5",
+            "box-size.Car.l.max=0",
         ] {
             assert!(t.set_pair(bad).is_err(), "{bad}");
         }

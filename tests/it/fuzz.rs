@@ -240,3 +240,101 @@ fn mutated_predictions_and_point_shards_never_panic_or_pass() {
         assert!([0, 1].contains(&code), "{ext}: exit {code}: {err}");
     }
 }
+
+#[test]
+fn mutated_journals_never_keep_a_wrong_frame() {
+    // The inputs change after a conversion (a tracklet's class, a scan's points); whatever the
+    // journal then says after a mutation (a hash, a size, a frame id, the root or the
+    // parameters garbled, lines lost or doubled), the re-run ends with exactly a fresh
+    // conversion's files of the changed inputs, exit 0.
+    let t = tmp();
+    let root = fixture_copy(t.path());
+    let done = t.path().join("done");
+    let (code, _, e) = convert_json(&root, &done, &[]);
+    assert_eq!(code, 0, "{e}");
+    let original = std::fs::read(done.join(".kitti2pgm-frames")).unwrap();
+    let xml = root.join("2011_09_26/2011_09_26_drive_0001_sync/tracklet_labels.xml");
+    let text = std::fs::read_to_string(&xml).unwrap();
+    std::fs::write(
+        &xml,
+        text.replace("<objectType>Car<", "<objectType>Cyclist<"),
+    )
+    .unwrap();
+    let bin =
+        root.join("2011_09_26/2011_09_26_drive_0052_sync/velodyne_points/data/0000000000.bin");
+    let mut scan = std::fs::read(&bin).unwrap();
+    for p in scan.chunks_exact_mut(16) {
+        p[7] ^= 0x80;
+    }
+    std::fs::write(&bin, &scan).unwrap();
+    let fresh = t.path().join("fresh");
+    let (code, _, e) = convert_json(&root, &fresh, &[]);
+    assert_eq!(code, 0, "{e}");
+    let expected = (
+        tree_bytes(&fresh.join("lidar_2d")),
+        tree_bytes(&fresh.join("labels")),
+    );
+    let mut rng = Rng(26);
+    for k in 0..16 {
+        let out = t.path().join(format!("j{k}"));
+        copy_tree(&done, &out);
+        std::fs::write(out.join(".kitti2pgm-frames"), mutate(&original, &mut rng)).unwrap();
+        let (code, err) = run_bounded(&["--no-progress", "convert", s(&root), "--out", s(&out)]);
+        assert_eq!(code, 0, "journal mutation {k}: {err}");
+        let got = (
+            tree_bytes(&out.join("lidar_2d")),
+            tree_bytes(&out.join("labels")),
+        );
+        assert!(got == expected, "journal mutation {k} kept a wrong frame");
+    }
+}
+
+#[test]
+fn mutated_submission_folders_pass_only_when_valid() {
+    use kitti2pgm::label::ClassMap;
+    let t = tmp();
+    let sk = fixture("semantickitti");
+    let truth = std::fs::read(sk.join("sequences/00/labels/000000.label")).unwrap();
+    let points = std::fs::metadata(sk.join("sequences/00/velodyne/000000.bin"))
+        .unwrap()
+        .len()
+        / 16;
+    let map = ClassMap::named_or_file(Path::new("semantic-kitti")).unwrap();
+    let mut rng = Rng(2626);
+    for k in 0..16 {
+        let pred = t.path().join(format!("s{k}"));
+        let dir = pred.join("sequences/00/predictions");
+        std::fs::create_dir_all(&dir).unwrap();
+        let bytes = mutate(&truth, &mut rng);
+        std::fs::write(dir.join("000000.label"), &bytes).unwrap();
+        // Every few runs a stray file beside it, as an unfinished tool leaves one.
+        if k % 4 == 3 {
+            std::fs::write(dir.join(".tmp-partial"), b"x").unwrap();
+        }
+        let zip = t.path().join(format!("s{k}.zip"));
+        let (code, err) = run_bounded(&["submission", s(&pred), "--gt", s(&sk), "--zip", s(&zip)]);
+        let valid = k % 4 != 3
+            && bytes.len() as u64 == points * 4
+            && bytes.chunks_exact(4).all(|w| {
+                map.class_of_raw(u32::from_le_bytes([w[0], w[1], w[2], w[3]]) & 0xFFFF)
+                    .is_some()
+            });
+        assert_eq!(
+            code == 0,
+            valid,
+            "submission mutation {k}: exit {code}: {err}"
+        );
+        assert_eq!(zip.exists(), valid, "submission mutation {k}: the archive");
+        if valid {
+            let mut z = zip::ZipArchive::new(std::fs::File::open(&zip).unwrap()).unwrap();
+            assert_eq!(z.len(), 2, "description and the one prediction");
+            let mut packed = Vec::new();
+            std::io::Read::read_to_end(
+                &mut z.by_name("sequences/00/predictions/000000.label").unwrap(),
+                &mut packed,
+            )
+            .unwrap();
+            assert_eq!(packed, bytes);
+        }
+    }
+}

@@ -11,7 +11,7 @@ use kitti2pgm::project::{project_with_point_cells, PgmSpec, EMPTY};
 use crate::util::*;
 
 /// A `|u1` (H, W) `.npy` holding `labels`.
-fn write_label_map(path: &Path, labels: &[u8], (h, w): (usize, usize)) {
+pub(crate) fn write_label_map(path: &Path, labels: &[u8], (h, w): (usize, usize)) {
     let header = format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({h}, {w}), }}");
     let pad = (10 + header.len() + 1).next_multiple_of(64) - (10 + header.len() + 1);
     let h = format!("{header}{}\n", " ".repeat(pad));
@@ -24,7 +24,7 @@ fn write_label_map(path: &Path, labels: &[u8], (h, w): (usize, usize)) {
 }
 
 /// The label channel of every converted map as a prediction folder (perfect map predictions).
-fn perfect_predictions(out: &Path, pred: &Path) {
+pub(crate) fn perfect_predictions(out: &Path, pred: &Path) {
     for e in std::fs::read_dir(out.join("lidar_2d")).unwrap() {
         let p = e.unwrap().path();
         let (shape, data) = read_f32(&p).unwrap();

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import mmap
 import os
+import stat
 import struct
 import warnings
 import zlib
@@ -38,6 +39,22 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 class ShardError(Exception):
     """A shard that cannot be read; the message names the shard and the frame."""
+
+
+def open_regular(path: str):
+    """Opens ``path`` for binary reading when it is a regular file (links followed); a link that
+    leads nowhere, a folder, a FIFO (reading would wait forever) or a device is a ``ShardError``
+    naming it, as the Rust reader refuses them."""
+    try:
+        st = os.stat(path)
+    except OSError as e:
+        kind = "a link that leads nowhere" if os.path.islink(path) else f"cannot open: {e}"
+        raise ShardError(f"{path}: {kind}") from e
+    if not stat.S_ISREG(st.st_mode):
+        kind = ("a folder" if stat.S_ISDIR(st.st_mode) else "a named pipe (FIFO)" if stat.S_ISFIFO(st.st_mode)
+                else "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a file")
+        raise ShardError(f"{path}: {kind}, not a regular file")
+    return open(path, "rb")
 
 
 # The arrays of a frame: dtype and whether the array has a third, channel axis.
@@ -142,7 +159,7 @@ class ShardReader:
         self.path = os.fspath(path)
         self.validate_crc = validate_crc
         try:
-            self._file = open(self.path, "rb")
+            self._file = open_regular(self.path)
             self._map = mmap.mmap(self._file.fileno(), 0, access=mmap.ACCESS_READ)
         except (OSError, ValueError) as e:
             raise ShardError(f"{self.path}: cannot open: {e}") from e
@@ -262,7 +279,7 @@ def read_metadata(path: PathLike) -> Dict[str, object]:
     ``ShardError`` naming the shard when the record is missing or malformed."""
     path = os.fspath(path)
     try:
-        with open(path, "rb") as f:
+        with open_regular(path) as f:
             records = [m for m in make_reader(f).iter_metadata() if m.name == METADATA_NAME]
     except Exception as e:
         raise ShardError(f"{path}: unreadable metadata (truncated or unfinished shard?): {e}") from e
@@ -338,7 +355,7 @@ def iter_frames(paths: Union[PathLike, Iterable[PathLike]], validate_crc: bool =
         n = 0
         last: Optional[str] = None
         try:
-            with open(path, "rb") as f:
+            with open_regular(path) as f:
                 # Stream from the start (never from the summary), so that a shard whose end is
                 # lost still gives its first frames.
                 reader = NonSeekingReader(f, validate_crcs=validate_crc)

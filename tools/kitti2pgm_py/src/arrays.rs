@@ -195,6 +195,20 @@ pub fn colours_arg(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<[f32; 3]>> 
             describe(obj)
         )));
     }
+    // The colours `convert --rgb` samples are in [0, 1]; anything else (NaN, 255-scale, -7)
+    // would enter the map as it is.
+    if let Some((i, c)) = v
+        .iter()
+        .enumerate()
+        .find(|(_, c)| !(0.0..=1.0).contains(*c))
+    {
+        return Err(PyValueError::new_err(format!(
+            "colours: value {} (point {}, channel {}) is outside [0, 1]",
+            kitti2pgm::error::shown(*c),
+            i / 3,
+            ["r", "g", "b"][i % 3]
+        )));
+    }
     Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
 }
 

@@ -235,6 +235,18 @@ fn unproject<'py>(
                     "cell_range is {ch}x{cw}, pred is {h}x{w}"
                 )));
             }
+            // A map's range channel: finite, 0 in empty cells.
+            if let Some((i, r)) = v
+                .iter()
+                .enumerate()
+                .find(|(_, r)| !(r.is_finite() && **r >= 0.0))
+            {
+                return Err(PyValueError::new_err(format!(
+                    "cell_range: value {r} at cell ({}, {}) is not a range (finite, >= 0)",
+                    i / w,
+                    i % w
+                )));
+            }
             v
         }
         None if method.kind() == MethodKind::Knn => {

@@ -174,6 +174,9 @@ def test_bad_arrays_raise_clear_value_errors():
         (pts, {"labels": np.full(n, -1, np.int16)}, r"labels holds -1, which does not fit uint8"),
         (pts, {"rings": np.full(n, 64, np.uint8)}, "ring 64 of point 0 is not below 64"),
         (pts, {"colours": np.zeros((n, 4), np.float32)}, r"colours must be a float32 array of shape \(%d, 3\)" % n),
+        # (Issue 26) colours are what convert --rgb samples: [0, 1].
+        (pts, {"rgb": np.full((n, 3), 1e30, np.float32)}, r"colours: value 1e30 \(point 0, channel r\) is outside \[0, 1\]"),
+        (pts, {"rgb": np.full((n, 3), -7, np.float32)}, r"colours: value -7 \(point 0, channel r\)"),
         (pts, {"cols": 0}, "map size 64x0 is out of range"),
         (pts, {"fov_deg": 400.0}, "FOV 400"),
         (pts, {"drop": 1.0}, r"drop 1 must be in \[0, 1\)"),
@@ -408,3 +411,18 @@ def test_type_stubs_ship_with_the_module():
     public = [n for n in dir(k2) if not n.startswith("_") and callable(getattr(k2, n))]
     for n in public:
         assert f"def {n}(" in stub or f"class {n}" in stub or n == "DatasetIter", n
+
+
+def test_knn_unprojection_refuses_a_range_channel_that_is_not_ranges():
+    """(Issue 26) A NaN or negative cell_range would vote with garbage weights."""
+    f = k2.Dataset(RAW).load(0)
+    m = k2.project(f["points"], labels=f["label"])
+    pred = m["label"]
+    rng = m["map"][..., 4].copy()
+    labels = k2.unproject(pred, m["row"], m["col"], f["points"], rng, method="knn", class_map="kitti-paper-4")
+    assert len(labels) == len(f["points"])
+    for bad, what in ((np.nan, "NaN"), (-1.0, "-1")):
+        r = rng.copy()
+        r[3, 7] = bad
+        with pytest.raises(ValueError, match=r"cell_range: value %s at cell \(3, 7\) is not a range" % what):
+            k2.unproject(pred, m["row"], m["col"], f["points"], r, method="knn", class_map="kitti-paper-4")

@@ -17,7 +17,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 import torch
 
-from kitti2pgm_data import ShardDataset
+from kitti2pgm_data import ShardDataset, read_metadata
 
 from .models import INPUTS
 
@@ -42,6 +42,33 @@ def find_shards(spec: str, split: Optional[str] = None) -> List[str]:
     if not paths:
         raise FileNotFoundError(f"no {split + ' ' if split else ''}shard in {spec}")
     return paths
+
+
+def describe_map(m: dict) -> str:
+    """A map's shape in words: ``64 x 512 over 90 deg, rows rings``."""
+    s = m["spec"]
+    return f"{s['rows']} x {s['cols']} over {s['fov']:g} deg, rows {str(s['row_mode']).lower()}"
+
+
+def describe_classes(m: dict) -> str:
+    """A class map in words: its name and classes."""
+    c = m["class_map"]
+    return f"{c['name']} ({', '.join(k['name'] for k in c['classes'])})"
+
+
+def check_same_map(paths: Sequence[str], recorded: dict, run: str) -> None:
+    """Refuses shards whose map or class map is not the run's (``recorded``: the ``shard_params``
+    of its ``config.json``), naming both: a network trained on one map scores garbage on
+    another, and its outputs mean the classes it was trained on."""
+    want = recorded["map"]
+    for path in paths:
+        here = read_metadata(path)["params"]["map"]
+        if here["spec"] != want["spec"]:
+            raise ValueError(f"{path}: its map is {describe_map(here)}, but {run} was trained on "
+                             f"{describe_map(want)}; evaluate on shards converted with the run's map")
+        if here["class_map"]["classes"] != want["class_map"]["classes"]:
+            raise ValueError(f"{path}: its class map is {describe_classes(here)}, but {run} was trained on "
+                             f"{describe_classes(want)}")
 
 
 class Normaliser:

@@ -11,10 +11,8 @@ import time
 import numpy as np
 import torch
 
-from kitti2pgm_data import class_map
-
 from .common import Progress, pick_device
-from .data import FrameSet, Normaliser, collate, find_shards
+from .data import FrameSet, Normaliser, check_same_map, collate, find_shards
 from .onthefly import open_frames
 from .metrics import Confusion
 from .config import EvalConfig, TrainConfig
@@ -57,13 +55,12 @@ def evaluate(args: EvalConfig) -> dict:
     model, config, norm = load_run(args.run, device)
     paths = find_shards(args.shards, "val") if not args.val_shards else find_shards(args.val_shards)
     trained = TrainConfig.from_saved(config["args"])
+    check_same_map(paths, config["shard_params"], args.run)
     data = open_frames(paths, trained.input, norm)
     out = args.predictions or os.path.join(args.run, "predictions")
     write_npy = args.format in ("npy", "both")
     if write_npy:
         os.makedirs(out, exist_ok=True)
-    if class_map(paths[0])["classes"] != config["class_map"]["classes"]:
-        raise ValueError(f"{paths[0]}: the shards' classes differ from those the run was trained on")
     conf = Confusion(config["class_map"])
     progress = Progress(len(data), "evaluating")
     points = None

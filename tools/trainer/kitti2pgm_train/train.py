@@ -23,8 +23,8 @@ from kitti2pgm_data import class_map, read_metadata
 from . import __version__
 from .config import TrainConfig
 from .common import Progress, atomic_save, say, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
-from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames, class_weights, collate, find_shards,
-                   load_stats)
+from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames, check_same_map, class_weights, collate,
+                   find_shards, load_stats)
 from .evaluate import predict
 from .metrics import Confusion
 from .models import SegNet
@@ -263,6 +263,8 @@ def train(cfg: TrainConfig) -> dict:
     opt = torch.optim.SGD(model.parameters(), lr=cfg.lr, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
     start, best, ck = 0, float("-inf"), None
     if resume:
+        with open(os.path.join(run, "config.json")) as f:
+            check_same_map(td.paths, json.load(f)["shard_params"], run)
         ck = _restore(ckpt_path, net, opt, device)
         start = ck["step"]
     elif rank == 0:

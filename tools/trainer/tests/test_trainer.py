@@ -15,6 +15,8 @@ from kitti2pgm_train.models import INPUTS, MODELS, SegNet
 
 torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
 
+RAW = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "fixtures", "raw")
+
 
 @pytest.mark.parametrize("model", sorted(MODELS))
 @pytest.mark.parametrize("inputs", sorted(INPUTS))
@@ -127,6 +129,21 @@ def test_resume_gives_the_uninterrupted_result(converted, tmp_path):
     assert a.keys() == b.keys()
     for k in a:
         assert torch.equal(a[k], b[k]), k
+
+
+def test_evaluate_refuses_shards_of_another_map(lidar_only, tmp_path, kitti2pgm, capsys):
+    """(Issue 26) A run trained on 64 x 256 over 90 degrees reports no IoU on shards of 64 x 1024
+    over 120 degrees: both maps are named."""
+    run = tmp_path / "run"
+    _train(run, lidar_only / "shards", 1)
+    other = tmp_path / "other"
+    kitti2pgm("convert", str(RAW), "--out", str(other), "--format", "mcap", "--cols", "1024", "--fov-deg", "120")
+    args = ["evaluate", "--run", str(run), "--shards", str(other / "shards"), "--val-shards",
+            str(other / "shards" / "train-*.mcap"), "--device", "cpu", "--timing-frames", "1"]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert "its map is 64 x 1024 over 120 deg" in err and "trained on 64 x 256 over 90 deg" in err, err
+    assert not (run / "eval.json").exists()
 
 
 def test_errors_are_clear(converted, tmp_path, capsys):
