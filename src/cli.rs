@@ -248,12 +248,9 @@ pub struct ConvertArgs {
     /// Convert every scan, not only SqueezeSeg's (scans with at least one tracklet pose).
     #[arg(long)]
     pub all_frames: bool,
-    /// Map layout: squeezeseg (64 x 512 over the front 90 degrees, rows from the laser rings;
-    /// SqueezeSeg, PointSeg, El Madawi et al.), rangenet (64 x 2048 over 360 degrees, rows by
-    /// elevation between +3 and -25 degrees; RangeNet++), full (64 x 2048 over 360 degrees, rows
-    /// from the rings). Default: full for SemanticKITTI, squeezeseg for KITTI raw and the object
+    /// Map layout. Default: full for SemanticKITTI, squeezeseg for KITTI raw and the object
     /// set. The options below override single values of it; the summary says which map was made.
-    #[arg(long, value_name = "NAME", value_parser = parse_preset)]
+    #[arg(long, value_name = "NAME", value_enum)]
     pub preset: Option<MapPreset>,
     /// Rows of the map (preset: 64).
     #[arg(long)]
@@ -396,10 +393,6 @@ pub struct PreviewArgs {
     /// SemanticKITTI's own labels are used where present).
     #[arg(long, value_name = "DIR", requires = "raw")]
     pub gt: Option<PathBuf>,
-}
-
-fn parse_preset(s: &str) -> Result<MapPreset, String> {
-    s.parse()
 }
 
 #[cfg(test)]

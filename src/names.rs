@@ -1,7 +1,10 @@
-//! One spelling per enum value: the names the CLI, the Python module, the JSON-facing docs and
-//! error messages share. [`named_enum!`] gives an enum `ALL`, `as_str`, `Display`, `FromStr`
-//! (accepting the name and its aliases; an unknown name is an [`Error::Config`] that lists
-//! the names) and, with the `cli` feature, clap's `ValueEnum` with a help line per value.
+//! One spelling per enum value: the names the CLI, the Python module, the JSON files (summaries,
+//! shard metadata, journals, reports), the docs and error messages share. [`named_enum!`] gives
+//! an enum `ALL`, `as_str`, `Display`, `FromStr` (accepting the name and its aliases; an unknown
+//! name is an [`Error::Config`] that lists the names), serde's `Serialize` (the name) and
+//! `Deserialize` (the name, an alias, or the variant's identifier as files of earlier versions
+//! spell it: `Rings`, `Raw`, `Zero`) and, with the `cli` feature, clap's `ValueEnum` with a
+//! help line per value.
 //!
 //! [`Error::Config`]: crate::Error::Config
 
@@ -38,6 +41,31 @@ macro_rules! named_enum {
                         [$($name),+].join(", ")
                     ))),
                 }
+            }
+        }
+
+        impl ::serde::Serialize for $ty {
+            fn serialize<S: ::serde::Serializer>(&self, s: S) -> ::std::result::Result<S::Ok, S::Error> {
+                s.serialize_str(self.as_str())
+            }
+        }
+
+        /// The name or an alias; also the variant's own identifier (`Rings`, `Raw`), the
+        /// spelling of files written before the names were one.
+        impl<'de> ::serde::Deserialize<'de> for $ty {
+            fn deserialize<D: ::serde::Deserializer<'de>>(d: D) -> ::std::result::Result<Self, D::Error> {
+                let s = <::std::string::String as ::serde::Deserialize>::deserialize(d)?;
+                if let Ok(v) = s.parse::<$ty>() {
+                    return Ok(v);
+                }
+                $(if s == stringify!($variant) {
+                    return Ok(<$ty>::$variant);
+                })+
+                Err(<D::Error as ::serde::de::Error>::custom(format!(
+                    concat!("unknown ", $what, " `{}` (one of: {})"),
+                    s,
+                    [$($name),+].join(", ")
+                )))
             }
         }
 

@@ -63,7 +63,7 @@ impl MapParams {
 }
 
 /// Chunk compression of shards.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ShardCompression {
     /// lz4 (default): fast to read.
     #[default]
@@ -81,8 +81,7 @@ crate::named_enum!(ShardCompression, "compression", [
 ]);
 
 /// What a shard holds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ShardKind {
     /// Projected maps, one `kitti2pgm.Frame` per frame (`--format mcap`, under `OUT/shards`).
     #[default]
@@ -91,15 +90,10 @@ pub enum ShardKind {
     Points,
 }
 
-impl ShardKind {
-    /// Its name in the metadata (`maps`, `points`).
-    pub fn name(self) -> &'static str {
-        match self {
-            ShardKind::Maps => "maps",
-            ShardKind::Points => "points",
-        }
-    }
-}
+crate::named_enum!(ShardKind, "shard content", [
+    Maps => "maps" [] "projected maps, one kitti2pgm.Frame per frame (OUT/shards)",
+    Points => "points" [] "unprojected points, one kitti2pgm.Points per frame (OUT/points)",
+]);
 
 /// MCAP shard output (`--format mcap`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

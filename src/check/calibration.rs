@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::inventory::DriveRead;
+use super::read::DriveRead;
 use super::{CheckName as C, Collector, Severity as S};
 use crate::geom::{check_rotation, na, Matrix3x4, Point3};
 use crate::kitti::calib::CAM_TO_CAM;
@@ -15,8 +15,8 @@ use crate::project::camera::pixel;
 
 /// Checks the form of the calibration matrices a drive uses.
 pub(crate) fn check_files(r: &DriveRead, c: &mut Collector) {
-    let drive = r.drive();
-    if let Some(cal) = &r.calib {
+    let drive = &r.drive;
+    if let Some(cal) = r.calib() {
         let file = drive.date_dir().join(CAM_TO_CAM);
         for (i, cam) in cal.cam_to_cam.cameras.iter().enumerate() {
             if let Err(e) = check_rotation(&cam.r) {
@@ -39,10 +39,10 @@ pub(crate) fn check_files(r: &DriveRead, c: &mut Collector) {
             );
         }
     }
-    if let Some(fc) = &r.frame_calib {
+    if let Some(fc) = r.frame_calib() {
         frame_calib(c, &drive.calib_path(0), fc);
     }
-    for (&f, (_, fc)) in &r.objects {
+    for (&f, (_, fc)) in r.objects() {
         frame_calib(c, &drive.calib_path(f), fc);
     }
 }
@@ -249,7 +249,7 @@ pub(crate) fn judge(
 
 /// The calibration file of a drive's camera (for findings).
 pub(crate) fn camera_file(r: &DriveRead, frame: u32) -> std::path::PathBuf {
-    let d = r.drive();
+    let d = &r.drive;
     match d.layout {
         Layout::Raw => d.date_dir().join(CAM_TO_CAM),
         _ => d.calib_path(frame),

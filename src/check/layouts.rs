@@ -2,20 +2,26 @@
 //! (calib.txt, poses, times, per-point labels) and the object set (label_2, calib), read into
 //! the [`DriveRead`] and compared with the scans.
 
-use super::inventory::{frames_in, missing, read_or_note, DriveRead};
+use super::read::{frames_in, missing, read_or_note, DriveRead, LayoutRead};
 use super::{frame_ranges, CheckName as C, Collector, Severity as S};
+use crate::geom::Matrix3x4;
 use crate::kitti::calib::{Calibration, FrameCalib, CAM_TO_CAM, VELO_TO_CAM};
 use crate::kitti::object;
-use crate::kitti::timestamps;
+use crate::kitti::timestamps::{self, Timestamp};
 use crate::kitti::tracklets::Tracklets;
 use crate::kitti::{poses, Drive};
 
 /// A raw drive's velodyne timestamps and OXTS records, the latter compared with the scans.
-fn read_raw_records(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
+fn read_raw_records(
+    drive: &Drive,
+    r: &mut DriveRead,
+    c: &mut Collector,
+) -> Option<Vec<Option<Timestamp>>> {
     let ts = drive.scan_timestamps_path();
+    let mut read = None;
     if crate::fs::present(&ts) {
-        r.timestamps = read_or_note(c, C::Read, &ts, timestamps::read(&ts));
-        r.inventory.timestamps = r.timestamps.as_ref().map(Vec::len);
+        read = read_or_note(c, C::Read, &ts, timestamps::read(&ts));
+        r.inventory.timestamps = read.as_ref().map(Vec::len);
     }
     let oxts = drive.dir.join("oxts/data");
     if oxts.is_dir() {
@@ -25,12 +31,13 @@ fn read_raw_records(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
         let what = "scans without an OXTS record";
         missing(c, C::Inventory, S::Warning, &oxts, &scans, &frames, what);
     }
+    read
 }
 
 pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     let tpath = drive.tracklets_path();
-    if crate::fs::present(&tpath) {
-        r.tracklets = read_or_note(c, C::Read, &tpath, Tracklets::read(&tpath));
+    let tracklets = if crate::fs::present(&tpath) {
+        read_or_note(c, C::Read, &tpath, Tracklets::read(&tpath))
     } else {
         c.add(
             C::Inventory,
@@ -40,19 +47,34 @@ pub(crate) fn read_raw(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
             None,
             "no tracklet_labels.xml: every point of this drive would be background".into(),
         );
-    }
+        None
+    };
     let date = drive.date_dir();
-    if [CAM_TO_CAM, VELO_TO_CAM]
+    let calib = if [CAM_TO_CAM, VELO_TO_CAM]
         .iter()
         .all(|f| crate::fs::present(&date.join(f)))
     {
-        r.calib = read_or_note(c, C::Calibration, &date, Calibration::read_dir(&date));
-    } else if !r.scans.is_empty() {
-        c.add(C::Inventory, S::Note, &date, None, None,
-            format!("no {CAM_TO_CAM} / {VELO_TO_CAM} beside the drive: no colour channels, no camera checks"));
+        read_or_note(c, C::Calibration, &date, Calibration::read_dir(&date)).map(Box::new)
+    } else {
+        if !r.scans.is_empty() {
+            c.add(C::Inventory, S::Note, &date, None, None,
+                format!("no {CAM_TO_CAM} / {VELO_TO_CAM} beside the drive: no colour channels, no camera checks"));
+        }
+        None
+    };
+    let timestamps = read_raw_records(drive, r, c);
+    if let Some(t) = &tracklets {
+        raw_coverage(drive, r, t, c);
     }
-    read_raw_records(drive, r, c);
-    let Some(t) = &r.tracklets else { return };
+    r.layout = LayoutRead::Raw {
+        tracklets,
+        timestamps,
+        calib,
+    };
+}
+
+/// A raw drive's annotation compared with its timestamps and scans.
+fn raw_coverage(drive: &Drive, r: &mut DriveRead, t: &Tracklets, c: &mut Collector) {
     let annotated: Vec<u32> = (0..t.end_frame()).filter(|&f| t.count_at(f) > 0).collect();
     r.inventory.annotated = annotated.len();
     r.inventory.annotated_range = annotated
@@ -117,11 +139,17 @@ fn coverage_raw(drive: &Drive, r: &DriveRead, annotated: &[u32], c: &mut Collect
 }
 
 /// A sequence's `poses.txt` and `times.txt`, each compared with the scans (up to `last`).
-fn read_sequence_poses(drive: &Drive, r: &mut DriveRead, c: &mut Collector, last: Option<u32>) {
+fn read_sequence_poses(
+    drive: &Drive,
+    r: &mut DriveRead,
+    c: &mut Collector,
+    last: Option<u32>,
+) -> Option<Vec<Matrix3x4>> {
     let pose_path = drive.dir.join("poses.txt");
+    let mut read = None;
     if crate::fs::present(&pose_path) {
-        r.poses = read_or_note(c, C::Read, &pose_path, poses::read(&pose_path));
-        r.inventory.poses = r.poses.as_ref().map(Vec::len);
+        read = read_or_note(c, C::Read, &pose_path, poses::read(&pose_path));
+        r.inventory.poses = read.as_ref().map(Vec::len);
     }
     let times = drive.dir.join("times.txt");
     if crate::fs::present(&times) {
@@ -144,11 +172,12 @@ fn read_sequence_poses(drive: &Drive, r: &mut DriveRead, c: &mut Collector, last
             }
         }
     }
+    read
 }
 
 /// Label files whose size is not 4 bytes per point of their scan (from the sizes alone).
-fn label_counts(drive: &Drive, r: &DriveRead, c: &mut Collector) {
-    for &f in &r.label_frames {
+fn label_counts(drive: &Drive, r: &DriveRead, label_frames: &[u32], c: &mut Collector) {
+    for &f in label_frames {
         let Some(&points) = r.scans.get(&f) else {
             continue;
         };
@@ -173,21 +202,44 @@ fn label_counts(drive: &Drive, r: &DriveRead, c: &mut Collector) {
 }
 
 pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
-    let calib = drive.calib_path(0);
-    if crate::fs::present(&calib) {
-        r.frame_calib = read_or_note(c, C::Calibration, &calib, FrameCalib::read(&calib));
+    let calib_path = drive.calib_path(0);
+    let calib = if crate::fs::present(&calib_path) {
+        read_or_note(
+            c,
+            C::Calibration,
+            &calib_path,
+            FrameCalib::read(&calib_path).map(Box::new),
+        )
     } else {
         c.add(
             C::Inventory,
             S::Warning,
-            &calib,
+            &calib_path,
             None,
             None,
             "no calib.txt: colour and the camera checks are not possible".into(),
         );
-    }
+        None
+    };
     let scans: Vec<u32> = r.scans.keys().copied().collect();
-    read_sequence_poses(drive, r, c, scans.last().copied());
+    let poses = read_sequence_poses(drive, r, c, scans.last().copied());
+    let labels = drive.dir.join("labels");
+    let label_frames = if labels.is_dir() {
+        frames_in(&labels, 6, ".label")
+    } else {
+        Vec::new()
+    };
+    sequence_labels(drive, r, &label_frames, c);
+    r.layout = LayoutRead::Sequence {
+        calib,
+        poses,
+        label_frames,
+    };
+}
+
+/// A sequence's label files compared with its scans.
+fn sequence_labels(drive: &Drive, r: &mut DriveRead, label_frames: &[u32], c: &mut Collector) {
+    let scans: Vec<u32> = r.scans.keys().copied().collect();
     let labels = drive.dir.join("labels");
     if !labels.is_dir() {
         c.add(
@@ -200,13 +252,11 @@ pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector)
         );
         return;
     }
-    r.label_frames = frames_in(&labels, 6, ".label");
-    r.inventory.label_files = Some(r.label_frames.len());
-    r.inventory.annotated = r.label_frames.len();
-    r.inventory.annotated_range = r
-        .label_frames
+    r.inventory.label_files = Some(label_frames.len());
+    r.inventory.annotated = label_frames.len();
+    r.inventory.annotated_range = label_frames
         .first()
-        .zip(r.label_frames.last())
+        .zip(label_frames.last())
         .map(|(a, b)| (*a, *b));
     missing(
         c,
@@ -214,11 +264,11 @@ pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector)
         S::Warning,
         &labels,
         &scans,
-        &r.label_frames,
+        label_frames,
         "scans have no label file",
     );
     extra_labels(drive, &scans, c);
-    label_counts(drive, r, c);
+    label_counts(drive, r, label_frames, c);
 }
 
 fn extra_labels(drive: &Drive, scans: &[u32], c: &mut Collector) {
@@ -266,6 +316,7 @@ pub(crate) fn read_object(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
         extra_labels(drive, &scans, c);
     }
     let mut annotated = Vec::new();
+    let mut objects = std::collections::BTreeMap::new();
     for &f in &scans {
         let (lp, cp) = (drive.object_labels_path(f), drive.calib_path(f));
         let boxes = crate::fs::present(&lp)
@@ -278,7 +329,7 @@ pub(crate) fn read_object(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
             if b.iter().any(|o| o.kind != "DontCare") {
                 annotated.push(f);
             }
-            r.objects.insert(f, (b, k));
+            objects.insert(f, (b, k));
         }
     }
     r.inventory.annotated = annotated.len();
@@ -286,4 +337,5 @@ pub(crate) fn read_object(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
         .first()
         .zip(annotated.last())
         .map(|(a, b)| (*a, *b));
+    r.layout = LayoutRead::Object { objects };
 }

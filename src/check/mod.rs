@@ -13,6 +13,7 @@ mod inventory;
 mod layouts;
 mod names;
 mod picture;
+mod read;
 mod scans;
 mod semantic;
 mod splits;

@@ -1,13 +1,10 @@
 //! The names of the checks and of the severities: one spelling each, shared by the CLI, the
 //! JSON and the docs.
 
-use serde::Serialize;
-
 use crate::kitti::Layout;
 
 /// How bad a finding is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Severity {
     /// Worth knowing; nothing is wrong.
     Note,
@@ -26,9 +23,9 @@ crate::named_enum!(Severity, "severity", [
 macro_rules! checks {
     ($($variant:ident $name:literal $scans:literal $doc:literal;)*) => {
         /// A check: what it looks at is in `docs/check.md`.
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
         pub enum CheckName {
-            $(#[doc = $doc] #[serde(rename = $name)] $variant,)*
+            $(#[doc = $doc] $variant,)*
         }
 
         crate::named_enum!(CheckName, "check", [$($variant => $name [] $doc,)*]);

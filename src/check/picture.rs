@@ -4,7 +4,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::inventory::{self, DriveRead};
+use super::inventory;
+use super::read::DriveRead;
 use super::{CheckName, CheckOptions, Collector, Finding};
 use crate::draw::boxes::{bird_eye, camera_overlay, Drawn};
 use crate::error::Result;

@@ -7,12 +7,12 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 
 use super::calibration::{self, edge_scores, overlap_share};
-use super::inventory::DriveRead;
+use super::read::DriveRead;
 use super::{
     frame_ranges, semantic, CheckName as C, Collector, ObjectRef, Severity as S, Thresholds,
 };
 use crate::geom::{Matrix3x4, Point3, Real};
-use crate::kitti::tracklets::{Pose, Tracklet};
+
 use crate::kitti::velodyne::Scan;
 use crate::kitti::Layout;
 use crate::label::LabelBox;
@@ -66,7 +66,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
         })
         .collect();
     for s in seen.iter().filter(|s| s.error.is_some()) {
-        let path = r.drive().scan_path(s.frame);
+        let path = r.drive.scan_path(s.frame);
         c.add(
             C::Read,
             S::Error,
@@ -78,7 +78,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     }
     boxes(r, &seen, c);
     camera(r, &seen, c);
-    if r.drive().layout == Layout::Sequence {
+    if r.drive.layout == Layout::Sequence {
         semantic::moving_static(r, c);
     }
     seen.iter().filter(|s| s.error.is_none()).count()
@@ -99,13 +99,13 @@ fn sample(r: &DriveRead, frames: &[u32], t: &Thresholds) -> Vec<u32> {
 
 /// Camera 2's projection and image size at a frame, when known.
 pub(crate) fn camera_at(r: &DriveRead, f: u32) -> Option<(Matrix3x4, Option<[f64; 2]>)> {
-    match r.drive().layout {
-        Layout::Raw => r.calib.as_ref().map(|c| {
+    match r.drive.layout {
+        Layout::Raw => r.calib().map(|c| {
             let s = c.cam_to_cam.cameras[2].size_rect;
             (c.velo_to_image(2), Some([s.x, s.y]))
         }),
-        Layout::Sequence => r.frame_calib.as_ref().map(|c| (c.velo_to_image(2), None)),
-        Layout::Object => r.objects.get(&f).map(|(_, c)| (c.velo_to_image(2), None)),
+        Layout::Sequence => r.frame_calib().map(|c| (c.velo_to_image(2), None)),
+        Layout::Object => r.object(f).map(|(_, c)| (c.velo_to_image(2), None)),
     }
 }
 
@@ -123,7 +123,7 @@ fn frame(r: &DriveRead, f: u32, sampled: bool, work: Work, t: &Thresholds) -> Fr
         frame: f,
         ..Default::default()
     };
-    let scan = match Scan::read(&r.drive().scan_path(f)) {
+    let scan = match Scan::read(&r.drive.scan_path(f)) {
         Ok(s) => s,
         Err(e) => {
             out.error = Some(e.to_string());
@@ -134,7 +134,7 @@ fn frame(r: &DriveRead, f: u32, sampled: bool, work: Work, t: &Thresholds) -> Fr
         out.boxes = measure(&scan.points, &frame_boxes(r, f, t), t);
     }
     if let Some((proj, size)) = camera_at(r, f) {
-        let image_path = r.drive().image_path(2, f);
+        let image_path = r.drive.image_path(2, f);
         let size = size.or_else(|| {
             image::image_dimensions(&image_path)
                 .ok()
@@ -151,21 +151,6 @@ fn frame(r: &DriveRead, f: u32, sampled: bool, work: Work, t: &Thresholds) -> Fr
         }
     }
     out
-}
-
-/// A tracklet's box one frame past its last pose, at `frame`: moved on by its last
-/// displacement, same heading. `None` unless the tracklet ends just before `frame` with two
-/// poses or more.
-pub(crate) fn carried_on(tr: &Tracklet, frame: u32) -> Option<Pose> {
-    let n = tr.poses.len();
-    if tr.end_frame() != frame || n < 2 {
-        return None;
-    }
-    let (prev, last) = (&tr.poses[n - 2], &tr.poses[n - 1]);
-    Some(Pose {
-        t: std::array::from_fn(|d| 2.0 * last.t[d] - prev.t[d]),
-        ..last.clone()
-    })
 }
 
 /// The boxes of a frame with their facts, and the ghosts of annotations that ended just before.
@@ -274,9 +259,9 @@ fn bottom(b: &LabelBox) -> Real {
 /// Box findings, per object: empty boxes, boxes off the ground, annotations that end early.
 fn boxes(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector) {
     let t = c.t().clone();
-    let file = |f: u32| match &r.tracklets {
+    let file = |f: u32| match r.tracklets() {
         Some(tr) => tr.path.clone(),
-        None => r.drive().object_labels_path(f),
+        None => r.drive.object_labels_path(f),
     };
     let mut empty: BTreeMap<ObjectRef, Vec<u32>> = BTreeMap::new();
     let mut off: BTreeMap<ObjectRef, (Vec<u32>, Real, u32)> = BTreeMap::new();

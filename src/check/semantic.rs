@@ -5,7 +5,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use rayon::prelude::*;
 
-use super::inventory::DriveRead;
+use super::read::DriveRead;
 use super::{CheckName as C, Collector, ObjectRef, Severity as S};
 use crate::format::label_file;
 use crate::geom::{na, Point3};
@@ -90,7 +90,7 @@ fn instance_classes(
 /// Label ids and instance classes of a sequence's label files; returns the labelled points
 /// per class of each frame (for the balance check), ignored classes left out.
 pub(crate) fn check_labels(r: &DriveRead, c: &mut Collector) -> Vec<(u32, BTreeMap<String, u64>)> {
-    if r.label_frames.is_empty() {
+    if r.label_frames().is_empty() {
         return Vec::new();
     }
     let map = c
@@ -98,9 +98,9 @@ pub(crate) fn check_labels(r: &DriveRead, c: &mut Collector) -> Vec<(u32, BTreeM
         .class_map
         .clone()
         .unwrap_or_else(ClassMap::semantic_kitti);
-    let drive = r.drive();
+    let drive = &r.drive;
     let files: Vec<(u32, FileLabels)> = r
-        .label_frames
+        .label_frames()
         .par_iter()
         .map(|&f| (f, read_labels(&drive.point_labels_path(f), &map)))
         .collect();
@@ -190,9 +190,9 @@ fn velo_poses(
 
 /// Moving-class instances whose points lie on the previous scan's points (poses applied).
 pub(crate) fn moving_static(r: &DriveRead, c: &mut Collector) {
-    let drive = r.drive();
-    let (Some(poses), Some(calib)) = (&r.poses, &r.frame_calib) else {
-        if !r.label_frames.is_empty() {
+    let drive = &r.drive;
+    let (Some(poses), Some(calib)) = (r.poses(), r.frame_calib()) else {
+        if !r.label_frames().is_empty() {
             c.add(C::MovingStatic, S::Note, &drive.dir.join("poses.txt"), None, None,
                 "not judged: the sequence has no poses.txt (or calib.txt) to carry one scan onto the next".into());
         }
@@ -202,9 +202,9 @@ pub(crate) fn moving_static(r: &DriveRead, c: &mut Collector) {
         return;
     };
     let (still, share) = (c.t().moving_still_m as f32, c.t().moving_still_share);
-    let labelled = |f: u32| r.label_frames.binary_search(&f).is_ok() && r.scans.contains_key(&f);
+    let labelled = |f: u32| r.label_frames().binary_search(&f).is_ok() && r.scans.contains_key(&f);
     let pairs: Vec<u32> = r
-        .label_frames
+        .label_frames()
         .iter()
         .copied()
         .filter(|&f| f > 0 && labelled(f) && labelled(f - 1))
@@ -238,7 +238,7 @@ fn still_instances(
     still: f32,
     share: f64,
 ) -> Vec<Still> {
-    let drive = r.drive();
+    let drive = &r.drive;
     let (Ok(prev), Ok(cur), Ok(labels)) = (
         Scan::read(&drive.scan_path(f - 1)),
         Scan::read(&drive.scan_path(f)),

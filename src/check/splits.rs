@@ -2,7 +2,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::inventory::DriveRead;
+use super::read::DriveRead;
 use super::{CheckName as C, CheckOptions, Collector, Severity as S};
 use crate::format::imageset;
 use crate::kitti::FrameId;
@@ -21,9 +21,9 @@ impl DriveAnnotations {
         r: &DriveRead,
         labelled: Vec<(u32, BTreeMap<String, u64>)>,
     ) -> DriveAnnotations {
-        let d = r.drive();
+        let d = &r.drive;
         let mut frames = Vec::new();
-        if let Some(t) = &r.tracklets {
+        if let Some(t) = r.tracklets() {
             for f in 0..t.end_frame() {
                 let mut m = BTreeMap::new();
                 for (_, tr, _) in t.at(f) {
@@ -34,7 +34,7 @@ impl DriveAnnotations {
                 }
             }
         }
-        for (f, (objects, _)) in &r.objects {
+        for (f, (objects, _)) in r.objects() {
             let mut m = BTreeMap::new();
             for o in objects.iter().filter(|o| o.kind != "DontCare") {
                 *m.entry(o.kind.clone()).or_default() += 1;

@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 use std::path::Path;
 
-use super::inventory::DriveRead;
+use super::read::DriveRead;
 use super::{frame_ranges, CheckName as C, Collector, ObjectRef, Severity as S};
 use crate::geom::{Point3, Real};
 use crate::kitti::tracklets::{Tracklet, Tracklets};
@@ -12,7 +12,7 @@ use crate::label::LabelBox;
 
 /// Runs the annotation-only box checks of a drive.
 pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
-    if let Some(t) = &r.tracklets {
+    if let Some(t) = r.tracklets() {
         for (i, tr) in t.tracklets.iter().enumerate() {
             let obj = || {
                 Some(ObjectRef {
@@ -34,8 +34,8 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
         overlaps_raw(c, t);
         falloff(c, t);
     }
-    for (&frame, (objects, _)) in &r.objects {
-        let path = r.drive().object_labels_path(frame);
+    for (&frame, (objects, _)) in r.objects() {
+        let path = r.drive.object_labels_path(frame);
         let boxes: Vec<(ObjectRef, LabelBox)> = r
             .boxes_at(frame)
             .into_iter()
@@ -100,7 +100,7 @@ fn pose_jumps(c: &mut Collector, r: &DriveRead, path: &Path, i: usize, tr: &Trac
     let pos: Vec<[f64; 3]> = tr.poses.iter().map(|p| p.t).collect();
     let dt = |k: usize| -> f64 {
         let f = tr.first_frame as usize + k;
-        let ts = r.timestamps.as_ref();
+        let ts = r.timestamps();
         match (
             ts.and_then(|v| v.get(f).copied().flatten()),
             ts.and_then(|v| v.get(f + 1).copied().flatten()),

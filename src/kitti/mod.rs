@@ -41,9 +41,7 @@ pub const MAX_FRAME: u32 = 1_000_000;
 pub use discover::{discover, discover_all, discover_as, Discovery};
 
 /// Which dataset layout a drive, and its frames, come from.
-#[derive(
-    Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize,
-)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Layout {
     /// KITTI raw (tracklet boxes).
     #[default]

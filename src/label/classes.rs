@@ -59,7 +59,7 @@ pub struct ClassMap {
 }
 
 /// How a class absent from both truth and prediction enters the mean IoU.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum AbsentInMiou {
     /// Left out of the mean.
     #[default]
@@ -67,6 +67,11 @@ pub enum AbsentInMiou {
     /// Counted as IoU 0 (SemanticKITTI's `evaluate_semantics.py`: IoU = TP / (TP+FP+FN+1e-15)).
     Zero,
 }
+
+crate::named_enum!(AbsentInMiou, "rule for absent classes", [
+    LeftOut => "left_out" [] "left out of the mean (SqueezeSeg's evaluation)",
+    Zero => "zero" [] "counted as IoU 0 (SemanticKITTI's benchmark)",
+]);
 
 /// The parts of a `semantic-kitti.yaml` that make a class map.
 #[derive(Debug, Deserialize)]

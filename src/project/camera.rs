@@ -16,7 +16,7 @@ use crate::geom::{floor_i64, Matrix3x4, Point3};
 use crate::kitti::camera::RgbImage;
 
 /// How a colour is read at a sub-pixel position.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Sampling {
     /// The nearest pixel (default): exact colours, no blending across object borders.
     #[default]

@@ -45,7 +45,7 @@ use crate::geom::{floor_i64, Degrees, Point3};
 pub const LASERS: usize = 64;
 
 /// How rows are assigned.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RowMode {
     /// Rings recovered from the scan order, elevation binning as the fallback (the default).
     Rings,

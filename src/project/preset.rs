@@ -1,8 +1,5 @@
 //! Named map layouts ([`MapPreset`]): the shapes users train with, and each source's default.
 
-use std::fmt;
-use std::str::FromStr;
-
 use super::{PgmSpec, RowMode};
 use crate::geom::Degrees;
 use crate::kitti::Layout;
@@ -21,10 +18,13 @@ pub enum MapPreset {
     Full,
 }
 
-impl MapPreset {
-    /// Every preset, in the order `--help` lists them.
-    pub const ALL: [MapPreset; 3] = [MapPreset::Squeezeseg, MapPreset::Rangenet, MapPreset::Full];
+crate::named_enum!(MapPreset, "map preset", [
+    Squeezeseg => "squeezeseg" [] "SqueezeSeg / PointSeg: 64 x 512 over the front 90 degrees, rows from the laser rings",
+    Rangenet => "rangenet" [] "RangeNet++: 64 x 2048 over 360 degrees, rows by elevation between +3 and -25 degrees",
+    Full => "full" [] "64 x 2048 over 360 degrees, rows from the laser rings",
+]);
 
+impl MapPreset {
     /// The map it stands for.
     pub fn spec(self) -> PgmSpec {
         let squeezeseg = PgmSpec::default();
@@ -54,32 +54,6 @@ impl MapPreset {
             Layout::Raw | Layout::Object => MapPreset::Squeezeseg,
         }
     }
-
-    /// Its name (`squeezeseg`, `rangenet`, `full`).
-    pub fn name(self) -> &'static str {
-        match self {
-            MapPreset::Squeezeseg => "squeezeseg",
-            MapPreset::Rangenet => "rangenet",
-            MapPreset::Full => "full",
-        }
-    }
-}
-
-impl fmt::Display for MapPreset {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for MapPreset {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<MapPreset, String> {
-        MapPreset::ALL
-            .into_iter()
-            .find(|p| p.name() == s)
-            .ok_or_else(|| format!("unknown map preset {s:?}: squeezeseg, rangenet or full"))
-    }
 }
 
 #[cfg(test)]
@@ -97,8 +71,8 @@ mod tests {
         assert_eq!(MapPreset::Squeezeseg.spec(), PgmSpec::default());
         let f = MapPreset::Full.spec();
         assert_eq!((f.cols, f.fov.0, f.row_mode), (2048, 360.0, RowMode::Rings));
-        for p in MapPreset::ALL {
-            assert_eq!(p.name().parse::<MapPreset>(), Ok(p));
+        for &p in MapPreset::ALL {
+            assert_eq!(p.as_str().parse::<MapPreset>().ok(), Some(p));
             p.spec().validate().unwrap();
         }
         assert!("bonnetal".parse::<MapPreset>().is_err());

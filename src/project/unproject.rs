@@ -130,8 +130,7 @@ impl Method {
 }
 
 /// A [`Method`] by name, without its parameters (the CLI's and the Python module's choice).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MethodKind {
     /// [`Method::Cell`].
     Cell,

@@ -2,7 +2,6 @@
 //! channel statistics ([`stats`]), IoU scoring of predictions ([`score`]) and what a shard holds
 //! ([`inspect`]). The split lists are made on the input side ([`crate::plan::split`]).
 
-pub mod completeness;
 pub mod inspect;
 pub mod score;
 pub mod stats;

@@ -14,7 +14,7 @@ fn semantickitti_defaults_to_the_full_360_map_and_presets_apply() {
         (spec["cols"].as_u64(), spec["fov"].as_f64()),
         (Some(2048), Some(360.0))
     );
-    assert_eq!(spec["row_mode"], "Rings");
+    assert_eq!(spec["row_mode"], "rings");
     assert_eq!(
         j["map_origin"],
         "preset full (the default for SemanticKITTI)"
@@ -49,7 +49,7 @@ fn semantickitti_defaults_to_the_full_360_map_and_presets_apply() {
     );
     let (code, _, e) = convert_json(&fixtures(), &t.path().join("d"), &["--preset", "bonnetal"]);
     assert_eq!(code, 2);
-    assert!(e.contains("squeezeseg, rangenet or full"), "{e}");
+    assert!(e.contains("squeezeseg, rangenet, full"), "{e}");
     let (_, help, _) = run_text(&["convert", "--help"]);
     assert!(
         help.contains("--preset") && help.contains("RangeNet++"),

@@ -188,3 +188,64 @@ fn preview_draws_folders_and_shards() {
     let b = std::fs::read(t.path().join("from_npy/2011_09_26_0052_0000000000.png")).unwrap();
     assert_eq!(a, b);
 }
+
+#[test]
+fn files_in_the_old_spelling_still_read() {
+    // Summaries and shard metadata written before the JSON used the CLI's names spelled the
+    // values as Rust's identifiers ("Rings", "Raw", "LeftOut", "Nearest", "Lz4"): they read to
+    // the same typed parameters.
+    use kitti2pgm::format::shard::ShardMetadata;
+    use kitti2pgm::format::summary;
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--rgb", "--format", "npy,mcap"]);
+    let path = out.join("convert_summary.json");
+    let new = summary::read(&path).unwrap().unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    for (name, old) in [
+        ("\"row_mode\": \"rings\"", "\"row_mode\": \"Rings\""),
+        ("\"source\": \"raw\"", "\"source\": \"Raw\""),
+        ("\"sampling\": \"nearest\"", "\"sampling\": \"Nearest\""),
+        ("\"compression\": \"lz4\"", "\"compression\": \"Lz4\""),
+        (
+            "\"absent_in_miou\": \"left_out\"",
+            "\"absent_in_miou\": \"LeftOut\"",
+        ),
+    ] {
+        assert!(text.contains(name), "{name} written: {text}");
+    }
+    let old_text = text
+        .replace("\"rings\"", "\"Rings\"")
+        .replace("\"raw\"", "\"Raw\"")
+        .replace("\"nearest\"", "\"Nearest\"")
+        .replace("\"lz4\"", "\"Lz4\"")
+        .replace("\"left_out\"", "\"LeftOut\"");
+    std::fs::write(&path, old_text).unwrap();
+    assert_eq!(summary::read(&path).unwrap().unwrap(), new);
+    let gt = GroundTruth::open(&out).unwrap();
+    assert_eq!(gt.params, new.params.map);
+    // Shard metadata.
+    let shard =
+        kitti2pgm::format::shard::Shard::open(&out.join("shards/train-00000.mcap")).unwrap();
+    let md = shard.metadata().unwrap();
+    let mut map = md.to_map();
+    let params = map["params"]
+        .replace("\"rings\"", "\"Rings\"")
+        .replace("\"lz4\"", "\"Lz4\"");
+    map.insert("params".into(), params);
+    assert_eq!(
+        ShardMetadata::from_map(&map, Path::new("old.mcap")).unwrap(),
+        md
+    );
+    // An unknown value is named with the names it may take.
+    map.insert(
+        "params".into(),
+        map["params"].replace("\"Rings\"", "\"Bins\""),
+    );
+    let e = ShardMetadata::from_map(&map, Path::new("odd.mcap")).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("unknown row mode `Bins` (one of: rings, elevation)"),
+        "{e}"
+    );
+}

@@ -54,7 +54,7 @@ impl ShardMetadata {
             ("frames".into(), ids_text(&self.frames)),
             ("failed".into(), ids_text(&self.failed)),
             ("split".into(), self.split.to_string()),
-            ("content".into(), self.content.name().into()),
+            ("content".into(), self.content.as_str().into()),
             (
                 "inputs".into(),
                 self.inputs

@@ -23,7 +23,9 @@ use crate::params::MapParams;
 use crate::project::camera::{RgbOptions, Sampling};
 use crate::project::PgmFrame;
 
-pub use super::completeness::Completeness;
+pub mod completeness;
+
+pub use completeness::Completeness;
 
 /// Where the frames are.
 #[derive(Debug, Clone, PartialEq)]
@@ -114,7 +116,7 @@ impl GroundTruth {
     /// conversion's output is refused or read (and marked [`GroundTruth::partial`]).
     pub fn open_with(path: &Path, completeness: Completeness) -> Result<GroundTruth> {
         let mut gt = Self::open_any(path)?;
-        if let Some(problem) = super::completeness::problem(&gt)? {
+        if let Some(problem) = completeness::problem(&gt)? {
             match completeness {
                 Completeness::Require => {
                     return Err(Error::Unfinished {

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::truth::{GroundTruth, Source};
+use super::{GroundTruth, Source};
 use crate::error::Result;
 use crate::format::journal::{self, JOURNAL_FILE};
 use crate::format::layout::{self, OutputDir};
