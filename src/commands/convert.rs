@@ -4,14 +4,13 @@ use anyhow::Context;
 use kitti2pgm::convert::{convert, ConvertOptions, FrameOutcome};
 use kitti2pgm::format::layout::OutputDir;
 use kitti2pgm::format::summary::ConvertSummary;
-use kitti2pgm::geom::Degrees;
 use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::{ConvertParams, MapParams, ShardParams};
 use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::RgbOptions;
-use kitti2pgm::project::{MapPreset, PgmSpec, RowMode};
+use kitti2pgm::project::{MapChoice, RowMode};
 
 use super::{progress, Global};
 use crate::cli::{ConvertArgs, FormatArg};
@@ -31,7 +30,7 @@ impl ConvertArgs {
         };
         Ok(ConvertParams {
             map: MapParams {
-                spec: self.spec(layout),
+                spec: self.map_choice().spec(Some(layout)),
                 rgb: self.rgb.then_some(RgbOptions {
                     camera: self.camera,
                     sampling: self.rgb_sampling,
@@ -62,52 +61,16 @@ impl ConvertArgs {
 }
 
 impl ConvertArgs {
-    /// The preset in force: `--preset`, else the source's default.
-    fn preset(&self, layout: Layout) -> MapPreset {
-        self.preset
-            .unwrap_or_else(|| MapPreset::default_for(layout))
-    }
-
-    /// The map: the preset's, with each value given on the command line in its place.
-    fn spec(&self, layout: Layout) -> PgmSpec {
-        let p = self.preset(layout).spec();
-        PgmSpec {
-            rows: self.rows.unwrap_or(p.rows),
-            cols: self.cols.unwrap_or(p.cols),
-            fov: self.fov_deg.map_or(p.fov, Degrees),
-            fov_up: self.fov_up_deg.map_or(p.fov_up, Degrees),
-            fov_down: self.fov_down_deg.map_or(p.fov_down, Degrees),
-            row_mode: self.row_mode.unwrap_or(p.row_mode),
-        }
-    }
-
-    /// How the map came about, for the summary: the preset, why, and what was overridden.
-    fn map_origin(&self, layout: Layout) -> String {
-        let preset = self.preset(layout);
-        let why = if self.preset.is_some() {
-            "--preset".to_string()
-        } else {
-            format!("the default for {}", layout.dataset())
-        };
-        let overridden: Vec<&str> = [
-            ("rows", self.rows.is_some()),
-            ("cols", self.cols.is_some()),
-            ("fov-deg", self.fov_deg.is_some()),
-            ("fov-up-deg", self.fov_up_deg.is_some()),
-            ("fov-down-deg", self.fov_down_deg.is_some()),
-            ("row-mode", self.row_mode.is_some()),
-        ]
-        .into_iter()
-        .filter(|(_, given)| *given)
-        .map(|(name, _)| name)
-        .collect();
-        if overridden.is_empty() {
-            format!("preset {preset} ({why})")
-        } else {
-            format!(
-                "preset {preset} ({why}), with --{} given",
-                overridden.join(", --")
-            )
+    /// The map asked for: `--preset` and the single values.
+    fn map_choice(&self) -> MapChoice {
+        MapChoice {
+            preset: self.preset,
+            rows: self.rows,
+            cols: self.cols,
+            fov_deg: self.fov_deg,
+            fov_up_deg: self.fov_up_deg,
+            fov_down_deg: self.fov_down_deg,
+            row_mode: self.row_mode,
         }
     }
 
@@ -134,7 +97,7 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         threads: g.threads,
         durability: super::durability(a.sync),
         overwrite: a.overwrite,
-        map_origin: a.map_origin(plan.layout()),
+        map_origin: Some(a.map_choice().origin(Some(plan.layout()))),
     };
     opts.params.validate()?;
     // A split the user named must name frames that are there.
@@ -213,10 +176,14 @@ fn table(s: &ConvertSummary) -> String {
         spec.cols,
         s.params.map.channels().len()
     );
+    let origin = s
+        .map_origin
+        .as_ref()
+        .map_or("given directly".to_string(), ToString::to_string);
     let _ = writeln!(
         t,
-        "map                 {shape:>12}  ({} deg, rows {rows}; {})",
-        spec.fov.0, s.map_origin
+        "map                 {shape:>12}  ({} deg, rows {rows}; {origin})",
+        spec.fov.0
     );
     let _ = writeln!(t, "{:<20}{:>12}", s.source.units(), s.drives);
     let _ = writeln!(t, "frames converted    {:>12}", s.frames_converted);

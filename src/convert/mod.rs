@@ -43,9 +43,8 @@ pub struct ConvertOptions {
     pub durability: Durability,
     /// Convert every frame again, even those an earlier run with the same parameters finished.
     pub overwrite: bool,
-    /// How the map was chosen, in words, for the summary (`preset full (the default for
-    /// SemanticKITTI)`); empty when the caller gave the map directly.
-    pub map_origin: String,
+    /// How the map was chosen, for the summary; `None` when the caller gave the map directly.
+    pub map_origin: Option<crate::project::MapOrigin>,
 }
 
 impl ConvertOptions {
@@ -57,7 +56,7 @@ impl ConvertOptions {
             threads: 0,
             durability: Durability::Renamed,
             overwrite: false,
-            map_origin: String::new(),
+            map_origin: None,
         }
     }
 }

@@ -3,10 +3,67 @@
 //! One little-endian u32 per point of the scan, in the scan's file order: the class id in the low
 //! 16 bits, the instance id in the high 16 bits (SemanticKITTI's layout).
 
-use std::path::Path;
+//!
+//! Per-point predictions use the same files: SemanticKITTI's hold the dataset's raw ids (the
+//! class map's `learning_map_inv`; 0, `unlabeled`, where a point has no prediction), KITTI raw's
+//! and the object set's hold class ids ([`NOT_PREDICTED`] where a point has none).
+
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::format::Durability;
+use crate::kitti::{FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
+
+/// The class written (low 16 bits of a `.label` entry) for a point without a prediction (outside
+/// the map), in the class-id layout of KITTI raw and object predictions.
+pub const NOT_PREDICTED: u32 = 0xFFFF;
+
+/// The entries of frame `id`'s per-point prediction file for `per_point` (file order; `None`:
+/// no prediction): raw ids for SemanticKITTI, class ids otherwise; and how many points have no
+/// prediction.
+pub fn encode_predictions(
+    id: &FrameId,
+    per_point: &[Option<ClassId>],
+    map: &ClassMap,
+) -> (Vec<u32>, u64) {
+    let raw_ids = id.layout == Layout::Sequence;
+    let mut missing = 0u64;
+    let entries = per_point
+        .iter()
+        .map(|c| match (c, raw_ids) {
+            (Some(c), true) => map.raw_of_class(*c).unwrap_or(0),
+            (Some(c), false) => *c as u32,
+            (None, raw) => {
+                missing += 1;
+                if raw {
+                    0
+                } else {
+                    NOT_PREDICTED
+                }
+            }
+        })
+        .collect();
+    (entries, missing)
+}
+
+/// Writes frame `id`'s per-point predictions under `out` ([`point_prediction_path`], atomically,
+/// its folder made): returns the file and how many points have no prediction.
+///
+/// [`point_prediction_path`]: crate::format::layout::point_prediction_path
+pub fn write_predictions(
+    out: &Path,
+    id: &FrameId,
+    per_point: &[Option<ClassId>],
+    map: &ClassMap,
+    durability: Durability,
+) -> Result<(PathBuf, u64)> {
+    let (entries, missing) = encode_predictions(id, per_point, map);
+    let path = crate::format::layout::point_prediction_path(out, id);
+    crate::format::create_dir(path.parent().expect("a file in a folder"))?;
+    crate::format::atomic_write(&path, &encode_raw(&entries), durability)?;
+    Ok((path, missing))
+}
 
 /// The bytes of a `.label` file for `class` and `instance` (same length).
 pub fn encode(class: &[ClassId], instance: &[u16]) -> Vec<u8> {

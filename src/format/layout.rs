@@ -127,6 +127,23 @@ impl OutputDir {
     }
 }
 
+/// The folder of SemanticKITTI's per-point predictions of sequence `seq` (two digits), in the
+/// benchmark's layout: `PRED/sequences/<NN>/predictions`.
+pub fn sequence_predictions_dir(pred: &Path, seq: &str) -> PathBuf {
+    pred.join("sequences").join(seq).join("predictions")
+}
+
+/// The file of a frame's per-point predictions under `out`: the benchmark's
+/// `sequences/<NN>/predictions/<frame6>.label` for SemanticKITTI, else the convert folder's
+/// `labels/<drive>/<frame>.label`.
+pub fn point_prediction_path(out: &Path, id: &FrameId) -> PathBuf {
+    match id.layout {
+        crate::kitti::Layout::Sequence => sequence_predictions_dir(out, &id.drive_name())
+            .join(format!("{}.label", id.frame_name())),
+        _ => OutputDir::new(out).label_path(id),
+    }
+}
+
 /// `<dir>/<frame id>.npy`.
 pub fn npy_path_in(dir: &Path, id: &FrameId) -> PathBuf {
     dir.join(format!("{id}.npy"))

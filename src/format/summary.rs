@@ -49,8 +49,8 @@ pub struct ConvertSummary {
     pub source: crate::kitti::Layout,
     /// How the map was chosen: the preset, why (asked for, or the source's default) and the
     /// values given on their own (`preset full (the default for SemanticKITTI)`).
-    #[serde(default)]
-    pub map_origin: String,
+    #[serde(default, deserialize_with = "origin_or_empty")]
+    pub map_origin: Option<crate::project::MapOrigin>,
     /// Drives (sequences, object splits) found.
     pub drives: u64,
     /// Frames the run set out to convert (converted, kept, or failed at the end).
@@ -110,6 +110,16 @@ impl ConvertSummary {
     /// Filled cells over all cells.
     pub fn fill_ratio(&self) -> f64 {
         self.projection.fill_ratio()
+    }
+}
+
+/// A map origin, or `None` for an absent, null or empty one (a summary of a map given directly).
+fn origin_or_empty<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<crate::project::MapOrigin>, D::Error> {
+    match Option::<String>::deserialize(d)? {
+        Some(s) if !s.is_empty() => s.parse().map(Some).map_err(serde::de::Error::custom),
+        _ => Ok(None),
     }
 }
 

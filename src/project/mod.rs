@@ -32,7 +32,7 @@ pub use channels::{Channel, Channels};
 pub use cloud::{project_cloud, Cloud, CloudProjection};
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
-pub use preset::MapPreset;
+pub use preset::{MapChoice, MapOrigin, MapPreset, MapValue};
 pub use rows::{rings, Rows};
 use rows::{row_source, RowSource};
 

@@ -51,11 +51,6 @@ impl SubmissionCheck {
     }
 }
 
-/// The prediction folder of sequence `seq` (two digits) under `pred`.
-fn predictions_dir(pred: &Path, seq: &str) -> PathBuf {
-    pred.join("sequences").join(seq).join("predictions")
-}
-
 /// Checks the prediction folder `pred` against the SemanticKITTI root `root`, for `sequences`
 /// (default: every sequence of the root), with the raw ids of `map`'s `learning_map`.
 pub fn check_submission(
@@ -82,7 +77,7 @@ pub fn check_submission(
     let (mut expected, mut valid) = (0u64, 0u64);
     let names: Vec<String> = drives.iter().map(|d| format!("{:02}", d.number)).collect();
     for (d, seq) in drives.iter().zip(&names) {
-        let dir = predictions_dir(pred, seq);
+        let dir = crate::format::layout::sequence_predictions_dir(pred, seq);
         let scans = d.scan_frames()?;
         for &f in &scans {
             expected += 1;

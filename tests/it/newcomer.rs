@@ -34,7 +34,7 @@ fn semantickitti_defaults_to_the_full_360_map_and_presets_apply() {
         "{stdout}"
     );
     assert!(
-        stdout.contains("preset rangenet (--preset), with --cols given"),
+        stdout.contains("preset rangenet (asked for), with cols given"),
         "{stdout}"
     );
     assert!(

@@ -140,7 +140,9 @@ pub fn convert_fixtures_in_process(out: &Path) -> kitti2pgm::format::summary::Co
     use kitti2pgm::plan::{FrameSelection, Plan};
     let plan = Plan::build_as(&fixtures(), FrameSelection::Annotated, None).unwrap();
     let opts = ConvertOptions {
-        map_origin: "preset squeezeseg (the default for KITTI raw)".into(),
+        map_origin: Some(
+            kitti2pgm::project::MapChoice::default().origin(Some(kitti2pgm::kitti::Layout::Raw)),
+        ),
         ..ConvertOptions::new(out)
     };
     let summary = convert(&plan, &opts, &|_| {}).unwrap();

@@ -16,13 +16,16 @@ import numpy.typing as npt
 __version__: str
 LASERS: int
 MAX_RANGE_M: float
+PRESETS: Dict[str, Dict[str, Any]]
+"""Every map preset by name (squeezeseg, rangenet, full): rows, cols, fov_deg, fov_up_deg,
+fov_down_deg, row_mode; the library's table, the one the CLI's --preset reads."""
 
 _Path = Union[str, "PathLike[str]"]
 _Array = npt.NDArray[Any]
 Frame = Dict[str, Any]
 """A loaded frame: id, file_len, points (N, 4) float32, file_index (N,) uint32, ring (N,) uint8 or None,
 label (N,) uint8, instance (N,) uint16, annotated, boxes, rgb (N, 3) float32 or None,
-rgb_valid (N,) bool or None (colours / colour_valid: the same arrays, older names)."""
+rgb_valid (N,) bool or None."""
 MapDict = Dict[str, Any]
 """A projected map: map (H, W, C) float32, channels, mask (H, W) bool, label (H, W) uint8,
 instance (H, W) uint16, rgb_valid (H, W) bool or None, row / col (N,) int32 or None,
@@ -31,17 +34,18 @@ point_index (H, W) int32 or None, stats."""
 def project(
     points: _Array,
     *,
-    rows: int = 64,
-    cols: int = 512,
-    fov_deg: float = 90.0,
-    fov_up_deg: float = 2.0,
-    fov_down_deg: float = -24.9,
-    row_mode: str = "rings",
+    preset: Optional[str] = None,
+    rows: Optional[int] = None,
+    cols: Optional[int] = None,
+    fov_deg: Optional[float] = None,
+    fov_up_deg: Optional[float] = None,
+    fov_down_deg: Optional[float] = None,
+    row_mode: Optional[str] = None,
     rings: Optional[_Array] = None,
     labels: Optional[_Array] = None,
     instance: Optional[_Array] = None,
-    colours: Optional[_Array] = None,
-    colour_valid: Optional[_Array] = None,
+    rgb: Optional[_Array] = None,
+    rgb_valid: Optional[_Array] = None,
     rotate_deg: float = 0.0,
     scale: float = 1.0,
     flip: bool = False,
@@ -49,9 +53,9 @@ def project(
     drop: float = 0.0,
     seed: int = 0,
     point_cells: bool = True,
-    rgb: Optional[_Array] = None,
-    rgb_valid: Optional[_Array] = None,
-) -> MapDict: ...
+) -> MapDict:
+    """The map of ``preset`` (squeezeseg when None; ``PRESETS`` holds the numbers), each value
+    given in its place."""
 def rings(points: _Array) -> Optional[npt.NDArray[np.uint8]]: ...
 def unproject(
     pred: _Array,
@@ -60,7 +64,7 @@ def unproject(
     points: _Array,
     cell_range: Optional[_Array] = None,
     *,
-    method: str = "cell",
+    method: str = "knn",
     class_map: str = "semantic-kitti",
     k: int = 5,
     window: int = 5,
@@ -68,6 +72,10 @@ def unproject(
     cutoff: float = 1.0,
     wrap_columns: bool = False,
 ) -> npt.NDArray[np.int16]: ...
+def point_prediction_path(out: _Path, frame: str) -> str: ...
+def write_point_predictions(
+    out: _Path, frame: str, classes: _Array, *, class_map: str
+) -> Tuple[str, int]: ...
 def label_points(
     points: _Array, boxes: List[Dict[str, Any]], *, background: int = 0
 ) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint16]]: ...
@@ -106,10 +114,13 @@ class Dataset:
         self,
         frame: Union[int, str],
         *,
-        rows: int = 64,
-        cols: int = 512,
-        fov_deg: float = 90.0,
-        fov_up_deg: float = 2.0,
-        fov_down_deg: float = -24.9,
-        row_mode: str = "rings",
-    ) -> MapDict: ...
+        preset: Optional[str] = None,
+        rows: Optional[int] = None,
+        cols: Optional[int] = None,
+        fov_deg: Optional[float] = None,
+        fov_up_deg: Optional[float] = None,
+        fov_down_deg: Optional[float] = None,
+        row_mode: Optional[str] = None,
+    ) -> MapDict:
+        """The frame projected as ``kitti2pgm convert`` projects it: ``preset`` defaults to
+        convert's for the source (full for SemanticKITTI, squeezeseg otherwise)."""

@@ -36,9 +36,7 @@ use crate::label::{ClassId, ClassMap};
 use crate::project::unproject::{unproject, Method, MethodKind, PointsInMap};
 use crate::project::{norm, project_with_point_cells};
 
-/// The class written (low 16 bits of a `.label` entry) for a point outside the map, in the
-/// class-id layout of KITTI raw and object outputs.
-pub const NOT_PREDICTED: u32 = 0xFFFF;
+pub use crate::format::label_file::NOT_PREDICTED;
 
 pub use viz::write_viz;
 
@@ -88,18 +86,6 @@ pub struct UnprojectSummary {
     /// The frames written, in order.
     #[serde(skip)]
     pub written: Vec<FrameId>,
-}
-
-/// The output path of a frame's per-point predictions.
-pub fn prediction_path(out: &Path, id: &FrameId) -> PathBuf {
-    match id.layout {
-        Layout::Sequence => out
-            .join("sequences")
-            .join(id.drive_name())
-            .join("predictions")
-            .join(format!("{}.label", id.frame_name())),
-        _ => OutputDir::new(out).label_path(id),
-    }
 }
 
 /// Refuses an output (`--out`, `--viz`) that is, lies inside or holds the ground truth, the
@@ -177,27 +163,9 @@ fn one(
     };
     let classes = unproject(&m, &pred, &opts.method, map)?;
     let per_point = scan.to_file_order(&classes, None);
-    let sequence = id.layout == Layout::Sequence;
-    let mut missing = 0u64;
-    let raw_ids: Vec<u32> = per_point
-        .iter()
-        .map(|c| match (c, sequence) {
-            (Some(c), true) => map.raw_of_class(*c).unwrap_or(0),
-            (Some(c), false) => *c as u32,
-            (None, true) => {
-                missing += 1;
-                0
-            }
-            (None, false) => {
-                missing += 1;
-                NOT_PREDICTED
-            }
-        })
-        .collect();
-    let path = prediction_path(&opts.out, id);
-    crate::format::create_dir(path.parent().expect("a file in a folder"))?;
-    crate::format::atomic_write(&path, &label_file::encode_raw(&raw_ids), opts.durability)?;
-    Ok((raw_ids.len() as u64, missing))
+    let (_, missing) =
+        label_file::write_predictions(&opts.out, id, &per_point, map, opts.durability)?;
+    Ok((per_point.len() as u64, missing))
 }
 
 /// Carries every frame's prediction back to its points (frames in parallel; a failing frame is

@@ -2,8 +2,9 @@
 
 use std::path::Path;
 
-use super::{load_point_frame, prediction_path, UnprojectOptions};
+use super::{load_point_frame, UnprojectOptions};
 use crate::error::{Error, Result};
+use crate::format::layout::point_prediction_path;
 use crate::kitti::FrameId;
 use crate::label::ClassId;
 use crate::report::truth::GroundTruth;
@@ -57,7 +58,7 @@ pub fn write_viz(
         let f = load_point_frame(
             &opts.raw,
             id,
-            &prediction_path(&opts.out, id),
+            &point_prediction_path(&opts.out, id),
             map,
             gt.dir.as_ref(),
         )?;

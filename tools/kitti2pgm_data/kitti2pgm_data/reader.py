@@ -272,6 +272,25 @@ class ShardReader:
         return read_metadata(self.path)
 
 
+# Enum values as shards of earlier versions spelled them (Rust's identifiers), and their names
+# today (the CLI's, the same in every file): read_metadata gives every shard's parameters in
+# today's spelling, as the Rust reader does.
+_OLD_NAMES = {"row_mode": {"Rings": "rings", "Elevation": "elevation"},
+              "sampling": {"Nearest": "nearest", "Bilinear": "bilinear"},
+              "compression": {"Lz4": "lz4", "Zstd": "zstd", "None": "none"},
+              "absent_in_miou": {"LeftOut": "left_out", "Zero": "zero"}}
+
+
+def _today(params: object) -> object:
+    """``params`` with every enum value of the old spelling in today's."""
+    if isinstance(params, dict):
+        return {k: (_OLD_NAMES[k].get(v, v) if k in _OLD_NAMES and isinstance(v, str) else _today(v))
+                for k, v in params.items()}
+    if isinstance(params, list):
+        return [_today(v) for v in params]
+    return params
+
+
 def read_metadata(path: PathLike) -> Dict[str, object]:
     """The shard's ``kitti2pgm`` metadata record: ``version``, ``params`` (the conversion
     parameters, parsed from JSON: ``params["map"]["class_map"]`` is the class map), ``drives``,
@@ -287,7 +306,7 @@ def read_metadata(path: PathLike) -> Dict[str, object]:
         raise ShardError(f"{path}: no {METADATA_NAME} metadata record")
     md: Dict[str, object] = dict(records[0].metadata)
     try:
-        md["params"] = json.loads(md["params"])
+        md["params"] = _today(json.loads(md["params"]))
         for key in ("drives", "frames", "failed"):
             md[key] = [x for x in md[key].split("\n") if x]
     except (KeyError, ValueError) as e:

@@ -170,3 +170,27 @@ def test_bad_metadata_is_named(rgb_lz4, scratch):
         w.finish()
     with pytest.raises(ShardError, match="bad.mcap: malformed"):
         read_metadata(path)
+
+
+def test_metadata_of_the_old_spelling_reads_in_todays(rgb_lz4, scratch):
+    """(Issue 29) Enum values are spelled as the CLI spells them (rings, nearest, lz4); shards of
+    earlier versions spelled them as Rust's identifiers (Rings, Nearest, Lz4): read_metadata gives
+    both in today's spelling, so no caller lowers or compares spellings itself."""
+    import json
+
+    from mcap.writer import Writer
+
+    md = read_metadata(shards(rgb_lz4)[0])
+    spec, rgb = md["params"]["map"]["spec"], md["params"]["map"]["rgb"]
+    assert (spec["row_mode"], rgb["sampling"], md["params"]["shards"]["compression"]) == ("rings", "nearest", "lz4")
+    assert md["params"]["map"]["class_map"]["absent_in_miou"] == "left_out"
+    old = json.dumps(md["params"]).replace('"rings"', '"Rings"').replace('"nearest"', '"Nearest"') \
+        .replace('"lz4"', '"Lz4"').replace('"left_out"', '"LeftOut"')
+    path = scratch / "old.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start(profile="kitti2pgm", library="test")
+        w.add_metadata("kitti2pgm", {k: (old if k == "params" else "\n".join(v) if isinstance(v, list) else v)
+                                     for k, v in md.items()})
+        w.finish()
+    assert read_metadata(path)["params"] == md["params"]

@@ -185,13 +185,29 @@ pub fn vec_arg<T: Element + Copy + DtypeName>(
     Ok(v)
 }
 
+/// A one-dimensional array of type `T`, of any length (one copy).
+pub fn list_arg<T: Element + Copy + DtypeName>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+) -> PyResult<Vec<T>> {
+    let want = format!("a one-dimensional {} array", T::NAME);
+    let (v, shape) = values::<T>(obj, name, &want)?;
+    if shape.len() != 1 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be {want}, got {}",
+            describe(obj)
+        )));
+    }
+    Ok(v)
+}
+
 /// Colours from an (N, 3) float32 array.
 pub fn colours_arg(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<[f32; 3]>> {
     let want = format!("a float32 array of shape ({n}, 3) (r, g, b in [0, 1])");
-    let (v, shape) = values::<f32>(obj, "colours", &want)?;
+    let (v, shape) = values::<f32>(obj, "rgb", &want)?;
     if shape != [n, 3] {
         return Err(PyValueError::new_err(format!(
-            "colours must be {want}, got {}",
+            "rgb must be {want}, got {}",
             describe(obj)
         )));
     }
@@ -203,7 +219,7 @@ pub fn colours_arg(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<[f32; 3]>> 
         .find(|(_, c)| !(0.0..=1.0).contains(*c))
     {
         return Err(PyValueError::new_err(format!(
-            "colours: value {} (point {}, channel {}) is outside [0, 1]",
+            "rgb: value {} (point {}, channel {}) is outside [0, 1]",
             kitti2pgm::error::shown(*c),
             i / 3,
             ["r", "g", "b"][i % 3]
@@ -244,6 +260,12 @@ impl DtypeName for i32 {
     const KIND: char = 'i';
     const MIN: f64 = i32::MIN as f64;
     const MAX: f64 = i32::MAX as f64;
+}
+impl DtypeName for i64 {
+    const NAME: &'static str = "int64";
+    const KIND: char = 'i';
+    const MIN: f64 = i64::MIN as f64;
+    const MAX: f64 = i64::MAX as f64;
 }
 impl DtypeName for f32 {
     const NAME: &'static str = "float32";

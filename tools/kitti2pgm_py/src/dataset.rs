@@ -18,7 +18,7 @@ use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Cloud};
 
 use crate::readers::{box_dict, class_map_of, scan_array, to_py};
-use crate::{py_err, spec_of};
+use crate::{py_err, spec_of, MapArgs};
 
 /// The frames of a dataset root, loaded as `kitti2pgm convert` loads them.
 ///
@@ -163,7 +163,7 @@ impl Dataset {
     /// included), points (N, 4) float32 (finite, in range, file order), file_index (N,) uint32, ring (N,) uint8 or None (no 64 rings), label (N,)
     /// uint8, instance (N,) uint16, annotated (bool), boxes (list of dicts, as label_points
     /// takes them), rgb (N, 3) float32 and rgb_valid (N,) bool with rgb_camera, else None (the
-    /// point shards' names; colours / colour_valid are the same arrays under older names).
+    /// point shards' names, and `project`'s keywords).
     /// `frame`: an id or an index.
     fn load<'py>(
         &self,
@@ -202,15 +202,11 @@ impl Dataset {
                 let flat: Vec<f32> = c.iter().flat_map(|v| v.unwrap_or([0.0; 3])).collect();
                 let rgb = PyArray1::from_vec(py, flat).reshape([n, 3])?;
                 let rgb_valid = PyArray1::from_vec(py, valid);
-                // rgb / rgb_valid as the point shards name them; colours / colour_valid, the
-                // older names, are the same arrays.
-                out.set_item("rgb", &rgb)?;
-                out.set_item("rgb_valid", &rgb_valid)?;
-                out.set_item("colours", rgb)?;
-                out.set_item("colour_valid", rgb_valid)?;
+                out.set_item("rgb", rgb)?;
+                out.set_item("rgb_valid", rgb_valid)?;
             }
             None => {
-                for key in ["rgb", "rgb_valid", "colours", "colour_valid"] {
+                for key in ["rgb", "rgb_valid"] {
                     out.set_item(key, py.None())?;
                 }
             }
@@ -220,23 +216,35 @@ impl Dataset {
 
     /// The frame projected as `kitti2pgm convert` projects it: the dict `kitti2pgm.project`
     /// returns (map, channels, mask, label, instance, rgb_valid, row, col, point_index, stats),
-    /// with the same map keywords; load + project in one call.
-    #[pyo3(signature = (frame, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode="rings"),
-        text_signature = "(self, frame, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings')")]
+    /// with the same map keywords, whose preset defaults to `convert`'s for this source (full
+    /// for SemanticKITTI, squeezeseg for KITTI raw and the object set); load + project in one
+    /// call.
+    #[pyo3(signature = (frame, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None),
+        text_signature = "(self, frame, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None)")]
     // One Rust argument per Python keyword: the signature is the Python API.
     #[allow(clippy::too_many_arguments)]
     fn project<'py>(
         &self,
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
-        rows: usize,
-        cols: usize,
-        fov_deg: f64,
-        fov_up_deg: f64,
-        fov_down_deg: f64,
-        row_mode: &str,
+        preset: Option<String>,
+        rows: Option<usize>,
+        cols: Option<usize>,
+        fov_deg: Option<f64>,
+        fov_up_deg: Option<f64>,
+        fov_down_deg: Option<f64>,
+        row_mode: Option<String>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let spec = spec_of(rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode)?;
+        let args = MapArgs {
+            preset,
+            rows,
+            cols,
+            fov_deg,
+            fov_up_deg,
+            fov_down_deg,
+            row_mode,
+        };
+        let spec = spec_of(&args, Some(self.plan.layout()))?;
         let k = self.index_of(frame)?;
         let (d, f) = self.plan.jobs[k];
         let dp = &self.plan.drives[d];

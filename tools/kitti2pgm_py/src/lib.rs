@@ -15,8 +15,10 @@ use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use kitti2pgm::geom::Degrees;
-use kitti2pgm::project::{project_cloud, Augment, Cloud, CloudProjection, PgmSpec, RowMode, EMPTY};
+use kitti2pgm::kitti::Layout;
+use kitti2pgm::project::{
+    project_cloud, Augment, Cloud, CloudProjection, MapChoice, MapPreset, PgmSpec, RowMode, EMPTY,
+};
 
 use arrays::{colours_arg, points_arg, vec_arg};
 
@@ -27,33 +29,66 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 /// everything else (bad contents, bad arguments) `ValueError`.
 pub(crate) fn py_err(e: kitti2pgm::Error) -> PyErr {
     match e {
-        kitti2pgm::Error::Io { .. } | kitti2pgm::Error::Write { .. } => {
-            PyOSError::new_err(e.to_string())
-        }
+        kitti2pgm::Error::Io { .. }
+        | kitti2pgm::Error::Write { .. }
+        | kitti2pgm::Error::NotAFile { .. }
+        | kitti2pgm::Error::TooLarge { .. } => PyOSError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),
     }
 }
 
-/// The map shape and field of view from the keyword arguments.
-pub(crate) fn spec_of(
-    rows: usize,
-    cols: usize,
-    fov_deg: f64,
-    fov_up_deg: f64,
-    fov_down_deg: f64,
-    row_mode: &str,
-) -> PyResult<PgmSpec> {
-    let row_mode = named::<RowMode>("row_mode", row_mode)?;
-    let spec = PgmSpec {
-        rows,
-        cols,
-        fov: Degrees(fov_deg),
-        fov_up: Degrees(fov_up_deg),
-        fov_down: Degrees(fov_down_deg),
-        row_mode,
+/// The map of the keyword arguments: the preset (`layout`'s default, or squeezeseg without a
+/// source) with each value given in its place, as `kitti2pgm convert` resolves its options.
+pub(crate) fn spec_of(choice: &MapArgs, layout: Option<Layout>) -> PyResult<PgmSpec> {
+    let c = MapChoice {
+        preset: choice
+            .preset
+            .as_deref()
+            .map(|p| named::<MapPreset>("preset", p))
+            .transpose()?,
+        rows: choice.rows,
+        cols: choice.cols,
+        fov_deg: choice.fov_deg,
+        fov_up_deg: choice.fov_up_deg,
+        fov_down_deg: choice.fov_down_deg,
+        row_mode: choice
+            .row_mode
+            .as_deref()
+            .map(|m| named::<RowMode>("row_mode", m))
+            .transpose()?,
     };
+    let spec = c.spec(layout);
     spec.validate().map_err(py_err)?;
     Ok(spec)
+}
+
+/// The map keywords of `project` and `Dataset.project`, as given (`None`: the preset's).
+pub(crate) struct MapArgs {
+    pub preset: Option<String>,
+    pub rows: Option<usize>,
+    pub cols: Option<usize>,
+    pub fov_deg: Option<f64>,
+    pub fov_up_deg: Option<f64>,
+    pub fov_down_deg: Option<f64>,
+    pub row_mode: Option<String>,
+}
+
+/// `kitti2pgm.PRESETS`: every preset's map, by name (the library's table, which the CLI reads
+/// too).
+fn presets(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    for &p in MapPreset::ALL {
+        let s = p.spec();
+        let e = PyDict::new(py);
+        e.set_item("rows", s.rows)?;
+        e.set_item("cols", s.cols)?;
+        e.set_item("fov_deg", s.fov.0)?;
+        e.set_item("fov_up_deg", s.fov_up.0)?;
+        e.set_item("fov_down_deg", s.fov_down.0)?;
+        e.set_item("row_mode", s.row_mode.as_str())?;
+        d.set_item(p.as_str(), e)?;
+    }
+    Ok(d)
 }
 
 /// Ring (laser) index of every point of a scan from its order: an (N,) uint8 array, or None
@@ -87,10 +122,11 @@ fn rings<'py>(
 /// Projects a point cloud onto a Polar Grid Map, exactly as `kitti2pgm convert` does.
 ///
 /// points: (N, 4) float32 x, y, z, intensity (velodyne frame, metres), in scan order.
+/// preset: "squeezeseg" (the default), "rangenet" or "full" (`kitti2pgm.PRESETS` holds their
+/// numbers); rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode: single values over it.
 /// rings: optional (N,) uint8 ring indices (< 64); default: recovered from the scan order.
 /// labels: optional (N,) uint8 class ids; instance: optional (N,) uint16.
-/// rgb: optional (N, 3) float32 in [0, 1] (adds r, g, b channels); rgb_valid: (N,) bool
-/// (colours / colour_valid: older names of the same).
+/// rgb: optional (N, 3) float32 in [0, 1] (adds r, g, b channels); rgb_valid: (N,) bool.
 /// rotate_deg, scale, flip, jitter (metres), drop (probability), seed: 3D augmentation applied
 /// before projecting (rows stay the rings of the original order; a rotation by k column angles
 /// shifts the map by exactly k columns).
@@ -101,27 +137,28 @@ fn rings<'py>(
 /// point_index (H, W) int32 (-1 for empty cells), stats (dict of counts). With
 /// point_cells=False, row, col and point_index are None (a little faster, for training).
 #[pyfunction]
-#[pyo3(signature = (points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9,
-    row_mode="rings", rings=None, labels=None, instance=None, colours=None, colour_valid=None,
-    rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0, point_cells=true, rgb=None,
-    rgb_valid=None),
-    text_signature = "(points, *, rows=64, cols=512, fov_deg=90.0, fov_up_deg=2.0, fov_down_deg=-24.9, row_mode='rings', rings=None, labels=None, instance=None, colours=None, colour_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True, rgb=None, rgb_valid=None)")]
+#[pyo3(signature = (points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None,
+    fov_down_deg=None, row_mode=None, rings=None, labels=None, instance=None, rgb=None,
+    rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0,
+    point_cells=true),
+    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
 // One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
-    rows: usize,
-    cols: usize,
-    fov_deg: f64,
-    fov_up_deg: f64,
-    fov_down_deg: f64,
-    row_mode: &str,
+    preset: Option<String>,
+    rows: Option<usize>,
+    cols: Option<usize>,
+    fov_deg: Option<f64>,
+    fov_up_deg: Option<f64>,
+    fov_down_deg: Option<f64>,
+    row_mode: Option<String>,
     rings: Option<&Bound<'py, PyAny>>,
     labels: Option<&Bound<'py, PyAny>>,
     instance: Option<&Bound<'py, PyAny>>,
-    colours: Option<&Bound<'py, PyAny>>,
-    colour_valid: Option<&Bound<'py, PyAny>>,
+    rgb: Option<&Bound<'py, PyAny>>,
+    rgb_valid: Option<&Bound<'py, PyAny>>,
     rotate_deg: f64,
     scale: f32,
     flip: bool,
@@ -129,22 +166,17 @@ fn project<'py>(
     drop: f32,
     seed: u64,
     point_cells: bool,
-    rgb: Option<&Bound<'py, PyAny>>,
-    rgb_valid: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    // rgb / rgb_valid: the names of the shards and of Dataset.load; colours / colour_valid:
-    // the older ones, still taken.
-    let either =
-        |a: Option<&Bound<'py, PyAny>>, b: Option<&Bound<'py, PyAny>>, names: &str| match (a, b) {
-            (Some(_), Some(_)) => Err(PyValueError::new_err(format!(
-                "give one of {names}, not both"
-            ))),
-            (a, b) => Ok(a.or(b).cloned()),
-        };
-    let colours = either(rgb, colours, "rgb and colours")?;
-    let colour_valid = either(rgb_valid, colour_valid, "rgb_valid and colour_valid")?;
-    let (colours, colour_valid) = (colours.as_ref(), colour_valid.as_ref());
-    let spec = spec_of(rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode)?;
+    let map = MapArgs {
+        preset,
+        rows,
+        cols,
+        fov_deg,
+        fov_up_deg,
+        fov_down_deg,
+        row_mode,
+    };
+    let spec = spec_of(&map, None)?;
     let (pts, intensity) = points_arg(points, "points", true)?;
     let n = pts.len();
     let rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
@@ -152,9 +184,9 @@ fn project<'py>(
     let instance = instance
         .map(|a| vec_arg::<u16>(a, "instance", n))
         .transpose()?;
-    let colours = colours.map(|a| colours_arg(a, n)).transpose()?;
-    let colour_valid = colour_valid
-        .map(|a| vec_arg::<bool>(a, "colour_valid", n))
+    let colours = rgb.map(|a| colours_arg(a, n)).transpose()?;
+    let colour_valid = rgb_valid
+        .map(|a| vec_arg::<bool>(a, "rgb_valid", n))
         .transpose()?;
     let augment = Augment {
         rotate: rotate_deg.to_radians(),
@@ -187,15 +219,16 @@ fn project<'py>(
 /// pred: (H, W) class ids (a model's label map); row, col: (N,) each point's cell, as `project`
 /// returns them (-1 outside the map); points: (N, 3+) the scan (its ranges are computed as the
 /// map's); cell_range: (H, W) the map's range channel (`m["map"][..., 4]`), needed by "knn".
-/// method: "cell" (a point takes its cell's class) or "knn" (RangeNet++'s post-processing, its
+/// method: "knn" (the default, as `kitti2pgm unproject`'s: RangeNet++'s post-processing, its
 /// result point for point: k nearest by range in a window around the cell, Gaussian-weighted,
-/// neighbours beyond cutoff vote for nobody, the class map's ignored classes never win).
+/// neighbours beyond cutoff vote for nobody, the class map's ignored classes never win) or
+/// "cell" (a point takes its cell's class).
 /// class_map: the classes (a name or yaml path); wrap_columns: neighbours across the 360-degree
 /// seam (the reference pads with zeros there).
 ///
 /// Returns (N,) int16: each point's class, -1 for points outside the map ("not predicted").
 #[pyfunction]
-#[pyo3(signature = (pred, row, col, points, cell_range=None, *, method="cell", class_map="semantic-kitti",
+#[pyo3(signature = (pred, row, col, points, cell_range=None, *, method="knn", class_map="semantic-kitti",
     k=5, window=5, sigma=1.0, cutoff=1.0, wrap_columns=false))]
 // One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
@@ -391,6 +424,9 @@ fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(project, m)?)?;
     m.add_function(wrap_pyfunction!(rings, m)?)?;
     m.add_function(wrap_pyfunction!(unproject, m)?)?;
+    m.add_function(wrap_pyfunction!(readers::point_prediction_path, m)?)?;
+    m.add_function(wrap_pyfunction!(readers::write_point_predictions, m)?)?;
+    m.add("PRESETS", presets(m.py())?)?;
     readers::register(m)?;
     m.add_class::<dataset::Dataset>()?;
     m.add_class::<dataset::DatasetIter>()?;

@@ -271,6 +271,66 @@ fn label_points<'py>(
 }
 
 /// Adds the readers to the module.
+/// A frame id from its string (`2011_09_26_0001_0000000010`, `00_000000`, `000042`).
+fn frame_id(frame: &str) -> PyResult<kitti2pgm::kitti::FrameId> {
+    frame
+        .parse()
+        .map_err(|e: kitti2pgm::error::NotAFrameId| PyValueError::new_err(e.to_string()))
+}
+
+/// Where `kitti2pgm unproject` writes a frame's per-point predictions under `out`:
+/// `out/sequences/<NN>/predictions/<frame6>.label` for SemanticKITTI (the benchmark's layout),
+/// `out/labels/<drive>/<frame>.label` otherwise.
+#[pyfunction]
+pub fn point_prediction_path(out: PathBuf, frame: &str) -> PyResult<PathBuf> {
+    Ok(kitti2pgm::format::layout::point_prediction_path(
+        &out,
+        &frame_id(frame)?,
+    ))
+}
+
+/// Writes a frame's per-point predictions as `kitti2pgm unproject` does (atomically, at
+/// `point_prediction_path(out, frame)`): classes is (N,) integers, one per point of the scan
+/// file in its order, each a class id of `class_map` or negative for a point without a
+/// prediction; SemanticKITTI frames get the dataset's raw ids (0 without a prediction), others
+/// class ids (0xFFFF without). Returns (the file, the points without a prediction).
+#[pyfunction]
+#[pyo3(signature = (out, frame, classes, *, class_map))]
+pub fn write_point_predictions(
+    py: Python<'_>,
+    out: PathBuf,
+    frame: &str,
+    classes: &Bound<'_, PyAny>,
+    class_map: &str,
+) -> PyResult<(PathBuf, u64)> {
+    let id = frame_id(frame)?;
+    let map = class_map_of(class_map)?;
+    let v = crate::arrays::list_arg::<i64>(classes, "classes")?;
+    let per_point = v
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| match c {
+            c if c < 0 => Ok(None),
+            c if (c as usize) < map.len() => Ok(Some(c as kitti2pgm::label::ClassId)),
+            c => Err(PyValueError::new_err(format!(
+                "classes: point {i} has class {c}, not a class id of {} (0-{})",
+                map.name,
+                map.len() - 1
+            ))),
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    py.detach(|| {
+        kitti2pgm::format::label_file::write_predictions(
+            &out,
+            &id,
+            &per_point,
+            &map,
+            kitti2pgm::format::Durability::Renamed,
+        )
+    })
+    .map_err(py_err)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_scan, m)?)?;
     m.add_function(wrap_pyfunction!(read_point_labels, m)?)?;

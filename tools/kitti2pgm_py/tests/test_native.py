@@ -30,7 +30,7 @@ def converted(kitti2pgm_path):
 def args_of(frame, rgb):
     kw = dict(labels=frame["label"], instance=frame["instance"])
     if rgb:
-        kw.update(colours=frame["colours"], colour_valid=frame["colour_valid"])
+        kw.update(rgb=frame["rgb"], rgb_valid=frame["rgb_valid"])
     return kw
 
 
@@ -69,6 +69,16 @@ def test_project_is_the_converters_bytes_on_semantickitti_and_object(converted, 
     for k, v in ds.class_map["learning_map"].items():
         lut[int(k)] = v
     assert np.array_equal(f["label"], lut[raw[f["file_index"]] & 0xFFFF])
+    # (Issue 29) Dataset.project defaults to convert's preset for the source (full here), and
+    # project(preset=...) is convert --preset's map; the numbers are the library's one table.
+    default = converted(tmp_path / "skd", SEMANTICKITTI)
+    assert ds.project(0)["map"].tobytes() == np.load(default / f"{ds.frames[0]}.npy").tobytes()
+    rangenet = converted(tmp_path / "skr", SEMANTICKITTI, "--preset", "rangenet")
+    got = k2.project(f["points"], labels=f["label"], instance=f["instance"], preset="rangenet")
+    assert got["map"].tobytes() == np.load(rangenet / f"{ds.frames[0]}.npy").tobytes()
+    assert k2.PRESETS["full"] == {"rows": 64, "cols": 2048, "fov_deg": 360.0, "fov_up_deg": 2.0,
+                                  "fov_down_deg": -24.9, "row_mode": "rings"}
+    assert k2.project(f["points"])["map"].shape == (64, 512, 6)  # squeezeseg without a source
 
     out = converted(tmp_path / "obj", OBJECT, "--rgb")
     ds = k2.Dataset(OBJECT, rgb_camera=2)
@@ -173,10 +183,10 @@ def test_bad_arrays_raise_clear_value_errors():
         (pts, {"labels": np.full(n, 300, np.int64)}, r"labels holds 300, which does not fit uint8"),
         (pts, {"labels": np.full(n, -1, np.int16)}, r"labels holds -1, which does not fit uint8"),
         (pts, {"rings": np.full(n, 64, np.uint8)}, "ring 64 of point 0 is not below 64"),
-        (pts, {"colours": np.zeros((n, 4), np.float32)}, r"colours must be a float32 array of shape \(%d, 3\)" % n),
+        (pts, {"rgb": np.zeros((n, 4), np.float32)}, r"rgb must be a float32 array of shape \(%d, 3\)" % n),
         # (Issue 26) colours are what convert --rgb samples: [0, 1].
-        (pts, {"rgb": np.full((n, 3), 1e30, np.float32)}, r"colours: value 1e30 \(point 0, channel r\) is outside \[0, 1\]"),
-        (pts, {"rgb": np.full((n, 3), -7, np.float32)}, r"colours: value -7 \(point 0, channel r\)"),
+        (pts, {"rgb": np.full((n, 3), 1e30, np.float32)}, r"rgb: value 1e30 \(point 0, channel r\) is outside \[0, 1\]"),
+        (pts, {"rgb": np.full((n, 3), -7, np.float32)}, r"rgb: value -7 \(point 0, channel r\)"),
         (pts, {"cols": 0}, "map size 64x0 is out of range"),
         (pts, {"fov_deg": 400.0}, "FOV 400"),
         (pts, {"drop": 1.0}, r"drop 1 must be in \[0, 1\)"),
@@ -212,7 +222,7 @@ def test_fortran_ordered_and_transposed_arrays_read_in_their_logical_order():
     for p in (np.asfortranarray(pts), np.ascontiguousarray(pts.T).T):
         assert not p.flags.c_contiguous
         got = k2.project(p, labels=np.asfortranarray(f["label"]), instance=f["instance"],
-                         colours=np.asfortranarray(f["colours"]), colour_valid=f["colour_valid"])
+                         rgb=np.asfortranarray(f["rgb"]), rgb_valid=f["rgb_valid"])
         assert got["map"].tobytes() == want["map"].tobytes()
         assert np.array_equal(got["row"], want["row"]) and np.array_equal(got["col"], want["col"])
         cls, inst = k2.label_points(p, f["boxes"], background=0)
@@ -286,14 +296,13 @@ def test_one_dtype_rule_and_one_vocabulary():
     assert got["map"].tobytes() == want["map"].tobytes()
     d = ds.project(0)
     assert set(d) == set(want) and d["map"].tobytes() == want["map"].tobytes()
-    # rgb / rgb_valid, the shards' names, as in Dataset.load (colours / colour_valid: older names).
+    # (Issue 29) One name for the colour arrays: rgb / rgb_valid, the shards' and Dataset.load's.
     c = k2.Dataset(RAW, rgb_camera=2)[0]
-    assert c["rgb"] is c["colours"] and c["rgb"].shape == (len(c["points"]), 3)
+    assert "colours" not in c and c["rgb"].shape == (len(c["points"]), 3)
     a = k2.project(c["points"], rgb=c["rgb"], rgb_valid=c["rgb_valid"])
-    b = k2.project(c["points"], colours=c["rgb"], colour_valid=c["rgb_valid"])
-    assert a["map"].tobytes() == b["map"].tobytes() and a["channels"][-3:] == ["r", "g", "b"]
-    with pytest.raises(ValueError, match="one of rgb and colours"):
-        k2.project(c["points"], rgb=c["rgb"], colours=c["rgb"])
+    assert a["channels"][-3:] == ["r", "g", "b"]
+    with pytest.raises(TypeError, match="colours"):
+        k2.project(c["points"], colours=c["rgb"])
     assert k2.class_map("kitti-paper-4")["name"] == "kitti-paper-4"
     assert k2.class_map("semantic-kitti")["name"] == "semantic-kitti"
     assert k2.Dataset(RAW, class_map="kitti-paper-4").class_map["name"] == "kitti-paper-4"
@@ -341,7 +350,7 @@ def test_point_shards_project_to_the_converters_maps(tmp_path, kitti2pgm_path):
         f = ds[i]
         assert f["points"].dtype == np.float32 and f["points"].shape == (f["count"], 4)
         m = k2.project(f["points"], rings=f["ring"], labels=f["label"], instance=f["instance"],
-                       colours=f["rgb"], colour_valid=f["rgb_valid"].astype(bool))
+                       rgb=f["rgb"], rgb_valid=f["rgb_valid"].astype(bool))
         want = np.load(tmp_path / "lidar_2d" / f"{f['id']}.npy")
         assert m["map"].tobytes() == want.tobytes(), f["id"]
     assert [f["id"] for f in iter_frames(shards)] == [ds[i]["id"] for i in range(3)]
@@ -426,3 +435,25 @@ def test_knn_unprojection_refuses_a_range_channel_that_is_not_ranges():
         r[3, 7] = bad
         with pytest.raises(ValueError, match=r"cell_range: value %s at cell \(3, 7\) is not a range" % what):
             k2.unproject(pred, m["row"], m["col"], f["points"], r, method="knn", class_map="kitti-paper-4")
+
+
+def test_point_predictions_are_written_where_and_as_unproject_writes_them(tmp_path):
+    """(Issue 29) The prediction layout and raw-id mapping have one owner, the library: the
+    module writes what `kitti2pgm unproject` writes."""
+    assert k2.point_prediction_path(tmp_path, "00_000007") == str(
+        tmp_path / "sequences" / "00" / "predictions" / "000007.label")
+    assert k2.point_prediction_path(tmp_path, "2011_09_26_0001_0000000010") == str(
+        tmp_path / "labels" / "2011_09_26_drive_0001_sync" / "0000000010.label")
+    sk = k2.class_map("semantic-kitti")
+    car = [c["name"] for c in sk["classes"]].index("car")
+    path, missing = k2.write_point_predictions(tmp_path, "00_000007", np.array([car, -1, 0]),
+                                               class_map="semantic-kitti")
+    assert missing == 1
+    raw = np.fromfile(path, "<u4")
+    assert raw.tolist() == [sk["learning_map_inv"][car], 0, sk["learning_map_inv"][0]]
+    path, _ = k2.write_point_predictions(tmp_path, "000042", np.array([1, -1]), class_map="kitti-paper-4")
+    assert np.fromfile(path, "<u4").tolist() == [1, 0xFFFF]
+    with pytest.raises(ValueError, match="point 0 has class 9"):
+        k2.write_point_predictions(tmp_path, "000042", np.array([9]), class_map="kitti-paper-4")
+    with pytest.raises(ValueError, match="not a frame id"):
+        k2.write_point_predictions(tmp_path, "frame7", np.array([1]), class_map="kitti-paper-4")

@@ -88,7 +88,7 @@ def test_knn_repairs_noise_and_cell_gives_each_point_its_cells_class(scan):
     truth = m["label"]
     # The ground-truth map unprojected by cell: the converter's label of every point that won
     # its cell.
-    cell = k2.unproject(truth, m["row"], m["col"], pts)
+    cell = k2.unproject(truth, m["row"], m["col"], pts, method="cell")
     inside = m["row"] >= 0
     won = np.zeros(len(pts), bool)
     idx = m["point_index"][m["mask"]]
@@ -97,7 +97,7 @@ def test_knn_repairs_noise_and_cell_gives_each_point_its_cells_class(scan):
     assert (cell[~inside] == -1).all()
     # kNN of a noisy map agrees with the points' labels more often than the cell method does.
     pred = noisy(truth, 0.2, seed=3)
-    by_cell = k2.unproject(pred, m["row"], m["col"], pts)
+    by_cell = k2.unproject(pred, m["row"], m["col"], pts, method="cell")
     by_knn = k2.unproject(pred, m["row"], m["col"], pts, m["map"][..., 4], method="knn")
     scored = inside & (scan["label"] != 0)
     acc = lambda p: (p[scored] == scan["label"][scored]).mean()
@@ -114,6 +114,9 @@ def test_bad_inputs_are_named(scan):
     pred = m["label"]
     with pytest.raises(ValueError, match="needs cell_range"):
         k2.unproject(pred, m["row"], m["col"], pts, method="knn")
+    # (Issue 29) The default method is the CLI's: knn, which needs the range channel.
+    with pytest.raises(ValueError, match="method 'knn' needs cell_range"):
+        k2.unproject(pred, m["row"], m["col"], pts)
     with pytest.raises(ValueError, match="window 4 must be odd"):
         k2.unproject(pred, m["row"], m["col"], pts, m["map"][..., 4], method="knn", window=4)
     with pytest.raises(ValueError, match="cell_range is 64x512, pred is 64x2048"):
@@ -121,9 +124,9 @@ def test_bad_inputs_are_named(scan):
     bad = pred.copy()
     bad[0, 0] = 20
     with pytest.raises(ValueError, match=r"cell \(0, 0\) is predicted as class 20"):
-        k2.unproject(bad, m["row"], m["col"], pts)
+        k2.unproject(bad, m["row"], m["col"], pts, method="cell")
     with pytest.raises(ValueError, match="outside the 64x512 prediction"):
-        k2.unproject(pred[:, :512], m["row"], m["col"], pts)
+        k2.unproject(pred[:, :512], m["row"], m["col"], pts, method="cell")
     with pytest.raises(ValueError, match="row must be a int32 array of shape"):
         k2.unproject(pred, m["row"][:-1], m["col"], pts)
     with pytest.raises(ValueError, match="method must be"):

@@ -47,7 +47,7 @@ def find_shards(spec: str, split: Optional[str] = None) -> List[str]:
 def describe_map(m: dict) -> str:
     """A map's shape in words: ``64 x 512 over 90 deg, rows rings``."""
     s = m["spec"]
-    return f"{s['rows']} x {s['cols']} over {s['fov']:g} deg, rows {str(s['row_mode']).lower()}"
+    return f"{s['rows']} x {s['cols']} over {s['fov']:g} deg, rows {s['row_mode']}"
 
 
 def describe_classes(m: dict) -> str:

@@ -19,7 +19,7 @@ class Confusion:
         self.ignore = list(class_map.get("ignore", []))
         self.miou_ids = list(class_map["miou"])
         # SemanticKITTI's benchmark counts a class absent from truth and prediction as 0.
-        self.absent_zero = class_map.get("absent_in_miou") == "Zero"
+        self.absent_zero = class_map.get("absent_in_miou") == "zero"
         self.m = torch.zeros(self.k, self.k, dtype=torch.int64)
 
     def add(self, pred: torch.Tensor, label: torch.Tensor, mask: torch.Tensor) -> None:

@@ -86,7 +86,7 @@ class PointFrameSet:
         spec = read_metadata(paths[0])["params"]["map"]["spec"]
         self.map_args = map_args or {
             "rows": spec["rows"], "cols": spec["cols"], "fov_deg": spec["fov"], "fov_up_deg": spec["fov_up"],
-            "fov_down_deg": spec["fov_down"], "row_mode": spec["row_mode"].lower()}
+            "fov_down_deg": spec["fov_down"], "row_mode": spec["row_mode"]}
         first = self.sample(0)
         self.channels = [c for c in first["channels"] if c != "label"]
         missing = sorted({c for g in self.groups for c in g} - set(self.channels))

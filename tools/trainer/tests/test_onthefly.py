@@ -58,7 +58,7 @@ def test_augmentation_is_seeded_and_keeps_rings(with_points):
     def with_cells(key):
         f = points.ds[0]
         kw = dict(points.map_args, **points.augment.draw(4, key, True))
-        kw.update(colours=f["rgb"], colour_valid=f["rgb_valid"].astype(bool))
+        kw.update(rgb=f["rgb"], rgb_valid=f["rgb_valid"].astype(bool))
         return kitti2pgm.project(f["points"], rings=f["ring"], labels=f["label"], instance=f["instance"], **kw)
     assert a["row"] is None
     for m in (with_cells((7, 2)), with_cells((8, 2)), with_cells(None)):
