@@ -8,6 +8,7 @@ order. Paths are str or os.PathLike.
 """
 
 from os import PathLike
+from pathlib import Path
 from typing import Any, Dict, Iterator, List, Optional, Tuple, Union
 
 import numpy as np
@@ -72,10 +73,10 @@ def unproject(
     cutoff: float = 1.0,
     wrap_columns: bool = False,
 ) -> npt.NDArray[np.int16]: ...
-def point_prediction_path(out: _Path, frame: str) -> str: ...
+def point_prediction_path(out: _Path, frame: str) -> Path: ...
 def write_point_predictions(
     out: _Path, frame: str, classes: _Array, *, class_map: str
-) -> Tuple[str, int]: ...
+) -> Tuple[Path, int]: ...
 def label_points(
     points: _Array, boxes: List[Dict[str, Any]], *, background: int = 0
 ) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint16]]: ...

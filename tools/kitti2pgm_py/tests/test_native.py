@@ -308,8 +308,9 @@ def test_one_dtype_rule_and_one_vocabulary():
     assert k2.Dataset(RAW, class_map="kitti-paper-4").class_map["name"] == "kitti-paper-4"
     import inspect
     sig = str(inspect.signature(k2.project))
-    assert "fov_down_deg=-24.9" in sig and "Ellipsis" not in sig, sig
-    assert "fov_down_deg=-24.9" in str(inspect.signature(k2.Dataset.project))
+    # (Issue 29) The map keywords default to the preset's values: no number is written twice.
+    assert "preset=None" in sig and "fov_down_deg=None" in sig and "Ellipsis" not in sig, sig
+    assert "preset=None" in str(inspect.signature(k2.Dataset.project))
 
 
 def test_a_dataset_without_frames_says_why(tmp_path):
@@ -440,9 +441,9 @@ def test_knn_unprojection_refuses_a_range_channel_that_is_not_ranges():
 def test_point_predictions_are_written_where_and_as_unproject_writes_them(tmp_path):
     """(Issue 29) The prediction layout and raw-id mapping have one owner, the library: the
     module writes what `kitti2pgm unproject` writes."""
-    assert k2.point_prediction_path(tmp_path, "00_000007") == str(
+    assert k2.point_prediction_path(tmp_path, "00_000007") == (
         tmp_path / "sequences" / "00" / "predictions" / "000007.label")
-    assert k2.point_prediction_path(tmp_path, "2011_09_26_0001_0000000010") == str(
+    assert k2.point_prediction_path(tmp_path, "2011_09_26_0001_0000000010") == (
         tmp_path / "labels" / "2011_09_26_drive_0001_sync" / "0000000010.label")
     sk = k2.class_map("semantic-kitti")
     car = [c["name"] for c in sk["classes"]].index("car")
