@@ -158,7 +158,7 @@ fn shard_size_compression_and_inspect() {
 }
 
 #[test]
-fn viz_topics_are_foxglove_json() {
+fn viz_topics_are_foxglove_protobuf() {
     let t = tmp();
     let out = t.path().join("out");
     convert_both(&out, &["--viz"]);
@@ -169,24 +169,28 @@ fn viz_topics_are_foxglove_json() {
         if m.channel.topic == FRAME_TOPIC {
             continue;
         }
+        use foxglove::schemas::{CompressedImage, PointCloud, SceneUpdate};
+        use prost::Message as _;
         let schema = m.channel.schema.as_ref().unwrap();
-        assert_eq!(schema.encoding, "jsonschema");
-        assert_eq!(m.channel.message_encoding, "json");
-        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        assert_eq!(schema.encoding, "protobuf");
+        assert_eq!(m.channel.message_encoding, "protobuf");
         match schema.name.as_str() {
             "foxglove.PointCloud" => {
-                assert_eq!(v["point_stride"], 21);
-                use base64::Engine as _;
-                let data = base64::engine::general_purpose::STANDARD
-                    .decode(v["data"].as_str().unwrap())
-                    .unwrap();
-                assert_eq!(data.len() % 21, 0);
-                assert!(data.len() / 21 > 100_000, "the whole scan");
+                let v = PointCloud::decode(&m.data[..]).unwrap();
+                assert_eq!(v.point_stride, 21);
+                assert_eq!(v.fields.len(), 9);
+                assert_eq!(v.data.len() % 21, 0);
+                assert!(v.data.len() / 21 > 100_000, "the whole scan");
             }
             "foxglove.SceneUpdate" => {
-                assert!(!v["entities"][0]["cubes"].as_array().unwrap().is_empty())
+                let v = SceneUpdate::decode(&m.data[..]).unwrap();
+                assert!(!v.entities[0].cubes.is_empty());
             }
-            "foxglove.CompressedImage" => assert_eq!(v["format"], "png"),
+            "foxglove.CompressedImage" => {
+                let v = CompressedImage::decode(&m.data[..]).unwrap();
+                assert_eq!(v.format, "png");
+                assert!(v.data.starts_with(b"\x89PNG"));
+            }
             other => panic!("unexpected schema {other}"),
         }
         *seen.entry(schema.name.clone()).or_insert(0) += 1;

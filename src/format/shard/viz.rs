@@ -1,13 +1,18 @@
-//! WRITE: visualisation topics in a shard (`--viz`), in Foxglove's well-known schemas with JSON
-//! encoding, so that Foxglove opens them directly: the labelled point cloud
-//! (`foxglove.PointCloud`, coloured by class through its `red`/`green`/`blue`/`alpha` fields),
-//! the tracklet boxes (`foxglove.SceneUpdate`, one cube per box) and the camera image
-//! (`foxglove.CompressedImage`, the PNG as it is on disk). Everything is in the `velodyne` frame.
+//! WRITE: visualisation topics in a shard (`--viz`), in Foxglove's official schemas, protobuf
+//! encoded (the `foxglove` crate's messages and descriptors), so that Foxglove opens them
+//! directly: the labelled point cloud (`foxglove.PointCloud`, coloured by class through its
+//! `red`/`green`/`blue`/`alpha` fields), the tracklet boxes (`foxglove.SceneUpdate`, one cube per
+//! box) and the camera image (`foxglove.CompressedImage`, the PNG as it is on disk). Everything
+//! is in the `velodyne` frame.
 
 use std::collections::BTreeMap;
 
-use base64::Engine as _;
-use serde_json::json;
+use foxglove::schemas::{
+    packed_element_field::NumericType, scene_entity_deletion, Color, CompressedImage,
+    CubePrimitive, Duration, PackedElementField, PointCloud, Pose, Quaternion, SceneEntity,
+    SceneEntityDeletion, SceneUpdate, Timestamp, Vector3,
+};
+use prost::Message as _;
 
 use crate::geom::Point3;
 use crate::label::{ClassId, LabelBox};
@@ -53,15 +58,32 @@ pub struct VizChannels {
     image: u16,
 }
 
-fn schema(title: &str, props: &[&str]) -> Vec<u8> {
-    let properties: serde_json::Map<String, serde_json::Value> =
-        props.iter().map(|p| (p.to_string(), json!({}))).collect();
-    serde_json::to_vec(&json!({ "title": title, "type": "object", "properties": properties }))
-        .expect("static JSON")
+/// Adds a channel on `topic` for Foxglove's message type `T` (its schema, protobuf encoded).
+fn channel<T: foxglove::Encode, W: std::io::Write + std::io::Seek>(
+    w: &mut mcap::Writer<W>,
+    topic: &str,
+) -> mcap::McapResult<u16> {
+    let s = T::get_schema().expect("Foxglove's schemas are known");
+    let schema = w.add_schema(&s.name, &s.encoding, &s.data)?;
+    w.add_channel(schema, topic, &T::get_message_encoding(), &BTreeMap::new())
 }
 
-fn time(ns: u64) -> serde_json::Value {
-    json!({ "sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000 })
+fn time(ns: u64) -> Option<Timestamp> {
+    Some(Timestamp::new(
+        (ns / 1_000_000_000) as u32,
+        (ns % 1_000_000_000) as u32,
+    ))
+}
+
+/// The velodyne frame's own pose.
+fn identity() -> Option<Pose> {
+    Some(Pose {
+        position: Some(Vector3::default()),
+        orientation: Some(Quaternion {
+            w: 1.0,
+            ..Default::default()
+        }),
+    })
 }
 
 impl VizChannels {
@@ -69,42 +91,10 @@ impl VizChannels {
     pub fn add<W: std::io::Write + std::io::Seek>(
         w: &mut mcap::Writer<W>,
     ) -> mcap::McapResult<VizChannels> {
-        let none = BTreeMap::new();
-        let s = w.add_schema(
-            "foxglove.PointCloud",
-            "jsonschema",
-            &schema(
-                "foxglove.PointCloud",
-                &[
-                    "timestamp",
-                    "frame_id",
-                    "pose",
-                    "point_stride",
-                    "fields",
-                    "data",
-                ],
-            ),
-        )?;
-        let points = w.add_channel(s, POINTS_TOPIC, "json", &none)?;
-        let s = w.add_schema(
-            "foxglove.SceneUpdate",
-            "jsonschema",
-            &schema("foxglove.SceneUpdate", &["deletions", "entities"]),
-        )?;
-        let boxes = w.add_channel(s, BOXES_TOPIC, "json", &none)?;
-        let s = w.add_schema(
-            "foxglove.CompressedImage",
-            "jsonschema",
-            &schema(
-                "foxglove.CompressedImage",
-                &["timestamp", "frame_id", "data", "format"],
-            ),
-        )?;
-        let image = w.add_channel(s, IMAGE_TOPIC, "json", &none)?;
         Ok(VizChannels {
-            points,
-            boxes,
-            image,
+            points: channel::<PointCloud, W>(w, POINTS_TOPIC)?,
+            boxes: channel::<SceneUpdate, W>(w, BOXES_TOPIC)?,
+            image: channel::<CompressedImage, W>(w, IMAGE_TOPIC)?,
         })
     }
 
@@ -116,76 +106,115 @@ impl VizChannels {
         sequence: u32,
         log_time: u64,
     ) -> mcap::McapResult<()> {
-        let b64 = base64::engine::general_purpose::STANDARD;
         let header = |channel_id| mcap::records::MessageHeader {
             channel_id,
             sequence,
             log_time,
             publish_time: log_time,
         };
-        // x, y, z, intensity: float32 (7); class, red, green, blue, alpha: uint8 (1). 21 bytes.
-        let mut data = Vec::with_capacity(v.points.len() * 21);
-        for (p, i, c) in &v.points {
-            for f in [p.x, p.y, p.z, *i] {
-                data.extend_from_slice(&f.to_le_bytes());
-            }
-            let [r, g, b] = v.colour(*c);
-            data.extend_from_slice(&[*c, r, g, b, 255]);
-        }
-        let field = |name: &str, offset: u32, ty: u32| json!({ "name": name, "offset": offset, "type": ty });
-        let cloud = json!({
-            "timestamp": time(log_time),
-            "frame_id": FRAME_ID,
-            "pose": { "position": { "x": 0.0, "y": 0.0, "z": 0.0 }, "orientation": { "x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0 } },
-            "point_stride": 21,
-            "fields": [field("x", 0, 7), field("y", 4, 7), field("z", 8, 7), field("intensity", 12, 7),
-                       field("class", 16, 1), field("red", 17, 1), field("green", 18, 1), field("blue", 19, 1), field("alpha", 20, 1)],
-            "data": b64.encode(&data),
-        });
-        w.write_to_known_channel(
-            &header(self.points),
-            &serde_json::to_vec(&cloud).expect("JSON"),
-        )?;
-        let cubes: Vec<serde_json::Value> = v
-            .boxes
-            .iter()
-            .map(|b| {
-                let t = b.pose.translation.vector;
-                let q = b.pose.rotation;
-                let [r, g, bl] = v.colour(b.class);
-                let e = b.cuboid.half_extents * 2.0;
-                json!({
-                    "pose": { "position": { "x": t.x, "y": t.y, "z": t.z }, "orientation": { "x": q.i, "y": q.j, "z": q.k, "w": q.w } },
-                    "size": { "x": e.x, "y": e.y, "z": e.z },
-                    "color": { "r": r as f64 / 255.0, "g": g as f64 / 255.0, "b": bl as f64 / 255.0, "a": 0.4 },
-                })
-            })
-            .collect();
-        let scene = json!({
-            "deletions": [{ "timestamp": time(log_time), "type": 1, "id": "" }],
-            "entities": [{
-                "timestamp": time(log_time), "frame_id": FRAME_ID, "id": "tracklets",
-                "lifetime": { "sec": 0, "nsec": 0 }, "frame_locked": false, "metadata": [],
-                "arrows": [], "cubes": cubes, "spheres": [], "cylinders": [], "lines": [],
-                "triangles": [], "texts": [], "models": [],
-            }],
-        });
-        w.write_to_known_channel(
-            &header(self.boxes),
-            &serde_json::to_vec(&scene).expect("JSON"),
-        )?;
+        w.write_to_known_channel(&header(self.points), &cloud(v, log_time).encode_to_vec())?;
+        w.write_to_known_channel(&header(self.boxes), &scene(v, log_time).encode_to_vec())?;
         if let Some(png) = &v.png {
-            let img = json!({
-                "timestamp": time(log_time),
-                "frame_id": format!("camera_{:02}", v.camera),
-                "data": b64.encode(png),
-                "format": "png",
-            });
-            w.write_to_known_channel(
-                &header(self.image),
-                &serde_json::to_vec(&img).expect("JSON"),
-            )?;
+            let img = CompressedImage {
+                timestamp: time(log_time),
+                frame_id: format!("camera_{:02}", v.camera),
+                data: png.clone().into(),
+                format: "png".into(),
+            };
+            w.write_to_known_channel(&header(self.image), &img.encode_to_vec())?;
         }
         Ok(())
+    }
+}
+
+/// The points: x, y, z, intensity float32; class, red, green, blue, alpha uint8 (21 bytes).
+fn cloud(v: &VizFrame, log_time: u64) -> PointCloud {
+    const STRIDE: usize = 21;
+    let mut data = Vec::with_capacity(v.points.len() * STRIDE);
+    for (p, i, c) in &v.points {
+        for f in [p.x, p.y, p.z, *i] {
+            data.extend_from_slice(&f.to_le_bytes());
+        }
+        let [r, g, b] = v.colour(*c);
+        data.extend_from_slice(&[*c, r, g, b, 255]);
+    }
+    let field = |name: &str, offset: u32, ty: NumericType| PackedElementField {
+        name: name.into(),
+        offset,
+        r#type: ty as i32,
+    };
+    let (f32_, u8_) = (NumericType::Float32, NumericType::Uint8);
+    PointCloud {
+        timestamp: time(log_time),
+        frame_id: FRAME_ID.into(),
+        pose: identity(),
+        point_stride: STRIDE as u32,
+        fields: vec![
+            field("x", 0, f32_),
+            field("y", 4, f32_),
+            field("z", 8, f32_),
+            field("intensity", 12, f32_),
+            field("class", 16, u8_),
+            field("red", 17, u8_),
+            field("green", 18, u8_),
+            field("blue", 19, u8_),
+            field("alpha", 20, u8_),
+        ],
+        data: data.into(),
+    }
+}
+
+/// The boxes, one translucent cube each in its class's colour; the previous frame's removed.
+fn scene(v: &VizFrame, log_time: u64) -> SceneUpdate {
+    let cubes = v
+        .boxes
+        .iter()
+        .map(|b| {
+            let t = b.pose.translation.vector;
+            let q = b.pose.rotation;
+            let [r, g, bl] = v.colour(b.class);
+            let e = b.cuboid.half_extents * 2.0;
+            CubePrimitive {
+                pose: Some(Pose {
+                    position: Some(Vector3 {
+                        x: t.x as f64,
+                        y: t.y as f64,
+                        z: t.z as f64,
+                    }),
+                    orientation: Some(Quaternion {
+                        x: q.i as f64,
+                        y: q.j as f64,
+                        z: q.k as f64,
+                        w: q.w as f64,
+                    }),
+                }),
+                size: Some(Vector3 {
+                    x: e.x as f64,
+                    y: e.y as f64,
+                    z: e.z as f64,
+                }),
+                color: Some(Color {
+                    r: r as f64 / 255.0,
+                    g: g as f64 / 255.0,
+                    b: bl as f64 / 255.0,
+                    a: 0.4,
+                }),
+            }
+        })
+        .collect();
+    SceneUpdate {
+        deletions: vec![SceneEntityDeletion {
+            timestamp: time(log_time),
+            r#type: scene_entity_deletion::Type::All as i32,
+            id: String::new(),
+        }],
+        entities: vec![SceneEntity {
+            timestamp: time(log_time),
+            frame_id: FRAME_ID.into(),
+            id: "tracklets".into(),
+            lifetime: Some(Duration::new(0, 0)),
+            cubes,
+            ..Default::default()
+        }],
     }
 }
