@@ -1,68 +1,15 @@
 //! `kitti2pgm check`: the CLI over [`kitti2pgm::check`].
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Context as _;
-use clap::Args as ClapArgs;
 use kitti2pgm::check::{check, CheckName, CheckOptions, CheckReport, Finding, Pictures, Severity};
 use kitti2pgm::label::ClassMap;
 
 use super::{progress, Global};
+use crate::cli::CheckArgs;
 use crate::Outcome;
-
-/// `kitti2pgm check`.
-#[derive(Debug, ClapArgs)]
-pub struct CheckArgs {
-    /// The dataset root (what `convert` reads), or a folder of raw drive folders holding only
-    /// their tracklet_labels.xml.
-    #[arg(value_name = "ROOT", required_unless_present = "list")]
-    pub root: Option<PathBuf>,
-    /// The input layout, when not the one the root shows.
-    #[arg(long, value_enum)]
-    pub source: Option<kitti2pgm::kitti::Layout>,
-    /// Switch these checks off (comma separated; `--list` names them).
-    #[arg(long, value_delimiter = ',', value_name = "CHECK")]
-    pub skip: Vec<CheckName>,
-    /// Run only these checks (comma separated).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        value_name = "CHECK",
-        conflicts_with = "skip"
-    )]
-    pub only: Vec<CheckName>,
-    /// Set a threshold, NAME=VALUE (repeatable; `--list` names them with their defaults).
-    #[arg(long = "set", value_name = "NAME=VALUE")]
-    pub set: Vec<String>,
-    /// Annotations, calibration and file lists only: skip the checks that read the scans.
-    #[arg(long)]
-    pub no_scans: bool,
-    /// Check this ImageSet folder's train.txt and val.txt (leaks, balance) instead of the
-    /// layout's default split.
-    #[arg(long, value_name = "DIR")]
-    pub imageset: Option<PathBuf>,
-    /// The class map (a built-in name or a semantic-kitti.yaml-style file) whose ids per-point
-    /// labels are checked against (default: SemanticKITTI's).
-    #[arg(long, value_name = "NAME|YAML")]
-    pub class_map: Option<PathBuf>,
-    /// Draw a picture of each flagged frame into DIR: a bird's-eye view with the boxes (the
-    /// flagged object in red), or the points over the image for the camera checks.
-    #[arg(long, value_name = "DIR")]
-    pub pictures: Option<PathBuf>,
-    /// At most this many pictures per check.
-    #[arg(long, default_value_t = 20, value_name = "N")]
-    pub max_pictures: usize,
-    /// Exit with status 3 when a finding of this severity or worse is found.
-    #[arg(long, default_value = "error", value_name = "SEVERITY")]
-    pub fail_on: Severity,
-    /// List the checks and the thresholds with their values, and exit.
-    #[arg(long)]
-    pub list: bool,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
-}
 
 impl CheckArgs {
     fn options(&self) -> anyhow::Result<CheckOptions> {

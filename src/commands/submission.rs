@@ -1,40 +1,10 @@
 //! `kitti2pgm submission`: the CLI over [`kitti2pgm::report::submission`].
 
-use std::path::PathBuf;
-
-use clap::Args as ClapArgs;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::report::submission::{check_submission, write_zip};
 
+use crate::cli::SubmissionArgs;
 use crate::Outcome;
-
-/// `kitti2pgm submission`.
-#[derive(Debug, ClapArgs)]
-pub struct SubmissionArgs {
-    /// The prediction folder: PRED/sequences/<NN>/predictions/<frame6>.label.
-    #[arg(value_name = "PRED")]
-    pub pred: PathBuf,
-    /// The SemanticKITTI root whose scans the predictions are of (sequences/<NN>/velodyne/).
-    #[arg(long, value_name = "ROOT")]
-    pub gt: PathBuf,
-    /// The sequences to check (comma separated; the benchmark's test set is 11-21). Default:
-    /// every sequence of ROOT.
-    #[arg(long, value_name = "NN", value_delimiter = ',')]
-    pub sequences: Vec<u32>,
-    /// The class map whose learning_map lists the valid raw ids (a name or a
-    /// semantic-kitti.yaml-style file).
-    #[arg(long, value_name = "NAME|FILE", default_value = "semantic-kitti")]
-    pub class_map: PathBuf,
-    /// Pack a valid folder into this zip archive, in the benchmark's layout.
-    #[arg(long, value_name = "ZIP")]
-    pub zip: Option<PathBuf>,
-    /// The archive's description.txt: this text, or the contents of this file.
-    #[arg(long, value_name = "TEXT|FILE", requires = "zip")]
-    pub description: Option<String>,
-    /// Print the check as JSON.
-    #[arg(long)]
-    pub json: bool,
-}
 
 pub fn run(a: SubmissionArgs) -> anyhow::Result<Outcome> {
     if let Some(zip) = &a.zip {

@@ -1,10 +1,6 @@
 //! `kitti2pgm unproject`: the CLI over [`kitti2pgm::report::unproject`].
 
-use std::path::PathBuf;
-
-use clap::Args as ClapArgs;
 use kitti2pgm::format::imageset;
-use kitti2pgm::project::unproject::{KnnParams, Method, MethodKind};
 use kitti2pgm::report::score::Predictions;
 use kitti2pgm::report::truth::GroundTruth;
 use kitti2pgm::report::unproject::{
@@ -13,84 +9,8 @@ use kitti2pgm::report::unproject::{
 };
 
 use super::{completeness, durability, progress, Global};
+use crate::cli::UnprojectArgs;
 use crate::Outcome;
-
-/// RangeNet++'s kNN parameters (defaults: the reference's).
-#[derive(Debug, Clone, ClapArgs)]
-pub struct KnnArgs {
-    /// kNN: neighbours that vote.
-    #[arg(long, default_value_t = 5, value_name = "K")]
-    pub knn_k: usize,
-    /// kNN: side of the search window around the point's cell (odd).
-    #[arg(long, default_value_t = 5, value_name = "CELLS")]
-    pub knn_window: usize,
-    /// kNN: standard deviation of the Gaussian over the window, cells.
-    #[arg(long, default_value_t = 1.0, value_name = "CELLS")]
-    pub knn_sigma: f32,
-    /// kNN: neighbours whose weighted range difference is above this vote for nobody (0: none
-    /// is cut off).
-    #[arg(long, default_value_t = 1.0, value_name = "METRES")]
-    pub knn_cutoff: f32,
-    /// kNN: take the window across the 360-degree seam (the reference pads with zeros there).
-    #[arg(long)]
-    pub knn_wrap: bool,
-}
-
-impl KnnArgs {
-    /// The method, with these parameters for the kNN.
-    pub fn method(&self, m: MethodKind) -> Method {
-        m.with(KnnParams {
-            k: self.knn_k,
-            window: self.knn_window,
-            sigma: self.knn_sigma,
-            cutoff: self.knn_cutoff,
-            wrap_columns: self.knn_wrap,
-        })
-    }
-}
-
-/// `kitti2pgm unproject`.
-#[derive(Debug, ClapArgs)]
-pub struct UnprojectArgs {
-    /// The converted ground truth the predictions were made on (a convert folder or shards): it
-    /// records the map whose cells are recomputed.
-    #[arg(long, value_name = "PATH")]
-    pub gt: PathBuf,
-    /// Map predictions: a folder (searched recursively) or one file (H x W label maps, H x W x K
-    /// scores, SqueezeSeg-layout .npy or prediction shards).
-    #[arg(long, value_name = "PATH")]
-    pub pred: PathBuf,
-    /// The dataset root holding the scans (KITTI raw, SemanticKITTI or KITTI object).
-    #[arg(long, value_name = "ROOT")]
-    pub raw: PathBuf,
-    /// Output folder: OUT/sequences/<NN>/predictions/<frame6>.label (SemanticKITTI, raw ids) or
-    /// OUT/labels/<drive>/<frame>.label (KITTI raw and object, class ids).
-    #[arg(long, short, value_name = "DIR")]
-    pub out: PathBuf,
-    /// How a point gets its class (the kNN's parameters: --knn-*).
-    #[arg(long, value_enum, default_value_t = MethodKind::Knn)]
-    pub method: MethodKind,
-    /// The kNN's parameters.
-    #[command(flatten)]
-    pub knn: KnnArgs,
-    /// Only the frames of this ImageSet list (or an ImageSet folder's val.txt).
-    #[arg(long, value_name = "LIST|DIR")]
-    pub imageset: Option<PathBuf>,
-    /// Read the output of an unfinished or inconsistent conversion anyway.
-    #[arg(long)]
-    pub partial: bool,
-    /// Flush each file before renaming it into place.
-    #[arg(long)]
-    pub sync: bool,
-    /// Also write the per-point predictions to this MCAP file for Foxglove: each scan's points
-    /// coloured by their predicted class, wrong ones (against the truth, where there is one) in
-    /// red.
-    #[arg(long, value_name = "MCAP")]
-    pub viz: Option<PathBuf>,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    pub json: bool,
-}
 
 /// Refuses a `--viz` file over an input (or the output folder).
 fn refuse_viz_over_inputs(a: &UnprojectArgs) -> anyhow::Result<()> {
