@@ -16,7 +16,7 @@ use crate::Outcome;
 /// Per-point predictions drawn against their scans (`--raw`): one picture per frame.
 fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome> {
     use kitti2pgm::draw::points::point_prediction_chart;
-    use kitti2pgm::report::score::Predictions;
+    use kitti2pgm::report::score::{PredictionKind, Predictions};
     use kitti2pgm::report::unproject::load_point_frame;
     let gt = a.gt.as_ref().map(OutputDir::new);
     let recorded = match &gt {
@@ -27,7 +27,7 @@ fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome>
     let mut written = 0;
     for input in &a.inputs {
         let preds = Predictions::index(input)?;
-        if !preds.points {
+        if preds.kind != PredictionKind::Points {
             bail!(
                 "{}: --raw draws per-point predictions (.label files); map predictions are drawn without it",
                 input.display()

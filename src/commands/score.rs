@@ -10,8 +10,8 @@ use kitti2pgm::kitti::FrameId;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::project::unproject::Method;
 use kitti2pgm::report::score::{
-    per_frame, predictions_without_truth, report, score, worst, Predictions, Protocol,
-    ScoreOptions, ScoreReport,
+    per_frame, predictions_without_truth, report, score, worst, PredictionKind, Predictions,
+    Protocol, ScoreOptions, ScoreReport,
 };
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
 
@@ -53,7 +53,11 @@ fn options(
         .frames
         .iter()
         .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence);
-    let by_default = sequence && a.raw.is_some() && !a.points && !preds.points && !dataset;
+    let by_default = sequence
+        && a.raw.is_some()
+        && !a.points
+        && preds.kind != PredictionKind::Points
+        && !dataset;
     let unproject = a.unproject.or(by_default.then_some(MethodKind::Knn));
     let opts = ScoreOptions {
         protocol: if a.points || dataset || unproject.is_some() {

@@ -13,7 +13,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::confusion::Confusion;
-use super::predictions::Predictions;
+use super::predictions::{PredictionKind, Predictions};
 use super::{FrameScore, ScoreOptions};
 use crate::error::{Error, Result};
 use crate::format::label_file;
@@ -87,7 +87,7 @@ fn score_one(
         });
     }
     let pred = match preds.files.get(id) {
-        Some(p) if preds.points => Some(classes(p, LabelIds::of_prediction(p), map)?),
+        Some(p) if preds.kind == PredictionKind::Points => Some(classes(p, LabelIds::of_prediction(p), map)?),
         Some(p) => {
             return Err(Error::Input {
                 path: p.clone(),

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use super::confusion::Confusion;
-use super::predictions::{read_cell_prediction, Predictions};
+use super::predictions::{read_cell_prediction, PredictionKind, Predictions};
 use super::{FrameMaps, FrameScore, Protocol, ScoreOptions};
 use crate::error::{Error, Result};
 use crate::format::label_file;
@@ -86,31 +86,33 @@ fn predicted_cells(
 ) -> Result<Vec<u8>> {
     let (map, spec) = (&gt.params.class_map, &gt.params.spec);
     let shape = (spec.rows, spec.cols);
-    Ok(match (preds.files.get(id), preds.points) {
-        (None, _) => match preds.in_shard.get(id) {
-            Some(&(k, chunk)) => preds.shard_prediction(k, chunk, id, shape, map)?,
-            None => vec![0; shape.0 * shape.1],
-        },
-        (Some(p), false) => read_cell_prediction(p, shape, map)?.labels,
-        (Some(p), true) => {
-            let pl = label_file::read_classes(p, map)?;
-            let winners = scan.cell_winner_file.iter().filter(|&&f| f != u32::MAX);
-            let n = winners.map(|&f| f as usize + 1).max().unwrap_or(0);
-            if pl.len() < n {
-                return Err(Error::LabelCount {
-                    path: p.clone(),
-                    labels: pl.len(),
-                    scan: scan.path.clone(),
-                    points: n,
-                    note: SHORT_LABELS,
-                });
+    Ok(
+        match (preds.files.get(id), preds.kind == PredictionKind::Points) {
+            (None, _) => match preds.in_shard.get(id) {
+                Some(&(k, chunk)) => preds.shard_prediction(k, chunk, id, shape, map)?,
+                None => vec![0; shape.0 * shape.1],
+            },
+            (Some(p), false) => read_cell_prediction(p, shape, map)?.labels,
+            (Some(p), true) => {
+                let pl = label_file::read_classes(p, map)?;
+                let winners = scan.cell_winner_file.iter().filter(|&&f| f != u32::MAX);
+                let n = winners.map(|&f| f as usize + 1).max().unwrap_or(0);
+                if pl.len() < n {
+                    return Err(Error::LabelCount {
+                        path: p.clone(),
+                        labels: pl.len(),
+                        scan: scan.path.clone(),
+                        points: n,
+                        note: SHORT_LABELS,
+                    });
+                }
+                scan.cell_winner_file
+                    .iter()
+                    .map(|&f| if f == u32::MAX { 0 } else { pl[f as usize] })
+                    .collect()
             }
-            scan.cell_winner_file
-                .iter()
-                .map(|&f| if f == u32::MAX { 0 } else { pl[f as usize] })
-                .collect()
-        }
-    })
+        },
+    )
 }
 
 /// Scores one frame against its ground truth (`u8::MAX` in empty cells); the point protocol
@@ -132,7 +134,8 @@ pub fn score_frame(
             expected: None,
         });
     }
-    let needs_scan = opts.protocol == Protocol::Points || (preds.points && !missing);
+    let needs_scan =
+        opts.protocol == Protocol::Points || (preds.kind == PredictionKind::Points && !missing);
     let scan = if needs_scan {
         scan_cells(gt, id, opts)?
     } else {
@@ -184,7 +187,10 @@ fn count_points(
     })?;
     let lp = gt_dir.label_path(id);
     let gt_points = label_file::read_classes(&lp, map)?;
-    let pred_file = preds.files.get(id).filter(|_| preds.points);
+    let pred_file = preds
+        .files
+        .get(id)
+        .filter(|_| preds.kind == PredictionKind::Points);
     let pred_points = pred_file
         .map(|p| label_file::read_classes(p, map))
         .transpose()?;

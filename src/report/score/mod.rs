@@ -28,7 +28,9 @@ use crate::label::ClassMap;
 use crate::report::truth::GroundTruth;
 pub use confusion::Confusion;
 pub use frame::score_frame;
-pub use predictions::{read_cell_prediction, CellPrediction, PredFormat, Predictions};
+pub use predictions::{
+    read_cell_prediction, CellPrediction, PredFormat, PredictionKind, Predictions,
+};
 
 /// Which elements are scored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

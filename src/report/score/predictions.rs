@@ -31,14 +31,25 @@ pub enum PredFormat {
     PointLabels,
 }
 
-/// Predictions by frame id, all of one format family: `.npy` maps, `.label` files, or shards.
+/// The format family of a set of predictions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PredictionKind {
+    /// Map predictions, one `.npy` per frame (H x W labels, H x W x K scores, SqueezeSeg's layout).
+    Maps,
+    /// Per-point predictions, one `.label` per frame.
+    Points,
+    /// Map predictions in prediction shards.
+    Shards,
+}
+
+/// Predictions by frame id, all of one format family ([`PredictionKind`]).
 pub struct Predictions {
     /// The folder or file given.
     pub root: PathBuf,
     /// Files by frame (`.npy` or `.label`).
     pub files: BTreeMap<FrameId, PathBuf>,
-    /// Whether they are per-point `.label` files (else `.npy` maps or shards).
-    pub points: bool,
+    /// Their format family.
+    pub kind: PredictionKind,
     /// Prediction shards, and where each frame's message is: (shard, chunk).
     shards: Vec<(Shard, mcap::read::Summary)>,
     /// Where each frame of prediction shards is: (shard, chunk).
@@ -147,7 +158,13 @@ impl Predictions {
         Ok(Predictions {
             root: root.into(),
             files: found.files,
-            points: found.label.is_some(),
+            kind: if found.label.is_some() {
+                PredictionKind::Points
+            } else if found.npy.is_some() {
+                PredictionKind::Maps
+            } else {
+                PredictionKind::Shards
+            },
             shards,
             in_shard,
         })
@@ -251,7 +268,7 @@ impl Predictions {
         shape: (usize, usize),
         map: &ClassMap,
     ) -> Result<Option<Vec<ClassId>>> {
-        if self.points {
+        if self.kind == PredictionKind::Points {
             return Err(Error::Input {
                 path: self.root.clone(),
                 message: "these predictions are per point already (.label files), not maps".into(),
