@@ -2,16 +2,14 @@
 //! `fixtures/raw` (and `../shared/kitti` where present).
 
 mod architecture;
-mod audit;
-mod audit2;
 mod bad_input;
 mod check;
 mod cli;
 mod cloud;
+mod defaults;
 mod errors;
 mod fuzz;
 mod label;
-mod newcomer;
 mod outputs;
 mod pinned;
 mod points;
@@ -19,6 +17,7 @@ mod project;
 mod provenance;
 mod readers;
 mod reports;
+mod resume;
 mod score;
 mod shards;
 mod sources;

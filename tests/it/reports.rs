@@ -383,3 +383,45 @@ fn stats_bad_input() {
         "{stderr}"
     );
 }
+
+#[test]
+fn stats_chart_takes_the_twenty_classes() {
+    let t = tmp();
+    let out = t.path().join("out");
+    let (code, _, e) = convert_json(
+        &fixture("semantickitti"),
+        &out,
+        &["--fov-deg", "360", "--cols", "2048"],
+    );
+    assert_eq!(code, 0, "{e}");
+    let png = t.path().join("balance.png");
+    let (code, _, e) = run_text(&["stats", s(&out), "--chart", s(&png)]);
+    assert_eq!(code, 0, "{e}");
+    let img = image::open(&png).unwrap().to_rgb8();
+    // Every labelled class's colour is in the legend.
+    let map = kitti2pgm::label::ClassMap::semantic_kitti();
+    for c in map.labelled() {
+        let colour = map.colour(c);
+        assert!(
+            img.pixels().any(|p| p.0 == colour),
+            "{} missing",
+            map.name(c)
+        );
+    }
+}
+
+#[test]
+fn preview_counts_what_it_wrote_before_a_bad_frame() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &[]);
+    let bad = out.join("lidar_2d/2011_09_26_0052_0000000000.npy");
+    let bytes = std::fs::read(&bad).unwrap();
+    std::fs::write(&bad, &bytes[..bytes.len() / 2]).unwrap();
+    let pics = t.path().join("pics");
+    let (code, _, e) = run_text(&["preview", s(&out), "--out", s(&pics), "--threads", "1"]);
+    assert_eq!(code, 3, "{e}");
+    assert!(!e.contains("no preview written"), "{e}");
+    assert!(e.contains("previews written"), "{e}");
+    assert!(std::fs::read_dir(&pics).unwrap().count() >= 1);
+}

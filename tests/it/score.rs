@@ -539,3 +539,96 @@ fn ground_truth_shards_score_like_the_npy_folder() {
         "{stderr}"
     );
 }
+
+/// `np.save(path, np.asfortranarray(a))` for a float32 array.
+fn fortran_npy(shape: &[u64], c_data: &[f32]) -> Vec<u8> {
+    let dims: Vec<usize> = shape.iter().map(|&d| d as usize).collect();
+    let (h, w, c) = (dims[0], dims[1], dims[2]);
+    let mut f = Vec::with_capacity(c_data.len());
+    for k in 0..c {
+        for j in 0..w {
+            for i in 0..h {
+                f.push(c_data[(i * w + j) * c + k]);
+            }
+        }
+    }
+    let mut bytes = kitti2pgm::format::npy::encode_f32(shape, &f);
+    let header = String::from_utf8_lossy(&bytes[10..80]).into_owned();
+    assert!(header.contains("'fortran_order': False"));
+    // Same length: "True, " + padding is one byte shorter than "False,"; NumPy pads with spaces.
+    let patched = header.replacen("'fortran_order': False", "'fortran_order': True ", 1);
+    bytes[10..80].copy_from_slice(patched.as_bytes());
+    bytes
+}
+
+#[test]
+fn fortran_ordered_predictions_are_read_right() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &[]);
+    let pred = t.path().join("pred");
+    std::fs::create_dir_all(&pred).unwrap();
+    for e in std::fs::read_dir(out.join("lidar_2d")).unwrap() {
+        let p = e.unwrap().path();
+        let (shape, data) = kitti2pgm::format::npy::read_f32(&p).unwrap();
+        std::fs::write(
+            pred.join(p.file_name().unwrap()),
+            fortran_npy(&shape, &data),
+        )
+        .unwrap();
+    }
+    let (code, stdout, stderr) =
+        run_text(&["score", "--gt", s(&out), "--pred", s(&pred), "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["miou"], 1.0, "perfect predictions saved in Fortran order");
+}
+
+#[test]
+fn predictions_without_ground_truth_are_named() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &[]);
+    let pred = t.path().join("pred");
+    copy_tree(&out.join("lidar_2d"), &pred);
+    std::fs::copy(
+        pred.join("2011_09_26_0052_0000000000.npy"),
+        pred.join("2011_09_26_0052_0000000099.npy"),
+    )
+    .unwrap();
+    let (code, stdout, stderr) =
+        run_text(&["score", "--gt", s(&out), "--pred", s(&pred), "--json"]);
+    assert_eq!(code, 0);
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(
+        j["predictions_without_truth"],
+        serde_json::json!(["2011_09_26_0052_0000000099"])
+    );
+    assert!(
+        stderr.contains("not in the ground truth, not scored"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn semantickitti_scores_say_points_and_blame_a_truncated_truth() {
+    let t = tmp();
+    let sk = copy_of("semantickitti", t.path());
+    let truth = sk.join("sequences/00/labels/000000.label");
+    let pred_dir = t.path().join("pred/sequences/00/predictions");
+    std::fs::create_dir_all(&pred_dir).unwrap();
+    std::fs::copy(&truth, pred_dir.join("000000.label")).unwrap();
+    let pred = t.path().join("pred");
+    let (code, stdout, e) = run_text(&["score", "--gt", s(&sk), "--pred", s(&pred), "--json"]);
+    assert_eq!(code, 0, "{e}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["protocol"], "Points", "{stdout}");
+    let bytes = std::fs::read(&truth).unwrap();
+    std::fs::write(&truth, &bytes[..bytes.len() - 40]).unwrap();
+    let (code, _, e) = run_text(&["score", "--gt", s(&sk), "--pred", s(&pred)]);
+    assert_eq!(code, 1, "{e}");
+    assert!(
+        e.contains("labels/000000.label") && e.contains("truncated ground truth"),
+        "{e}"
+    );
+}

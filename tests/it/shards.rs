@@ -1,7 +1,7 @@
 //! MCAP shards: round trip against the `.npy` output, metadata, viz topics, corruption,
 //! interruption and re-runs.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use kitti2pgm::format::npy::read_f32;
 use kitti2pgm::format::shard::{Shard, FRAME_TOPIC};
@@ -351,4 +351,139 @@ fn shards_are_identical_whatever_the_thread_count() {
         read(&a) == read(&b),
         "shards differ between 1 and 3 threads"
     );
+}
+
+/// The library's seeded generator (splitmix64), so that every run mutates the same bytes.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        kitti2pgm::rng::splitmix64(&mut self.0)
+    }
+
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+fn shard_of(out: &Path) -> PathBuf {
+    out.join("shards/train-00000.mcap")
+}
+
+#[test]
+fn every_bit_flip_in_a_shard_is_caught() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--format", "mcap", "--viz"]);
+    let shard = shard_of(&out);
+    let good = std::fs::read(&shard).unwrap();
+    assert_eq!(run_text(&["inspect", s(&shard)]).0, 0);
+    let mut rng = Rng(7);
+    for k in 0..40 {
+        let mut bad = good.clone();
+        let at = rng.below(bad.len());
+        bad[at] ^= 1 << rng.below(8);
+        let copy = t.path().join(format!("flip{k}.mcap"));
+        std::fs::write(&copy, &bad).unwrap();
+        // In process: what inspect and score read the shard with.
+        let e = kitti2pgm::report::inspect::inspect(&copy)
+            .expect_err(&format!(
+                "flip at byte {at} of {} went unnoticed",
+                bad.len()
+            ))
+            .to_string();
+        assert!(e.contains(&format!("flip{k}.mcap")), "{e}");
+        let truth = kitti2pgm::report::truth::GroundTruth::open(&copy);
+        let scored = truth.and_then(|gt| {
+            let preds = kitti2pgm::report::score::Predictions::index(&shard)?;
+            let opts = kitti2pgm::report::score::ScoreOptions {
+                protocol: kitti2pgm::report::score::Protocol::Cells,
+                missing_as_background: false,
+                raw: None,
+                unproject: kitti2pgm::project::unproject::Method::Cell,
+            };
+            let none = Default::default();
+            kitti2pgm::report::score::score(&gt, None, &preds, &opts, &none, &|_| {})
+        });
+        assert!(scored.is_err(), "score read a shard flipped at byte {at}");
+        // The command says so too (exit status, the shard named): once is enough.
+        if k == 0 {
+            let (code, _, stderr) = run_text(&["inspect", s(&copy)]);
+            assert_ne!(code, 0);
+            assert!(stderr.contains("flip0.mcap"), "{stderr}");
+        }
+    }
+    // A re-run rewrites a corrupted shard instead of keeping it as complete and intact.
+    let mut bad = good.clone();
+    bad[good.len() / 2] ^= 0x10;
+    std::fs::write(&shard, &bad).unwrap();
+    convert_fixtures(&out, &["--format", "mcap", "--viz"]);
+    assert_eq!(std::fs::read(&shard).unwrap(), good);
+}
+
+#[test]
+fn inspect_names_a_folder() {
+    let t = tmp();
+    let (code, _, stderr) = run_text(&["inspect", s(t.path())]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("a folder, not a regular file"), "{stderr}");
+}
+
+#[test]
+fn point_shards_with_viz_are_readable_and_kept() {
+    let t = tmp();
+    let out = t.path().join("out");
+    convert_fixtures(&out, &["--format", "points", "--viz"]);
+    let shard = out.join("points/train-00000.mcap");
+    let (code, stdout, e) = run_text(&["inspect", s(&shard)]);
+    assert_eq!(code, 0, "{e}");
+    assert!(stdout.contains("/kitti2pgm/viz/points"), "{stdout}");
+    let before = std::fs::read(&shard).unwrap();
+    let (code, j, e) = convert_json(&fixtures(), &out, &["--format", "points", "--viz"]);
+    assert_eq!(code, 0, "{e}");
+    assert_eq!(j["shards_skipped"], 1, "the intact shard is kept: {j}");
+    assert_eq!(std::fs::read(&shard).unwrap(), before);
+    let frames: Vec<_> = kitti2pgm::format::shard::Shard::open_verified(&shard)
+        .unwrap()
+        .points()
+        .unwrap();
+    assert_eq!(frames.len(), 3);
+}
+
+#[test]
+fn a_damaged_chunk_names_its_own_frame_whatever_the_compression() {
+    let t = tmp();
+    for compression in ["none", "lz4", "zstd"] {
+        let out = t.path().join(compression);
+        convert_fixtures(
+            &out,
+            &[
+                "--format",
+                "mcap",
+                "--shard-frames",
+                "3",
+                "--compression",
+                compression,
+            ],
+        );
+        let shard = out.join("shards/train-00000.mcap");
+        let opened = kitti2pgm::format::shard::Shard::open(&shard).unwrap();
+        let summary = opened.summary().unwrap();
+        let md = opened.metadata().unwrap();
+        let good = std::fs::read(&shard).unwrap();
+        // Chunks in file order: frame k's chunk is the k-th (one frame a chunk).
+        let mut chunks: Vec<_> = summary.chunk_indexes.iter().collect();
+        chunks.sort_by_key(|c| c.chunk_start_offset);
+        for (k, c) in chunks.iter().enumerate() {
+            let mut bad = good.clone();
+            let at = (c.chunk_start_offset + c.chunk_length * 2 / 3) as usize;
+            bad[at] ^= 0x08;
+            let path = t.path().join(format!("{compression}{k}.mcap"));
+            std::fs::write(&path, &bad).unwrap();
+            let (code, _, e) = run_text(&["inspect", s(&path)]);
+            assert_ne!(code, 0);
+            let want = format!("frame #{k} ({})", md.frames[k]);
+            assert!(e.contains(&want), "{compression}: {want} in {e}");
+        }
+    }
 }

@@ -1,5 +1,5 @@
-//! A newcomer's first hour (issue 20): presets, built-in class map names, messages that name
-//! the expected layouts, outputs that are where the README says.
+//! Defaults and names, as a first run meets them: presets, built-in class map names, messages
+//! that name the expected layouts, outputs that are where the README says.
 
 use crate::util::*;
 
