@@ -273,6 +273,40 @@ pub enum Error {
 }
 
 impl Error {
+    /// The kind of problem as one word, for programs reading `--json` output (the variant's
+    /// name in snake case: `not_a_file`, `output_over_input`, `config`...).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Error::Io { .. } => "io",
+            Error::NotAFile { .. } => "not_a_file",
+            Error::TooLarge { .. } => "too_large",
+            Error::OutputOverInput { .. } => "output_over_input",
+            Error::Write { .. } => "write",
+            Error::Format { .. } => "format",
+            Error::NotFormat { .. } => "not_format",
+            Error::Truncated { .. } => "truncated",
+            Error::Length { .. } => "length",
+            Error::Shape { .. } => "shape",
+            Error::NotFinite { .. } => "not_finite",
+            Error::Corrupt { .. } => "corrupt",
+            Error::FrameId { .. } => "frame_id",
+            Error::Dtype { .. } => "dtype",
+            Error::NotAClass { .. } => "not_a_class",
+            Error::MissingPrediction { .. } => "missing_prediction",
+            Error::FrameNotFound { .. } => "frame_not_found",
+            Error::DuplicatePrediction { .. } => "duplicate_prediction",
+            Error::Locked { .. } => "locked",
+            Error::NeedsScans { .. } => "needs_scans",
+            Error::Unfinished { .. } => "unfinished",
+            Error::LabelCount { .. } => "label_count",
+            Error::Mcap { .. } => "mcap",
+            Error::MissingKey { .. } => "missing_key",
+            Error::Input { .. } => "input",
+            Error::Image { .. } => "image",
+            Error::Config(_) => "config",
+        }
+    }
+
     /// An [`Error::Mcap`] for `path`.
     pub fn mcap(
         path: impl Into<PathBuf>,
@@ -422,3 +456,23 @@ fn dims(d: &[usize]) -> String {
 
 /// `Result` with the crate's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_are_snake_case_words() {
+        let e = Error::Config("x".into());
+        assert_eq!(e.kind(), "config");
+        let e = Error::NotAFile {
+            path: "p".into(),
+            found: NotFileKind::Fifo,
+        };
+        assert_eq!(e.kind(), "not_a_file");
+        assert!(e
+            .kind()
+            .bytes()
+            .all(|c| c.is_ascii_lowercase() || c == b'_'));
+    }
+}

@@ -24,6 +24,9 @@ pub enum Outcome {
     Partial,
     /// Done, and the findings reach the severity asked to fail on (`check`).
     Findings,
+    /// Done, its report printed (with `--json`, the JSON that says what failed), but nothing came
+    /// of it (every frame or shard failed, an invalid submission): exit 1 with this message.
+    Failed(String),
 }
 
 fn main() -> ExitCode {
@@ -35,9 +38,14 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let args = cli::Args::parse();
+    let json = args.json();
     match commands::run(args) {
         Ok(Outcome::Ok) => ExitCode::SUCCESS,
         Ok(Outcome::Partial | Outcome::Findings) => ExitCode::from(3),
+        Ok(Outcome::Failed(why)) => {
+            eprintln!("kitti2pgm: error: {why}");
+            ExitCode::FAILURE
+        }
         Err(e) => {
             if let Some(io) = e.downcast_ref::<std::io::Error>() {
                 if io.kind() == std::io::ErrorKind::BrokenPipe {
@@ -45,25 +53,32 @@ fn main() -> ExitCode {
                 }
             }
             eprintln!("kitti2pgm: error: {e:#}");
-            if let Some(hint) = commands::hint(&e) {
+            let hint = commands::hint(&e);
+            if let Some(hint) = hint {
                 eprintln!("kitti2pgm: hint: {hint}");
             }
+            let library = e.chain().find_map(|c| c.downcast_ref::<kitti2pgm::Error>());
             // Options out of range or contradicting each other are usage errors, as clap's.
-            let usage = e.chain().any(|c| {
+            let usage = library.is_some_and(|l| {
                 matches!(
-                    c.downcast_ref(),
-                    Some(
-                        kitti2pgm::Error::Config(_)
-                            | kitti2pgm::Error::NeedsScans { .. }
-                            | kitti2pgm::Error::OutputOverInput { .. }
-                    )
+                    l,
+                    kitti2pgm::Error::Config(_)
+                        | kitti2pgm::Error::NeedsScans { .. }
+                        | kitti2pgm::Error::OutputOverInput { .. }
                 )
             });
-            if usage {
-                ExitCode::from(2)
-            } else {
-                ExitCode::FAILURE
+            let status = if usage { 2 } else { 1 };
+            if json {
+                // The same error for programs: its kind (the library's, or `command`), the message.
+                let record = serde_json::json!({ "error": {
+                    "kind": library.map_or("command", kitti2pgm::Error::kind),
+                    "message": format!("{e:#}"),
+                    "hint": hint,
+                    "exit": status,
+                }});
+                println!("{record:#}");
             }
+            ExitCode::from(status)
         }
     }
 }

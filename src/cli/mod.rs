@@ -30,6 +30,24 @@ pub struct Args {
     pub command: Command,
 }
 
+impl Args {
+    /// Whether the command prints JSON (`--json`): its errors then go to standard output as a
+    /// JSON record too.
+    pub fn json(&self) -> bool {
+        match &self.command {
+            Command::Convert(a) => a.json,
+            Command::Split(a) => a.json,
+            Command::Stats(a) => a.json,
+            Command::Score(a) => a.json,
+            Command::Unproject(a) => a.json,
+            Command::Submission(a) => a.json,
+            Command::Check(a) => a.json,
+            Command::Inspect(a) => a.json,
+            Command::Preview(_) => false,
+        }
+    }
+}
+
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {

@@ -142,10 +142,10 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         );
     }
     if summary.has_failures() && summary.frames_converted == 0 && summary.shards_skipped == 0 {
-        anyhow::bail!(
+        return Ok(Outcome::Failed(format!(
             "nothing converted: every frame failed ({} failure(s) above)",
             summary.failures.len()
-        );
+        )));
     }
     Ok(if summary.has_failures() {
         Outcome::Partial

@@ -23,7 +23,7 @@ pub fn run(a: InspectArgs) -> anyhow::Result<Outcome> {
         infos.iter().for_each(print_info);
     }
     if failed == a.shards.len() {
-        anyhow::bail!("no shard could be read");
+        return Ok(Outcome::Failed("no shard could be read".into()));
     }
     Ok(if failed > 0 {
         Outcome::Partial

@@ -33,11 +33,11 @@ pub fn run(a: SubmissionArgs) -> anyhow::Result<Outcome> {
         }
     }
     if !c.is_valid() {
-        anyhow::bail!(
+        return Ok(Outcome::Failed(format!(
             "{}: not a valid submission ({} problems)",
             a.pred.display(),
             c.problems.len()
-        );
+        )));
     }
     if let Some(zip) = &a.zip {
         let description = match &a.description {

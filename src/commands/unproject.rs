@@ -78,7 +78,7 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
     }
     Ok(match (s.failures.is_empty(), s.frames) {
         (true, _) => Outcome::Ok,
-        (false, 0) => anyhow::bail!("no frame could be carried back"),
+        (false, 0) => Outcome::Failed("no frame could be carried back".into()),
         (false, _) => Outcome::Partial,
     })
 }

@@ -220,16 +220,18 @@ fn unusable_output_folder_and_inputs() {
     let (code, _, stderr) = run_text(&["convert", s(t.path()), "--out", s(&t.path().join("o"))]);
     assert_eq!(code, 1);
     assert!(stderr.contains("no KITTI drive found"), "{stderr}");
-    let (code, _, stderr) = run_text(&[
-        "convert",
-        s(&fixtures()),
-        "--out",
-        s(&t.path().join("o")),
-        "--fov-deg",
-        "400",
-    ]);
-    assert_eq!(code, 2, "an option out of range is a usage error");
-    assert!(stderr.contains("FOV"), "{stderr}");
+    let e = fails_with(
+        &[
+            "convert",
+            s(&fixtures()),
+            "--out",
+            s(&t.path().join("o")),
+            "--fov-deg",
+            "400",
+        ],
+        "config",
+    );
+    assert_eq!(e["exit"], 2, "an option out of range is a usage error");
 }
 
 #[cfg(unix)]
@@ -550,13 +552,17 @@ fn reflectance_out_of_range_never_reaches_the_maps() {
 fn a_class_map_that_cannot_label_the_source_is_refused() {
     let t = tmp();
     let yaml = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/label/semantic-kitti.yaml");
-    let (code, _, e) = convert_json(
-        &fixtures(),
-        &t.path().join("out"),
-        &["--class-map", s(&yaml)],
-    );
-    assert_eq!(code, 2, "{e}");
-    assert!(e.contains("has no rule for the annotations"), "{e}");
+    let out = t.path().join("out");
+    let root = fixtures();
+    let args = [
+        "convert",
+        s(&root),
+        "--out",
+        s(&out),
+        "--class-map",
+        s(&yaml),
+    ];
+    assert_eq!(fails_with(&args, "config")["exit"], 2);
     assert!(
         !t.path().join("out/lidar_2d").exists()
             || tree_bytes(&t.path().join("out/lidar_2d")).is_empty()
@@ -574,9 +580,9 @@ fn absurd_map_options_are_refused() {
         ("--fov-deg", "inf"),
     ] {
         let arg = format!("{flag}={value}");
-        let (code, _, e) = convert_json(&fixtures(), &t.path().join("out"), &[&arg]);
-        assert_eq!(code, 2, "{flag} {value}: {e}");
-        assert!(e.to_lowercase().contains("fov"), "{flag} {value}: {e}");
+        let (root, out) = (fixtures(), t.path().join("out"));
+        let e = fails_with(&["convert", s(&root), "--out", s(&out), &arg], "config");
+        assert_eq!(e["exit"], 2, "{flag} {value}");
     }
 }
 
@@ -657,13 +663,10 @@ fn unmatched_split_options_are_refused() {
         let root = fixtures();
         let mut split = vec!["split", s(&root), "--out", s(&out)];
         split.extend(&args);
-        let (code, _, e) = run_text(&split);
-        assert_eq!(code, 2, "{args:?}: {e}");
-        assert!(e.contains("not among the 3 frames found"), "{e}");
-        let mut convert = vec!["--format", "mcap"];
+        assert_eq!(fails_with(&split, "config")["exit"], 2, "{args:?}");
+        let mut convert = vec!["convert", s(&root), "--out", s(&out), "--format", "mcap"];
         convert.extend(&args);
-        let (code, _, e) = convert_json(&fixtures(), &out, &convert);
-        assert_eq!(code, 2, "{args:?}: {e}");
+        assert_eq!(fails_with(&convert, "config")["exit"], 2, "{args:?}");
     }
     let (code, _, e) = run_text(&[
         "split",

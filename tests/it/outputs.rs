@@ -6,12 +6,11 @@ use std::path::Path;
 use crate::unproject::{perfect_predictions, write_label_map};
 use crate::util::*;
 
-/// Exit 2 (a usage error) whose message says the output meets an input.
+/// A usage error (exit 2) of kind `output_over_input`; its message.
 fn refused(args: &[&str]) -> String {
-    let (code, _, e) = run_text(args);
-    assert_eq!(code, 2, "{args:?}: {e}");
-    assert!(e.contains("the output "), "{args:?}: {e}");
-    e
+    let e = fails_with(args, "output_over_input");
+    assert_eq!(e["exit"], 2, "{args:?}");
+    e["message"].as_str().unwrap().to_string()
 }
 
 #[test]
@@ -139,7 +138,8 @@ fn convert_split_and_pictures_refuse_outputs_inside_their_inputs() {
     let out = t.path().join("conv");
     convert_fixtures(&out, &[]);
     refused(&["stats", s(&out), "--chart", s(&out.join("balance.png"))]);
-    refused(&["preview", s(&out), "--out", s(&out.join("pics"))]);
+    let (code, _, e) = run_text(&["preview", s(&out), "--out", s(&out.join("pics"))]);
+    assert_eq!(code, 2, "preview has no --json: {e}");
     let pred = t.path().join("pred");
     perfect_predictions(&out, &pred);
     refused(&[
@@ -171,13 +171,12 @@ fn unproject_with_impossible_knn_parameters_is_a_usage_error_before_any_work() {
         let mut args = vec!["unproject", "--gt", s(&gt), "--pred", s(&pred)];
         args.extend(["--raw", s(&raw), "--out", s(&out)]);
         args.extend(bad);
-        let (code, _, e) = run_text(&args);
-        assert_eq!(code, 2, "{bad:?}: {e}");
-        assert!(e.contains("kNN"), "{bad:?}: {e}");
+        let e = fails_with(&args, "config");
+        assert_eq!(e["exit"], 2, "{bad:?}");
         assert!(!out.exists(), "{bad:?}: refused before any work");
         let mut score = vec!["score", "--gt", s(&gt), "--pred", s(&pred)];
         score.extend(bad);
-        assert_eq!(run_text(&score).0, 2, "score {bad:?}");
+        fails_with(&score, "config");
     }
 }
 
@@ -222,11 +221,11 @@ fn a_sequence_asked_for_twice_is_a_usage_error() {
     let sk = fixture("semantickitti");
     let pred = t.path().join("pred");
     std::fs::create_dir_all(pred.join("sequences/00/predictions")).unwrap();
-    let (code, stdout, e) =
-        run_text(&["submission", s(&pred), "--gt", s(&sk), "--sequences", "0,0"]);
-    assert_eq!(code, 2, "{e}");
-    assert!(e.contains("sequence 00 is asked for twice"), "{e}");
-    assert!(stdout.is_empty(), "nothing counted: {stdout}");
+    let e = fails_with(
+        &["submission", s(&pred), "--gt", s(&sk), "--sequences", "0,0"],
+        "config",
+    );
+    assert_eq!(e["exit"], 2);
 }
 
 #[test]
@@ -237,8 +236,10 @@ fn check_thresholds_outside_their_domain_are_usage_errors() {
         "split-balance.factor=0",
         "annotation-ends.fov-deg=720",
     ] {
-        let (code, _, e) = run_text(&["check", s(&fixtures()), "--set", bad, "--no-progress"]);
-        assert_eq!(code, 2, "{bad}: {e}");
-        assert!(e.contains("must be"), "{bad}: {e}");
+        let e = fails_with(
+            &["check", s(&fixtures()), "--set", bad, "--no-progress"],
+            "config",
+        );
+        assert_eq!(e["exit"], 2, "{bad}");
     }
 }

@@ -195,3 +195,25 @@ pub fn needs_shared(sub: &str) -> PathBuf {
     );
     p
 }
+
+/// Runs `args` (a command with `--json`, added here when missing), which must fail with the
+/// library error `kind` (`Error::kind`: `output_over_input`, `config`, `not_a_file`...); returns
+/// the error record it prints (`kind`, `message`, `hint`, `exit`). Tests judge a failure by its
+/// kind and exit status, not by the words of its message.
+pub fn fails_with(args: &[&str], kind: &str) -> serde_json::Value {
+    let mut a = args.to_vec();
+    if !a.contains(&"--json") {
+        a.push("--json");
+    }
+    let (code, stdout, stderr) = run_text(&a);
+    let v: serde_json::Value = serde_json::from_str(&stdout)
+        .unwrap_or_else(|e| panic!("{args:?}: no JSON error record ({e}): {stdout} {stderr}"));
+    let err = v["error"].clone();
+    assert_eq!(err["kind"], kind, "{args:?}: {stderr}");
+    assert_eq!(
+        err["exit"], code,
+        "{args:?}: the record's exit status is the process's"
+    );
+    assert!(!err["message"].as_str().unwrap_or("").is_empty(), "{err}");
+    err
+}
