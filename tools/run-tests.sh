@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test: the README's install command first (tools/install.sh: the CLI and the Python
-# side, so that CI installs exactly what a user does), the test dependencies, then the Rust
-# suite (unit, integration on fixtures/, doc tests) and the Python packages' tests (native
+# side, so that CI installs exactly what a user does), the test dependencies, the code's own
+# checks (cargo fmt --check, clippy -D warnings, ruff, mypy: ruff.toml and mypy.ini), then the
+# Rust suite (unit, integration on fixtures/, doc tests) and the Python packages' tests (native
 # module, shard reader, trainer, and the README and docs run as written). pip skips what is
 # already installed and keeps its downloads in its cache; cargo reuses its builds.
 set -euo pipefail
@@ -10,8 +11,14 @@ t0=$SECONDS
 tools/install.sh
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 python3 -m pip install --quiet --disable-pip-version-check \
-  -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]"
+  -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
 echo "run-tests.sh: installed in $((SECONDS - t0)) s"
+# The code's own checks, Rust and Python: formatting, lints (warnings are errors), types.
+cargo fmt --all --check
+cargo clippy --workspace --all-targets --locked --quiet -- -D warnings
+python3 -m ruff check tools
+python3 -m mypy
+echo "run-tests.sh: formatting, lints and types clean at $((SECONDS - t0)) s"
 # In the release profile: `cargo install` (tools/install.sh) has just built every dependency
 # there, so the tests compile only the crate's own test targets, and run optimised.
 # The tests that need ../shared are #[ignore = "needs ../shared"]: run them where it is.

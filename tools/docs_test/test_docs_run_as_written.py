@@ -17,8 +17,6 @@ import re
 import subprocess
 import sys
 
-import pytest
-
 REPO = pathlib.Path(__file__).resolve().parents[2]
 DOCS = ["README.md", "tools/trainer/README.md", "docs/python.md"]
 FENCE = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```\s*$", re.S | re.M)
@@ -46,7 +44,7 @@ def runnable():
 def test_every_block_is_run_or_says_why_not():
     seen = list(runnable())
     assert len([b for b in seen if not b[2]]) >= 10, "the docs hold runnable blocks"
-    for doc, lang, marks, code, line, before in seen:
+    for doc, _lang, marks, code, line, before in seen:
         if "norun" in marks:
             assert before.startswith("<!-- norun:"), f"{doc}:{line}: a norun block says why just above it"
         if "setup" in marks:
@@ -85,7 +83,8 @@ def test_the_docs_run_as_written(tmp_path):
             continue
         cmd = ["bash", "-euo", "pipefail", "-c", code] if lang == "sh" else [sys.executable, "-c", code]
         r = subprocess.run(cmd, cwd=work, env=env, capture_output=True, text=True, timeout=900)
-        assert r.returncode == 0, f"{doc}:{line} ({lang}) failed with {r.returncode}:\n{code}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+        assert r.returncode == 0, (f"{doc}:{line} ({lang}) failed with {r.returncode}:\n{code}\n"
+                                   f"{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
         ran += 1
     assert ran >= 10
     # What the commands promise is there.
@@ -110,4 +109,4 @@ def _untracked():
     """Untracked, unignored files under fixtures/ and tools/."""
     status = subprocess.run(["git", "status", "--porcelain", "--untracked-files=all", "fixtures", "tools"],
                             cwd=REPO, capture_output=True, text=True).stdout
-    return {l[3:] for l in status.splitlines() if l.startswith("??")}
+    return {line[3:] for line in status.splitlines() if line.startswith("??")}

@@ -13,7 +13,6 @@ import sys
 import time
 
 import numpy as np
-
 from kitti2pgm_data import ShardDataset
 
 

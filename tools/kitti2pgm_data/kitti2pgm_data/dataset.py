@@ -64,6 +64,7 @@ class ShardDataset:
                 if f in seen:
                     raise ShardError(f"{p}: frame {f} is also in {seen[f]} (shards of two conversions?)")
                 seen[f] = p
+        assert first is not None, "ShardDataset has at least one shard"
         return first
 
     def __len__(self) -> int:

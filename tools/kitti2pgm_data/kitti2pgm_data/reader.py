@@ -17,7 +17,7 @@ import stat
 import struct
 import warnings
 import zlib
-from typing import Dict, Iterable, Iterator, List, Optional, Union
+from typing import Any, Dict, Iterable, Iterator, List, Optional, Union
 
 import numpy as np
 from mcap.opcode import Opcode
@@ -65,7 +65,7 @@ _ARRAYS = {"tensor": ("<f4", True), "label": ("u1", False), "instance": ("<u2", 
 def _fields(data: Union[bytes, memoryview], schema: FrameSchema):
     """The message's scalars, strings and string lists (absent ones at their protobuf defaults),
     and its byte fields as memoryviews of ``data``."""
-    out: Dict[str, object] = {}
+    out: Dict[str, Any] = {}
     raw: Dict[str, memoryview] = {}
     lists: Dict[str, List[str]] = {}
     for number, _wire, value in fields(data):
@@ -92,7 +92,7 @@ def _fields(data: Union[bytes, memoryview], schema: FrameSchema):
     return out, raw
 
 
-def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, object]:
+def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, Any]:
     """Decodes one ``kitti2pgm.Frame`` message, field numbers taken from ``schema`` (the shard's
     own), into a dict of scalars, strings and numpy arrays (views of ``data``, no copy)."""
     out, raw = _fields(data, schema)
@@ -101,7 +101,7 @@ def decode_frame(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[st
     for name, (dtype, has_channels) in _ARRAYS.items():
         shape = (h, w, c) if has_channels else (h, w)
         # Absent arrays (prediction messages carry the label map only; rgb_valid without colour).
-        out[name] = _view(raw, name, dtype, shape, lambda need: name not in ("label", "tensor") or need == 0)
+        out[name] = _view(raw, name, dtype, shape, lambda need, name=name: name not in ("label", "tensor") or need == 0)
     return out
 
 
@@ -125,7 +125,7 @@ _POINT_ARRAYS = {"points": ("<f4", 4), "ring": ("u1", None), "label": ("u1", Non
 _POINT_OPTIONAL = {"ring", "rgb", "rgb_valid", "file_index"}
 
 
-def decode_points(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, object]:
+def decode_points(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[str, Any]:
     """Decodes one ``kitti2pgm.Points`` message (a point shard's frame) into a dict: id, drive,
     frame_index, timestamp_ns, split, count, and numpy views (no copy): points (N, 4) float32 x, y,
     z, intensity; ring (N,) uint8 or None; label (N,) uint8; instance (N,) uint16; rgb (N, 3)
@@ -135,7 +135,7 @@ def decode_points(data: Union[bytes, memoryview], schema: FrameSchema) -> Dict[s
     n = int(out["count"])
     for name, (dtype, cols) in _POINT_ARRAYS.items():
         shape = (n, cols) if cols else (n,)
-        out[name] = _view(raw, name, dtype, shape, lambda need: name in _POINT_OPTIONAL and need > 0)
+        out[name] = _view(raw, name, dtype, shape, lambda need, name=name: name in _POINT_OPTIONAL and need > 0)
     return out
 
 
@@ -254,7 +254,7 @@ class ShardReader:
             raise ValueError("no frame message in the chunk")
         return found
 
-    def __getitem__(self, i: int) -> Dict[str, object]:
+    def __getitem__(self, i: int) -> Dict[str, Any]:
         if i < 0:
             i += len(self)
         if not 0 <= i < len(self):
@@ -264,11 +264,11 @@ class ShardReader:
         except Exception as e:
             raise ShardError(f"{self.path}: frame #{i}: {e}") from e
 
-    def __iter__(self) -> Iterator[Dict[str, object]]:
+    def __iter__(self) -> Iterator[Dict[str, Any]]:
         for i in range(len(self)):
             yield self[i]
 
-    def metadata(self) -> Dict[str, object]:
+    def metadata(self) -> Dict[str, Any]:
         return read_metadata(self.path)
 
 
@@ -281,7 +281,7 @@ _OLD_NAMES = {"row_mode": {"Rings": "rings", "Elevation": "elevation"},
               "absent_in_miou": {"LeftOut": "left_out", "Zero": "zero"}}
 
 
-def _today(params: object) -> object:
+def _today(params: Any) -> Any:
     """``params`` with every enum value of the old spelling in today's."""
     if isinstance(params, dict):
         return {k: (_OLD_NAMES[k].get(v, v) if k in _OLD_NAMES and isinstance(v, str) else _today(v))
@@ -291,7 +291,7 @@ def _today(params: object) -> object:
     return params
 
 
-def read_metadata(path: PathLike) -> Dict[str, object]:
+def read_metadata(path: PathLike) -> Dict[str, Any]:
     """The shard's ``kitti2pgm`` metadata record: ``version``, ``params`` (the conversion
     parameters, parsed from JSON: ``params["map"]["class_map"]`` is the class map), ``drives``,
     ``frames``, ``failed`` (lists), ``split``, ``frame_topic``, ``prediction_topic``. Raises
@@ -304,7 +304,7 @@ def read_metadata(path: PathLike) -> Dict[str, object]:
         raise ShardError(f"{path}: unreadable metadata (truncated or unfinished shard?): {e}") from e
     if not records:
         raise ShardError(f"{path}: no {METADATA_NAME} metadata record")
-    md: Dict[str, object] = dict(records[0].metadata)
+    md: Dict[str, Any] = dict(records[0].metadata)
     try:
         md["params"] = _today(json.loads(md["params"]))
         for key in ("drives", "frames", "failed"):
@@ -314,7 +314,7 @@ def read_metadata(path: PathLike) -> Dict[str, object]:
     return md
 
 
-def class_map(path: PathLike) -> Dict[str, object]:
+def class_map(path: PathLike) -> Dict[str, Any]:
     """The class map a shard was made with (names, colours, ignored ids, mIoU ids, reference
     weights), from its metadata."""
     try:
@@ -359,7 +359,7 @@ def check_complete(paths: Iterable[PathLike], partial: bool = False) -> List[str
 
 
 def iter_frames(paths: Union[PathLike, Iterable[PathLike]], validate_crc: bool = True,
-                partial: bool = False) -> Iterator[Dict[str, object]]:
+                partial: bool = False) -> Iterator[Dict[str, Any]]:
     """Yields every frame of the shards (map or point shards), shard by shard, in frame-id order.
 
     Streams the file from the start, so it also reads a shard whose summary was lost: the frames

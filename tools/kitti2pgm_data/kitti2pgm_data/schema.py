@@ -8,7 +8,7 @@ few lines of wire-format code), so that the package holds no copy of the message
 
 from __future__ import annotations
 
-from typing import Dict, Iterator, Tuple, Union
+from typing import Any, Dict, Iterator, Tuple, Union
 
 FRAME_SCHEMA = "kitti2pgm.Frame"
 POINTS_SCHEMA = "kitti2pgm.Points"
@@ -40,7 +40,7 @@ def encode_varint(v: int) -> bytes:
             return bytes(out)
 
 
-def fields(buf: Buffer) -> Iterator[Tuple[int, int, object]]:
+def fields(buf: Buffer) -> Iterator[Tuple[int, int, Any]]:
     """The (field number, wire type, value) of a message: ints for varints, memoryviews for
     length-delimited fields; fixed-width fields are skipped."""
     buf = memoryview(buf)

@@ -19,7 +19,6 @@ from .reader import PathLike, ShardError, class_map, read_metadata
 from .schema import FRAME_SCHEMA, FrameSchema, encode_varint
 
 
-
 def _field_bytes(number: int, data: bytes) -> bytes:
     return encode_varint(number << 3 | 2) + encode_varint(len(data)) + data
 
@@ -68,7 +67,8 @@ def write_predictions(path: PathLike, predictions: Iterable[Dict], schema_from: 
     schema = FrameSchema(schema_data)
     topic = read_metadata(schema_from).get("prediction_topic")
     if not topic:
-        raise ShardError(f"{os.fspath(schema_from)}: its metadata names no prediction_topic (written by an older kitti2pgm?)")
+        raise ShardError(f"{os.fspath(schema_from)}: its metadata names no prediction_topic "
+                         "(written by an older kitti2pgm?)")
     classes = len(class_map(schema_from)["classes"])
     tmp = os.path.join(os.path.dirname(path) or ".", f".tmp-{os.getpid()}-{os.path.basename(path)}")
     n = 0
@@ -81,7 +81,8 @@ def write_predictions(path: PathLike, predictions: Iterable[Dict], schema_from: 
             for p in predictions:
                 label = np.asarray(p["label"])
                 if label.size and int(label.max()) >= classes:
-                    raise ValueError(f"prediction for {p['id']}: class id {int(label.max())}, the map has {classes} classes")
+                    raise ValueError(f"prediction for {p['id']}: class id {int(label.max())}, "
+                                     f"the map has {classes} classes")
                 data = encode_prediction(schema, p["id"], label, p.get("drive", ""), p.get("frame_index", 0),
                                          p.get("split", ""))
                 w.add_message(channel_id=cid, log_time=n, publish_time=n, data=data, sequence=n)

@@ -2,13 +2,11 @@
 
 import glob
 import os
+import shutil
 
 import numpy as np
 import pytest
-
 from kitti2pgm_data import ShardDataset, ShardError, ShardReader, class_map, iter_frames, read_metadata
-
-import shutil
 
 IDS = ["2011_09_26_0001_0000000000", "2011_09_26_0001_0000000045", "2011_09_26_0052_0000000000"]
 
@@ -126,8 +124,7 @@ def test_prediction_shards_decode_and_score(rgb_lz4, scratch, kitti2pgm_path):
     import json
     import subprocess
 
-    from kitti2pgm_data import write_predictions
-    from kitti2pgm_data import FrameSchema, decode_frame
+    from kitti2pgm_data import FrameSchema, decode_frame, write_predictions
     from kitti2pgm_data.writer import frame_schema
 
     frames = list(iter_frames(shards(rgb_lz4)))

@@ -5,11 +5,9 @@ shards of two conversions and mixed map sizes are refused; nothing half-written 
 import json
 import os
 import pathlib
-import shutil
 
 import numpy as np
 import pytest
-
 from kitti2pgm_data import ShardDataset, ShardError, ShardReader, iter_frames, write_predictions
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
@@ -60,7 +58,7 @@ def _flipped_copies(src, scratch, n, seed):
 @pytest.mark.parametrize("kind", ["none", "zstd", "lz4", "points"])
 def test_every_flipped_bit_is_caught(kinds, kind, tmp_path):
     src = kinds[kind][0]
-    for path, at in _flipped_copies(src, tmp_path, 15, seed=len(kind)):
+    for path, _at in _flipped_copies(src, tmp_path, 15, seed=len(kind)):
         with pytest.raises(ShardError, match=path.name):
             with ShardReader(path) as r:
                 r[0]

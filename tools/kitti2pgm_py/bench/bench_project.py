@@ -22,9 +22,8 @@ import tempfile
 import threading
 import time
 
-import numpy as np
-
 import kitti2pgm
+import numpy as np
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 SHARED = REPO.parent / "shared"
@@ -78,11 +77,13 @@ def bench_project(repeat):
     print(f"1. project vs the numpy peer, 64 x 2048 over 360 deg, {len(data)} scans of {root}")
     tot_peer = tot_ours = 0.0
     for fid, raw, lab, pts, labels in data:
-        peer, _ = best(lambda: peer_project(raw, lab, 2048), repeat)
-        ours, _ = best(lambda: kitti2pgm.project(pts, labels=labels, cols=2048, fov_deg=360.0), repeat)
+        peer, _ = best(lambda raw=raw, lab=lab: peer_project(raw, lab, 2048), repeat)
+        ours, _ = best(lambda pts=pts, labels=labels: kitti2pgm.project(pts, labels=labels, cols=2048, fov_deg=360.0),
+                       repeat)
         tot_peer += peer
         tot_ours += ours
-        print(f"   {fid}: {len(raw)} points, numpy {peer * 1e3:.2f} ms, kitti2pgm {ours * 1e3:.2f} ms: {peer / ours:.1f}x")
+        print(f"   {fid}: {len(raw)} points, numpy {peer * 1e3:.2f} ms, kitti2pgm {ours * 1e3:.2f} ms: "
+              f"{peer / ours:.1f}x")
     print(f"   all: {tot_peer / tot_ours:.1f}x faster (best of {repeat})")
     fid, raw, lab, pts, labels = data[0]
 

@@ -8,17 +8,15 @@ Prints the medians and their ratio, measured in one run; checks the two agree po
 """
 import glob
 import math
-import os
 import pathlib
 import statistics
 import sys
 import time
 
+import kitti2pgm as k2
 import numpy as np
 import torch
 import torch.nn.functional as F
-
-import kitti2pgm as k2
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 

@@ -5,10 +5,9 @@ import pathlib
 import subprocess
 import threading
 
+import kitti2pgm as k2
 import numpy as np
 import pytest
-
-import kitti2pgm as k2
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 RAW = REPO / "fixtures" / "raw"
@@ -185,7 +184,8 @@ def test_bad_arrays_raise_clear_value_errors():
         (pts, {"rings": np.full(n, 64, np.uint8)}, "ring 64 of point 0 is not below 64"),
         (pts, {"rgb": np.zeros((n, 4), np.float32)}, r"rgb must be a float32 array of shape \(%d, 3\)" % n),
         # (Issue 26) colours are what convert --rgb samples: [0, 1].
-        (pts, {"rgb": np.full((n, 3), 1e30, np.float32)}, r"rgb: value 1e30 \(point 0, channel r\) is outside \[0, 1\]"),
+        (pts, {"rgb": np.full((n, 3), 1e30, np.float32)},
+         r"rgb: value 1e30 \(point 0, channel r\) is outside \[0, 1\]"),
         (pts, {"rgb": np.full((n, 3), -7, np.float32)}, r"rgb: value -7 \(point 0, channel r\)"),
         (pts, {"cols": 0}, "map size 64x0 is out of range"),
         (pts, {"fov_deg": 400.0}, "FOV 400"),

@@ -7,10 +7,9 @@ SemanticKITTI scan; and the cell method against the converter's own per-point la
 
 import pathlib
 
+import kitti2pgm as k2
 import numpy as np
 import pytest
-
-import kitti2pgm as k2
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 SEMANTICKITTI = REPO / "fixtures" / "semantickitti"
@@ -100,7 +99,10 @@ def test_knn_repairs_noise_and_cell_gives_each_point_its_cells_class(scan):
     by_cell = k2.unproject(pred, m["row"], m["col"], pts, method="cell")
     by_knn = k2.unproject(pred, m["row"], m["col"], pts, m["map"][..., 4], method="knn")
     scored = inside & (scan["label"] != 0)
-    acc = lambda p: (p[scored] == scan["label"][scored]).mean()
+
+    def acc(p):
+        return (p[scored] == scan["label"][scored]).mean()
+
     assert acc(by_knn) > acc(by_cell) + 0.05, (acc(by_knn), acc(by_cell))
     # Wrapping the seam changes only points near the left and right edges.
     wrapped = k2.unproject(pred, m["row"], m["col"], pts, m["map"][..., 4], method="knn", wrap_columns=True)

@@ -14,9 +14,8 @@ import statistics
 import time
 
 import torch
-
-from kitti2pgm_train.models import INPUTS, MODELS, SegNet
 from kitti2pgm_train.common import masked_loss
+from kitti2pgm_train.models import INPUTS, MODELS, SegNet
 
 
 def sync(d):

@@ -57,13 +57,16 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--rotate-deg", type=float, help="--augment rotate: uniform in [-D, D] about z")
     t.add_argument("--scale-range", type=float, nargs=2, metavar=("LOW", "HIGH"),
                    help="--augment scale: uniform factor")
-    t.add_argument("--jitter", type=float, help="--augment jitter: standard deviation of the bell-shaped, bounded (3.46 x) noise on x, y, z, metres")
+    t.add_argument("--jitter", type=float,
+                   help="--augment jitter: standard deviation of the bell-shaped, bounded (3.46 x) noise on x, y, z, "
+                        "metres")
     t.add_argument("--drop", type=float, help="--augment drop: probability of dropping a point")
     t.add_argument("--dropout", type=float, help="dropout before the classifier")
     t.add_argument("--crf", action="store_true", help="SqueezeSeg's recurrent CRF on the logits")
     t.add_argument("--width-mult", type=float, help="channel width multiplier (1 = the paper's)")
     t.add_argument("--seed", type=int, help="seed of the weights, batches and augmentation")
-    t.add_argument("--workers", type=int, help="DataLoader worker processes reading the shards (0 = in the training process)")
+    t.add_argument("--workers", type=int,
+                   help="DataLoader worker processes reading the shards (0 = in the training process)")
     t.add_argument("--device", help="auto, cpu or cuda")
     t.add_argument("--amp", action=argparse.BooleanOptionalAction,
                    help="bf16 autocast of the forward pass (default: on with CUDA, off on CPU)")
@@ -142,8 +145,9 @@ def main(argv=None) -> int:
             if args.json:
                 print(json.dumps(r, indent=2))
             else:
-                from .metrics import Confusion
                 import torch
+
+                from .metrics import Confusion
                 c = Confusion(r["class_map"])
                 c.m = torch.tensor(r["confusion"])
                 print(f"{r['frames']} frames; predictions in {r['predictions'] or r['prediction_shard']}")
@@ -154,7 +158,8 @@ def main(argv=None) -> int:
                     print(f"per point ({r['points']['unproject']}, {r['points']['points']} points, "
                           f"{r['points']['not_predicted']} outside the map): mIoU {p.miou():.4f} "
                           f"(per cell {c.miou():.4f}); predictions in {r['points']['predictions']}")
-                print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in r["inference_ms_per_frame"].items() if v))
+                times = r["inference_ms_per_frame"].items()
+                print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in times if v))
     except (FileExistsError, FileNotFoundError, ValueError, ShardError, MissingExtra) as e:
         print(f"kitti2pgm_train: error: {e}", file=sys.stderr)
         return 1

@@ -16,7 +16,6 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 import torch
-
 from kitti2pgm_data import ShardDataset, read_metadata
 
 from .models import INPUTS
@@ -252,7 +251,8 @@ class StepBatches(torch.utils.data.Sampler):
     for a DataLoader with ``batch_sampler``: the same batches as the single-process loop, in any
     number of workers. The (step, position) key seeds a sample's 3D augmentation (point shards)."""
 
-    def __init__(self, n: int, batch: int, start: int, steps: int, seed: int, flip: bool, rank: int = 0, world: int = 1):
+    def __init__(self, n: int, batch: int, start: int, steps: int, seed: int, flip: bool, rank: int = 0,
+                 world: int = 1):
         self.n, self.batch, self.start, self.steps = n, batch, start, steps
         self.seed, self.flip, self.rank, self.world = seed, flip, rank, world
 

@@ -7,16 +7,17 @@ from __future__ import annotations
 import json
 import os
 import time
+from typing import Optional
 
 import numpy as np
 import torch
 
 from .common import Progress, pick_device
-from .data import FrameSet, Normaliser, check_same_map, collate, find_shards
-from .onthefly import open_frames
-from .metrics import Confusion
 from .config import EvalConfig, TrainConfig
+from .data import FrameSet, Normaliser, check_same_map, collate, find_shards
+from .metrics import Confusion
 from .models import SegNet
+from .onthefly import open_frames
 
 
 def load_run(run: str, device: torch.device):
@@ -30,12 +31,13 @@ def load_run(run: str, device: torch.device):
     which = "best.pt" if os.path.exists(os.path.join(run, "best.pt")) else "checkpoint.pt"
     ck = torch.load(os.path.join(run, which), map_location=device, weights_only=False)
     model.load_state_dict(ck["model"])
-    norm = Normaliser(config["normalisation"]["mean"], config["normalisation"]["std"], config["normalisation"]["source"])
+    n = config["normalisation"]
+    norm = Normaliser(n["mean"], n["std"], n["source"])
     return model.to(device).eval(), config, norm
 
 
 @torch.no_grad()
-def predict(model, data: FrameSet, device: torch.device, batch: int, conf: Confusion = None):
+def predict(model, data: FrameSet, device: torch.device, batch: int, conf: Optional[Confusion] = None):
     """Yields (frame id, H x W uint8 predicted labels) for every frame of ``data``, in order,
     adding each batch's valid cells to ``conf`` when given. The model is in eval mode."""
     for start in range(0, len(data), batch):
@@ -68,6 +70,8 @@ def evaluate(args: EvalConfig) -> dict:
         from kitti2pgm_data import read_metadata
 
         from .points import PointEvaluation
+        if args.raw is None:
+            raise ValueError("--points needs --raw: the dataset root holding the scans")
         spec = read_metadata(paths[0])["params"]["map"]["spec"]
         knn = dict(k=args.knn_k, window=args.knn_window, sigma=args.knn_sigma, cutoff=args.knn_cutoff,
                    wrap_columns=args.knn_wrap)
@@ -99,7 +103,8 @@ def evaluate(args: EvalConfig) -> dict:
     timing = inference_time(model, data, device, args.timing_frames)
     if args.onnx:
         timing["onnxruntime_cpu"] = onnx_time(args.onnx, data, args.timing_frames)
-    result = {"frames": len(data), "class_map": config["class_map"], "predictions": out if write_npy else None, "prediction_shard": shard_out,
+    result = {"frames": len(data), "class_map": config["class_map"], "predictions": out if write_npy else None,
+              "prediction_shard": shard_out,
               **conf.as_dict(), "inference_ms_per_frame": timing}
     if points is not None:
         # The 3D figures beside the 2D ones: every point of the scans, by the method.
@@ -135,7 +140,7 @@ def inference_time(model, data: FrameSet, device: torch.device, frames: int) -> 
     return out
 
 
-def onnx_time(path: str, data: FrameSet, frames: int) -> float:
+def onnx_time(path: str, data: FrameSet, frames: int) -> Optional[float]:
     """Median onnxruntime (CPU) time of one frame of an exported model, ms."""
     import onnxruntime
 

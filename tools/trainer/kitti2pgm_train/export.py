@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from typing import List
+from typing import List, Optional
 
 import torch
 import torch.nn as nn
@@ -43,6 +43,7 @@ class Deployable(nn.Module):
         mask = t[:, self.range_index] > 0
         xs = []
         for k, idx in enumerate(self._buffers.values()):
+            assert idx is not None
             v = t.index_select(1, idx)
             xs.append((v - self.mean[k].view(1, -1, 1, 1)) / self.std[k].view(1, -1, 1, 1) * mask.unsqueeze(1))
         xyz = t[:, self.xyz_index]
@@ -74,7 +75,7 @@ def _atomic(path: str):
                 os.remove(leftover)
 
 
-def export(run: str, onnx_path: str = None, torchscript_path: str = None) -> dict:
+def export(run: str, onnx_path: Optional[str] = None, torchscript_path: Optional[str] = None) -> dict:
     """Writes the ONNX and/or TorchScript file (atomically); returns their paths."""
     net, example = deployable(run)
     out = {}

@@ -5,7 +5,7 @@ truth and prediction left out of the mean."""
 
 from __future__ import annotations
 
-from typing import Dict, Optional
+from typing import Any, Dict, Optional
 
 import torch
 
@@ -42,7 +42,7 @@ class Confusion:
         v = [0.0 if x is None else x for x in ious] if self.absent_zero else [x for x in ious if x is not None]
         return sum(v) / len(v) if v else 0.0
 
-    def as_dict(self) -> Dict[str, object]:
+    def as_dict(self) -> Dict[str, Any]:
         return {"iou": {self.names[c]: self.iou(c) for c in range(self.k)}, "miou": self.miou(),
                 "confusion": self.m.tolist()}
 

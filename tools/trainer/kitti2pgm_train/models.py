@@ -16,7 +16,7 @@ added, as the paper's best variant).
 
 from __future__ import annotations
 
-from typing import Dict, List, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import torch
 import torch.nn as nn
@@ -173,7 +173,7 @@ class SegNet(nn.Module):
         pointseg = model == "pointseg"
         groups = INPUTS[inputs]
         self.encoders = nn.ModuleList([Encoder(len(g), width_mult, pointseg) for g in groups])
-        enc = self.encoders[0]
+        enc: Encoder = self.encoders[0]  # type: ignore[assignment]  # (ModuleList items are Modules)
         cin = enc.out_channels
         self.fuse = None
         if len(groups) == 2:
@@ -184,7 +184,8 @@ class SegNet(nn.Module):
             from .crf import RecurrentCRF
             self.crf = RecurrentCRF(num_classes)
 
-    def forward(self, xs: Sequence[torch.Tensor], mask: torch.Tensor = None, xyz: torch.Tensor = None):
+    def forward(self, xs: Sequence[torch.Tensor], mask: Optional[torch.Tensor] = None,
+                xyz: Optional[torch.Tensor] = None):
         """``xs``: one input tensor per encoder (N x C x H x W). Returns class logits N x K x H x W."""
         outs = [e(x) for e, x in zip(self.encoders, xs)]
         if self.fuse is None:

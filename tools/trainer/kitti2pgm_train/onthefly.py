@@ -13,10 +13,9 @@ exactly the map ``convert`` writes.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Any, Dict, Optional, Sequence, Tuple
 
 import numpy as np
-
 from kitti2pgm_data import ShardDataset, ShardReader, read_metadata
 
 from .data import FrameSet, Normaliser, make_item
@@ -47,12 +46,12 @@ class Augmentation:
             raise ValueError("--augment ranges: drop in [0, 1), jitter >= 0, 0 < scale low <= high")
         on = set(chosen)
         return cls(rotate_deg=rotate_deg if "rotate" in on else 0.0,
-                   scale=tuple(scale) if "scale" in on else (1.0, 1.0),
+                   scale=(scale[0], scale[1]) if "scale" in on else (1.0, 1.0),
                    jitter_m=jitter_m if "jitter" in on else 0.0,
                    drop=drop if "drop" in on else 0.0,
                    flip="flip" in on)
 
-    def draw(self, seed: int, key: Optional[Tuple[int, int]], flip: bool) -> Dict[str, object]:
+    def draw(self, seed: int, key: Optional[Tuple[int, int]], flip: bool) -> Dict[str, Any]:
         """The keyword arguments of ``kitti2pgm.project`` for one sample; ``key`` = (step,
         position in the batch); no key = no augmentation (validation, prediction)."""
         if key is None:

@@ -34,7 +34,8 @@ class PointEvaluation:
         cls = self.k2.unproject(pred, m["row"], m["col"], pts, m["map"][..., 4], method=self.method,
                                 class_map=self.class_map["name"], **self.knn)
         inside = cls >= 0
-        self.conf.add(torch.from_numpy(cls[inside].astype(np.int64)), torch.from_numpy(f["label"][inside].astype(np.int64)),
+        self.conf.add(torch.from_numpy(cls[inside].astype(np.int64)),
+                      torch.from_numpy(f["label"][inside].astype(np.int64)),
                       torch.ones(int(inside.sum()), dtype=torch.bool))
         # Every point of the .bin, in file order; dropped and outside points not predicted.
         full = np.full(f["file_len"], -1, np.int64)

@@ -17,14 +17,23 @@ import time
 from dataclasses import dataclass
 
 import torch
-
 from kitti2pgm_data import class_map, read_metadata
 
 from . import __version__
+from .common import Progress, atomic_save, dist_info, git_commit, lr_at, masked_loss, pick_device, say, seed_everything
 from .config import TrainConfig
-from .common import Progress, atomic_save, say, dist_info, git_commit, lr_at, masked_loss, pick_device, seed_everything
-from .data import (DeviceFrames, FrameSet, Normaliser, StepBatches, TorchFrames, check_same_map, class_weights, collate,
-                   find_shards, load_stats)
+from .data import (
+    DeviceFrames,
+    FrameSet,
+    Normaliser,
+    StepBatches,
+    TorchFrames,
+    check_same_map,
+    class_weights,
+    collate,
+    find_shards,
+    load_stats,
+)
 from .evaluate import predict
 from .metrics import Confusion
 from .models import SegNet
@@ -67,7 +76,8 @@ def load_train_data(cfg: TrainConfig) -> TrainData:
     norm = Normaliser.from_stats(stats)
     paths = find_shards(cfg.train_shards) if cfg.train_shards else find_shards(cfg.shards, "train")
     classes = class_map(paths[0])
-    augment = Augmentation.parse(cfg.augment, cfg.rotate_deg, tuple(cfg.scale_range), cfg.jitter, cfg.drop)
+    low, high = cfg.scale_range
+    augment = Augmentation.parse(cfg.augment, cfg.rotate_deg, (low, high), cfg.jitter, cfg.drop)
     return TrainData(paths=paths, meta=read_metadata(paths[0]), classes=classes, norm=norm,
                      weights=class_weights(stats, cfg.class_weights, classes),
                      data=open_frames(paths, cfg.input, norm, augment, cfg.seed))
@@ -75,8 +85,8 @@ def load_train_data(cfg: TrainConfig) -> TrainData:
 
 def build_model(cfg: TrainConfig, n_classes: int, device, channels_last: bool, dist) -> torch.nn.Module:
     """The model role: the network on its device (wrapped for several processes)."""
-    model = SegNet(cfg.model, cfg.input, n_classes, width_mult=cfg.width_mult, dropout=cfg.dropout,
-                   crf=cfg.crf).to(device)
+    model: torch.nn.Module = SegNet(cfg.model, cfg.input, n_classes, width_mult=cfg.width_mult,
+                                    dropout=cfg.dropout, crf=cfg.crf).to(device)
     if channels_last:
         model = model.to(memory_format=torch.channels_last)
     rank, world, local_rank = dist
@@ -170,6 +180,7 @@ class Logs:
 
     def step(self, done: int, loss: float, lr: float, fps: float, wait_share: float) -> None:
         self.writer.writerow([done, f"{loss:.6f}", f"{lr:.6g}", f"{fps:.2f}", f"{wait_share:.4f}"])
+        assert self.log is not None, "rank 0 logs"
         self.log.flush()
         if self.tb:
             self.tb.add_scalar("loss", loss, done)
@@ -179,6 +190,7 @@ class Logs:
         miou = conf.miou()
         ious = (conf.iou(c) for c in range(conf.k))
         self.val_writer.writerow([done, f"{miou:.6f}"] + ["" if v is None else f"{v:.6f}" for v in ious])
+        assert self.val is not None, "rank 0 validates"
         self.val.flush()
         if self.tb:
             self.tb.add_scalar("val/miou", miou, done)
@@ -259,7 +271,7 @@ def train(cfg: TrainConfig) -> dict:
     amp, channels_last = resolve_flag(cfg.amp, device), resolve_flag(cfg.channels_last, device)
     on_device = use_device_data(cfg.data_on_gpu, td.data, device)
     model = build_model(cfg, len(td.classes["classes"]), device, channels_last, dist)
-    net = model.module if world > 1 else model
+    net: torch.nn.Module = model.module if world > 1 else model  # type: ignore[assignment]
     opt = torch.optim.SGD(model.parameters(), lr=cfg.lr, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
     start, best, ck = 0, float("-inf"), None
     if resume:

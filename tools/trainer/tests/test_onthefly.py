@@ -5,7 +5,6 @@ import os
 import numpy as np
 import pytest
 import torch
-
 from kitti2pgm_train.cli import main
 from kitti2pgm_train.data import FrameSet, Normaliser, StepBatches, TorchFrames, collate
 from kitti2pgm_train.onthefly import Augmentation, PointFrameSet, open_frames
@@ -14,9 +13,9 @@ torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
 NORM = Normaliser.from_stats(None)
 
 
-def sets(root, inputs="xyzdi+dirgb", augment=Augmentation(), seed=0):
+def sets(root, inputs="xyzdi+dirgb", augment=None, seed=0):
     maps = FrameSet(sorted((root / "shards").glob("*.mcap")), inputs, NORM)
-    points = open_frames(sorted((root / "points").glob("*.mcap")), inputs, NORM, augment, seed)
+    points = open_frames(sorted((root / "points").glob("*.mcap")), inputs, NORM, augment or Augmentation(), seed)
     assert isinstance(points, PointFrameSet)
     return maps, points
 

@@ -2,13 +2,11 @@
 
 import json
 import os
-
 import shutil
 
 import numpy as np
 import pytest
 import torch
-
 from kitti2pgm_train.cli import main
 from kitti2pgm_train.data import FrameSet, Normaliser
 from kitti2pgm_train.models import INPUTS, MODELS, SegNet
@@ -67,7 +65,8 @@ def test_colour_inputs_need_colour_shards(lidar_only):
 def _train(out, shards, steps, extra=()):
     args = ["train", "--shards", str(shards), "--out", str(out), "--model", "squeezeseg", "--input", "xyzdi",
             "--width-mult", "0.25", "--batch", "3", "--steps", str(steps), "--lr", "0.05", "--no-flip",
-            "--dropout", "0", "--class-weights", "uniform", "--device", "cpu", "--log-every", "50", "--workers", "0", *extra]
+            "--dropout", "0", "--class-weights", "uniform", "--device", "cpu", "--log-every", "50", "--workers", "0",
+            *extra]
     assert main(args) == 0
 
 
@@ -151,7 +150,8 @@ def test_errors_are_clear(converted, tmp_path, capsys):
     assert "no train shard" in capsys.readouterr().err
     bad = tmp_path / "stats.json"
     bad.write_text("{}")
-    assert main(["train", "--shards", str(converted / "shards"), "--out", str(tmp_path / "r2"), "--stats", str(bad)]) == 1
+    r2 = tmp_path / "r2"
+    assert main(["train", "--shards", str(converted / "shards"), "--out", str(r2), "--stats", str(bad)]) == 1
     assert "not a kitti2pgm stats" in capsys.readouterr().err
 
 
@@ -268,7 +268,6 @@ def test_exported_models_label_like_pytorch(converted, tmp_path):
     """ONNX (onnxruntime) and TorchScript give PyTorch's labels on the real frames, from the raw
     shard channels (the normalisation is inside the graph)."""
     import onnxruntime
-
     from kitti2pgm_train.evaluate import load_run, predict
     from kitti2pgm_train.export import export
 
