@@ -9,8 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 /// One plane of the tensor.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Channel {
     /// Velodyne x, metres.
     X,
@@ -32,44 +31,28 @@ pub enum Channel {
     B,
 }
 
-impl Channel {
-    /// Every channel, in SqueezeSeg's `.npy` order (the first six without colour).
-    pub const ALL: [Channel; 9] = [
-        Channel::X,
-        Channel::Y,
-        Channel::Z,
-        Channel::Intensity,
-        Channel::Range,
-        Channel::Label,
-        Channel::R,
-        Channel::G,
-        Channel::B,
-    ];
+// Every channel (`Channel::ALL`) in SqueezeSeg's `.npy` order (the first six without colour).
+crate::named_enum!(Channel, "channel", [
+    X => "x" [] "velodyne x, metres",
+    Y => "y" [] "velodyne y, metres",
+    Z => "z" [] "velodyne z, metres",
+    Intensity => "intensity" [] "reflectance, 0-1",
+    Range => "range" [] "distance to the sensor, metres; 0 marks an empty cell",
+    Label => "label" [] "class id",
+    R => "r" [] "red, 0-1",
+    G => "g" [] "green, 0-1",
+    B => "b" [] "blue, 0-1",
+]);
 
+impl Channel {
     /// The name written to shards and reports (`x`, `intensity`, `r`, ...).
     pub fn name(self) -> &'static str {
-        match self {
-            Channel::X => "x",
-            Channel::Y => "y",
-            Channel::Z => "z",
-            Channel::Intensity => "intensity",
-            Channel::Range => "range",
-            Channel::Label => "label",
-            Channel::R => "r",
-            Channel::G => "g",
-            Channel::B => "b",
-        }
+        self.as_str()
     }
 
     /// The channel of a name.
     pub fn from_name(name: &str) -> Option<Channel> {
-        Channel::ALL.into_iter().find(|c| c.name() == name)
-    }
-}
-
-impl std::fmt::Display for Channel {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
+        name.parse().ok()
     }
 }
 

@@ -260,7 +260,7 @@ fn cell_and_point_protocols_agree_where_no_cell_holds_two_points() {
         "--raw",
         s(&raw),
     ]);
-    assert_eq!(points["protocol"], "Points");
+    assert_eq!(points["protocol"], "points");
     assert_eq!(cells["confusion"], points["confusion"]);
     assert!(iou(&cells, "car") < 1.0);
 }
@@ -622,7 +622,7 @@ fn semantickitti_scores_say_points_and_blame_a_truncated_truth() {
     let (code, stdout, e) = run_text(&["score", "--gt", s(&sk), "--pred", s(&pred), "--json"]);
     assert_eq!(code, 0, "{e}");
     let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    assert_eq!(j["protocol"], "Points", "{stdout}");
+    assert_eq!(j["protocol"], "points", "{stdout}");
     let bytes = std::fs::read(&truth).unwrap();
     std::fs::write(&truth, &bytes[..bytes.len() - 40]).unwrap();
     let (code, _, e) = run_text(&["score", "--gt", s(&sk), "--pred", s(&pred)]);

@@ -33,13 +33,18 @@ pub use predictions::{
 };
 
 /// Which elements are scored.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Protocol {
     /// Map cells with ground-truth range > 0 (SqueezeSeg).
     Cells,
     /// Scan points in the map's field of view.
     Points,
 }
+
+crate::named_enum!(Protocol, "scoring protocol", [
+    Cells => "cells" [] "map cells with ground-truth range > 0 (SqueezeSeg's)",
+    Points => "points" [] "scan points in the map's field of view",
+]);
 
 /// How to score.
 #[derive(Debug, Clone)]
