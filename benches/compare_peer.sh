@@ -14,19 +14,7 @@ set -euo pipefail
 . "$(dirname "$0")/common.sh"
 copies=${1:-10}
 workers=${2:-$(nproc)}
-day=2011_09_26
-src=$shared/kitti/raw/$day
-mkdir -p "$work/raw/$day"
-cp "$src"/calib_*.txt "$work/raw/$day/"
-n=0
-for i in $(seq 1 "$copies"); do
-  for d in 0001 0052; do
-    n=$((n + 1))
-    dst=$work/raw/$day/${day}_drive_$(printf %04d $((1000 + n)))_sync
-    mkdir -p "$dst"
-    for part in velodyne_points image_02 tracklet_labels.xml; do ln -s "$src/${day}_drive_${d}_sync/$part" "$dst/$part"; done
-  done
-done
+raw_copies "$copies"
 build
 frames=$(find -L "$work/raw" -name '*.bin' | wc -l)
 echo "frames: $frames, workers/threads: $workers, cpu: $(nproc) cores"
