@@ -159,9 +159,43 @@ fn stages(c: &mut Criterion) {
     g.finish();
 }
 
+/// RangeNet++'s kNN on a real SemanticKITTI scan (64 x 2048 over 360 degrees, predictions at
+/// random), one thread: the scalar kernel and the eight-lane one (the same classes).
+fn knn(c: &mut Criterion) {
+    use kitti2pgm::project::unproject::{knn_with, KnnKernel, KnnParams, PointsInMap};
+    use kitti2pgm::project::{norm, project_with_point_cells, MapPreset};
+    let bin = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
+    let scan = Scan::read(&bin).unwrap();
+    let spec = MapPreset::Full.spec();
+    let proj = project_with_point_cells(&scan.points, &spec);
+    let point_range: Vec<f32> = scan.points.iter().map(norm).collect();
+    let classes = ClassMap::semantic_kitti();
+    let mut state = 7u64;
+    let pred: Vec<u8> = (0..spec.rows * spec.cols)
+        .map(|_| (kitti2pgm::rng::splitmix64(&mut state) % 20) as u8)
+        .collect();
+    let m = PointsInMap {
+        rows: spec.rows,
+        cols: spec.cols,
+        point_cell: &proj.point_cell,
+        point_range: &point_range,
+        cell_range: &proj.cell_range,
+    };
+    let p = KnnParams::default();
+    let mut g = c.benchmark_group("knn");
+    g.throughput(Throughput::Elements(1));
+    for (name, kernel) in [("scalar", KnnKernel::Scalar), ("simd", KnnKernel::Simd)] {
+        g.bench_function(name, |b| {
+            b.iter(|| knn_with(black_box(&m), &pred, &p, &classes, kernel))
+        });
+    }
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(30).measurement_time(std::time::Duration::from_secs(3));
-    targets = stages
+    targets = stages, knn
 }
 criterion_main!(benches);
