@@ -1,0 +1,103 @@
+//! The kNN and the cell method on small maps and on a real scan.
+
+use super::*;
+
+fn semantic() -> ClassMap {
+    ClassMap::semantic_kitti()
+}
+
+#[test]
+fn weights_are_one_minus_the_normalised_gaussian() {
+    let w = KnnParams::default().weights();
+    assert_eq!(w.len(), 25);
+    let g: f32 = w.iter().map(|v| 1.0 - v).sum();
+    assert!((g - 1.0).abs() < 1e-5);
+    assert!(w[12] < w[0], "the centre weighs least");
+    assert_eq!(w[0], w[24]);
+}
+
+#[test]
+fn cell_and_knn_on_a_tiny_map() {
+    // 3 x 3 map, every cell filled at range 10 with class 9 (road), but the centre cell
+    // says 1 (car); the point there is at range 10 too.
+    let cell_range = vec![10.0f32; 9];
+    let mut pred = vec![9u8; 9];
+    pred[4] = 1;
+    let m = PointsInMap {
+        rows: 3,
+        cols: 3,
+        point_cell: &[4, EMPTY],
+        point_range: &[10.0, 5.0],
+        cell_range: &cell_range,
+    };
+    let map = semantic();
+    let cell = unproject(&m, &pred, &Method::Cell, &map).unwrap();
+    assert_eq!(cell, vec![Some(1), None]);
+    let knn = unproject(&m, &pred, &Method::Knn(KnnParams::default()), &map).unwrap();
+    // Its 8 neighbours at distance 0 outvote it; padding (16 cells) is 10 m away x weight.
+    assert_eq!(knn, vec![Some(9), None]);
+    let bad = unproject(&m, &pred[..8], &Method::Cell, &map).unwrap_err();
+    assert!(bad.to_string().contains("8 entries, expected 9"));
+    let even = KnnParams {
+        window: 4,
+        ..Default::default()
+    };
+    assert!(unproject(&m, &pred, &Method::Knn(even), &map).is_err());
+}
+
+/// The scalar and the eight-lane kernels give the same class to every point of a real
+/// scan, for the usual windows, with and without the cutoff and the seam wrapped, for a
+/// class map whose class 0 may win and one where it may not, on a 360-degree map and on a
+/// 90-degree one (most points outside), with predictions at random and ranges rounded to
+/// whole metres (many ties among distances).
+#[test]
+fn the_eight_lane_kernel_is_the_scalar_one_point_for_point() {
+    use crate::kitti::velodyne::Scan;
+    use crate::project::{norm, project_with_point_cells, MapPreset};
+    let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
+    let scan = Scan::read(&bin).unwrap();
+    let mut state = 2026u64;
+    for (preset, rounded) in [
+        (MapPreset::Full, false),
+        (MapPreset::Squeezeseg, false),
+        (MapPreset::Full, true),
+    ] {
+        let spec = preset.spec();
+        let proj = project_with_point_cells(&scan.points, &spec);
+        let round = |r: f32| if rounded { r.round() } else { r };
+        let point_range: Vec<f32> = scan.points.iter().map(|p| round(norm(p))).collect();
+        let cell_range: Vec<f32> = proj.cell_range.iter().map(|&r| round(r)).collect();
+        let m = PointsInMap {
+            rows: spec.rows,
+            cols: spec.cols,
+            point_cell: &proj.point_cell,
+            point_range: &point_range,
+            cell_range: &cell_range,
+        };
+        for map in [semantic(), ClassMap::kitti_paper()] {
+            let pred: Vec<ClassId> = (0..spec.rows * spec.cols)
+                .map(|_| (crate::rng::splitmix64(&mut state) % map.len() as u64) as ClassId)
+                .collect();
+            for (window, cutoff, wrap) in [
+                (5, 1.0, false),
+                (3, 0.0, true),
+                (7, 0.5, false),
+                (5, 0.0, true),
+            ] {
+                let p = KnnParams {
+                    k: window,
+                    window,
+                    sigma: 1.0,
+                    cutoff,
+                    wrap_columns: wrap,
+                };
+                let a = knn_with(&m, &pred, &p, &map, KnnKernel::Scalar);
+                let b = knn_with(&m, &pred, &p, &map, KnnKernel::Simd);
+                assert_eq!(a.len(), b.len());
+                let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+                assert_eq!(differ, 0, "{preset:?} rounded {rounded} {} {p:?}", map.name);
+            }
+        }
+    }
+}
