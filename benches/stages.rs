@@ -185,8 +185,9 @@ fn knn(c: &mut Criterion) {
     let p = KnnParams::default();
     let mut g = c.benchmark_group("knn");
     g.throughput(Throughput::Elements(1));
-    for (name, kernel) in [("scalar", KnnKernel::Scalar), ("simd", KnnKernel::Simd)] {
-        g.bench_function(name, |b| {
+    for kernel in KnnKernel::available() {
+        let name = format!("{kernel:?}").to_lowercase();
+        g.bench_function(&name, |b| {
             b.iter(|| knn_with(black_box(&m), &pred, &p, &classes, kernel))
         });
     }

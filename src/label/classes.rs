@@ -165,8 +165,17 @@ impl ClassMap {
     /// that label's `color_map` entry (BGR in the file); 0 `unlabeled` is ignored; mIoU over the
     /// 19 others, absent classes counting 0, as the benchmark computes it.
     pub fn semantic_kitti() -> ClassMap {
-        ClassMap::from_semantic_kitti_yaml(SEMANTIC_KITTI_YAML, Path::new("semantic-kitti.yaml"))
-            .expect("the embedded semantic-kitti.yaml is valid")
+        // Parsed once: every Python call that names it (`unproject`, `label_points`) asks again.
+        static PARSED: std::sync::OnceLock<ClassMap> = std::sync::OnceLock::new();
+        PARSED
+            .get_or_init(|| {
+                ClassMap::from_semantic_kitti_yaml(
+                    SEMANTIC_KITTI_YAML,
+                    Path::new("semantic-kitti.yaml"),
+                )
+                .expect("the embedded semantic-kitti.yaml is valid")
+            })
+            .clone()
     }
 
     /// A class map from a `semantic-kitti.yaml`-style file (`labels`, `color_map`,

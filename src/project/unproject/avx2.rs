@@ -13,46 +13,9 @@
 
 use std::arch::x86_64::*;
 
+use super::lanes::{drive, Block, Grid, Setup};
 use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
-use crate::project::EMPTY;
-
-/// The map's cell ranges and classes with `h` cells of padding on every side and eight more
-/// columns on the right (a block of eight lanes starting at any column stays inside).
-struct Grid {
-    far: Vec<f32>,
-    cls: Vec<i32>,
-    stride: usize,
-}
-
-impl Grid {
-    fn new(m: &PointsInMap<'_>, pred: &[ClassId], vote: &Vote, h: usize, wrap: bool) -> Grid {
-        let stride = m.cols + 2 * h + 8;
-        let rows = m.rows + 2 * h;
-        let mut far = vec![0.0f32; rows * stride];
-        let mut cls = vec![vote.pad_vote as i32; rows * stride];
-        for r in 0..m.rows {
-            for c in -(h as isize)..(m.cols + h) as isize {
-                let src = match c {
-                    c if (0..m.cols as isize).contains(&c) => c as usize,
-                    c if wrap => c.rem_euclid(m.cols as isize) as usize,
-                    _ => continue,
-                };
-                let k = r * m.cols + src;
-                let at = (r + h) * stride + (c + h as isize) as usize;
-                far[at] = vote.far[k];
-                cls[at] = pred[k] as i32;
-            }
-        }
-        Grid { far, cls, stride }
-    }
-
-    /// Where the window of the cell `(row, col)` starts (its top-left cell).
-    fn top_left(&self, cell: usize, cols: usize) -> usize {
-        let (row, col) = (cell / cols, cell % cols);
-        row * self.stride + col
-    }
-}
 
 /// Whether this machine runs the AVX2 path.
 pub(super) fn available() -> bool {
@@ -73,69 +36,28 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
     vote: &Vote,
     out: &mut [Option<ClassId>],
 ) {
-    let grid = Grid::new(m, pred, vote, S / 2, p.wrap_columns);
-    let mut w: [f32; N] = vote.weights[..].try_into().expect("S x S weights");
-    w[N / 2] = 0.0;
-    let mut off = [0usize; N];
-    for (j, o) in off.iter_mut().enumerate() {
-        *o = (j / S) * grid.stride + j % S;
-    }
-    let can_win = vote
-        .can_win
-        .iter()
-        .enumerate()
-        .fold(0u32, |mask, (c, &yes)| mask | ((yes as u32) << c));
-    let k = Kernel::<S, N, K> {
-        w,
-        off,
-        can_win,
-        nobody: vote.nobody as i32,
-        first_winner: vote.first_winner as i32,
-        cutoff: p.cutoff,
-    };
-    // The first point of each cell, by cell; the others after.
-    let cells = m.rows * m.cols;
-    let mut first = vec![u32::MAX; cells];
-    let mut others = Vec::new();
-    for (i, &c) in m.point_cell.iter().enumerate() {
-        if c == EMPTY {
-            continue;
+    let grid = Grid::new(m, pred, vote, S / 2, p.wrap_columns, 8);
+    let k = Kernel::<S, N, K>(Setup::new(&grid, vote, p));
+    drive::<8>(m, |block, lanes| {
+        // SAFETY: this function runs with AVX2.
+        unsafe {
+            let r = ranges(lanes, m.point_range);
+            let winners = match block {
+                Block::Row(at) => k.vote_row(&grid, r, grid.top_left(at, m.cols)),
+                Block::Scattered => {
+                    let mut starts = [0i32; 8];
+                    for (s, &l) in starts.iter_mut().zip(lanes) {
+                        if l != u32::MAX {
+                            *s = grid.top_left(m.point_cell[l as usize] as usize, m.cols) as i32;
+                        }
+                    }
+                    let starts = _mm256_loadu_si256(starts.as_ptr() as *const __m256i);
+                    k.vote_cells(&grid, r, starts)
+                }
+            };
+            store(lanes, winners, out)
         }
-        match &mut first[c as usize] {
-            f if *f == u32::MAX => *f = i as u32,
-            _ => others.push(i as u32),
-        }
-    }
-    // Eight neighbouring cells of a row: contiguous windows.
-    for row in 0..m.rows {
-        for col0 in (0..m.cols).step_by(8) {
-            let at = row * m.cols + col0;
-            let mut lanes = [u32::MAX; 8];
-            let n = (m.cols - col0).min(8);
-            lanes[..n].copy_from_slice(&first[at..at + n]);
-            if lanes.iter().all(|&l| l == u32::MAX) {
-                continue;
-            }
-            let r = ranges(&lanes, m.point_range);
-            let winners = k.vote_row(&grid, r, grid.top_left(at, m.cols));
-            store(&lanes, winners, out);
-        }
-    }
-    // Points behind a nearer one in their cell: gathered windows.
-    for chunk in others.chunks(8) {
-        let mut lanes = [u32::MAX; 8];
-        lanes[..chunk.len()].copy_from_slice(chunk);
-        let r = ranges(&lanes, m.point_range);
-        let mut starts = [0i32; 8];
-        for (s, &l) in starts.iter_mut().zip(&lanes) {
-            if l != u32::MAX {
-                *s = grid.top_left(m.point_cell[l as usize] as usize, m.cols) as i32;
-            }
-        }
-        let starts = _mm256_loadu_si256(starts.as_ptr() as *const __m256i);
-        let winners = k.vote_cells(&grid, r, starts);
-        store(&lanes, winners, out);
-    }
+    });
 }
 
 /// The ranges of the lanes' points (0 for an empty lane).
@@ -164,17 +86,8 @@ unsafe fn store(lanes: &[u32; 8], winners: __m256i, out: &mut [Option<ClassId>])
     }
 }
 
-/// What every block of eight points shares.
-struct Kernel<const S: usize, const N: usize, const K: usize> {
-    /// The window's weights, the centre's 0.
-    w: [f32; N],
-    /// Each window cell's offset from the window's top-left in the grid.
-    off: [usize; N],
-    can_win: u32,
-    nobody: i32,
-    first_winner: i32,
-    cutoff: f32,
-}
+/// The window's shape in the type: `S` x `S` = `N` cells, `K` nearest.
+struct Kernel<const S: usize, const N: usize, const K: usize>(Setup<N>);
 
 impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     /// Nothing kept yet: every slot farther than anything (`i32::MAX`, above infinity's bits).
@@ -194,7 +107,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     unsafe fn dist(&self, far: __m256, r: __m256, j: usize) -> __m256i {
         let abs = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
         let diff = _mm256_and_ps(_mm256_sub_ps(far, r), abs);
-        _mm256_castps_si256(_mm256_mul_ps(diff, _mm256_set1_ps(self.w[j])))
+        _mm256_castps_si256(_mm256_mul_ps(diff, _mm256_set1_ps(self.0.w[j])))
     }
 
     /// Keeps the candidate (distance bits `d`, class `cls`) among the `K` nearest: it goes in
@@ -225,7 +138,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
         let (far_ptr, cls_ptr) = (grid.far.as_ptr().add(base), grid.cls.as_ptr().add(base));
         let (mut bd, mut bc) = Self::empty();
         for j in 0..N {
-            let o = self.off[j];
+            let o = self.0.off[j];
             let far = _mm256_loadu_ps(far_ptr.add(o));
             let cls = _mm256_loadu_si256(cls_ptr.add(o) as *const __m256i);
             Self::insert(&mut bd, &mut bc, self.dist(far, r, j), cls);
@@ -241,7 +154,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
         let (far_ptr, cls_ptr) = (grid.far.as_ptr(), grid.cls.as_ptr());
         let (mut bd, mut bc) = Self::empty();
         for j in 0..N {
-            let idx = _mm256_add_epi32(starts, _mm256_set1_epi32(self.off[j] as i32));
+            let idx = _mm256_add_epi32(starts, _mm256_set1_epi32(self.0.off[j] as i32));
             let far = _mm256_i32gather_ps::<4>(far_ptr, idx);
             let cls = _mm256_i32gather_epi32::<4>(cls_ptr, idx);
             Self::insert(&mut bd, &mut bc, self.dist(far, r, j), cls);
@@ -254,18 +167,18 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn winner(&self, bd: &[__m256i; K], bc: &[__m256i; K]) -> __m256i {
-        let nobody = _mm256_set1_epi32(self.nobody);
+        let nobody = _mm256_set1_epi32(self.0.nobody);
         let mut c = *bc;
-        if self.cutoff > 0.0 {
-            let cutoff = _mm256_set1_ps(self.cutoff);
+        if self.0.cutoff > 0.0 {
+            let cutoff = _mm256_set1_ps(self.0.cutoff);
             for a in 0..K {
                 let far = _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_castsi256_ps(bd[a]), cutoff);
                 c[a] = _mm256_blendv_epi8(c[a], nobody, _mm256_castps_si256(far));
             }
         }
         let one = _mm256_set1_epi32(1);
-        let mask = _mm256_set1_epi32(self.can_win as i32);
-        let mut winner = _mm256_set1_epi32(self.first_winner);
+        let mask = _mm256_set1_epi32(self.0.can_win as i32);
+        let mut winner = _mm256_set1_epi32(self.0.first_winner);
         let mut most = _mm256_setzero_si256();
         for a in 0..K {
             // nobody (and any id past the map) is not in the mask: the shift gives 0.

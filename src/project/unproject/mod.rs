@@ -26,6 +26,10 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 
 use crate::error::{Error, Result};
 use crate::label::{ClassId, ClassMap};
@@ -225,25 +229,38 @@ pub fn unproject(
     }
 }
 
-/// Which code runs the kNN: the scalar code, or eight points at a time where the CPU can (the
-/// same classes, bit for bit; the scalar code serves the shapes and machines the other does not).
+/// Which code runs the kNN: the scalar code, or several points at a time where the CPU can (the
+/// same classes, bit for bit; the scalar code serves the shapes and machines the others do not).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum KnnKernel {
     /// One point at a time, any CPU.
     Scalar,
     /// Eight points at a time (AVX2, x86-64), for the usual windows (3, 5 and 7 with k equal to
     /// the side) and class maps of at most 31 classes; the scalar code otherwise.
-    Simd,
+    Avx2,
+    /// Sixteen points at a time (AVX-512F), the same windows and class maps.
+    Avx512,
 }
 
 impl KnnKernel {
     /// The fastest this machine runs.
     pub fn best() -> KnnKernel {
+        *KnnKernel::available().last().expect("the scalar kernel")
+    }
+
+    /// The kernels this machine runs, slowest first.
+    pub fn available() -> Vec<KnnKernel> {
+        let mut v = vec![KnnKernel::Scalar];
         #[cfg(target_arch = "x86_64")]
-        if avx2::available() {
-            return KnnKernel::Simd;
+        {
+            if avx2::available() {
+                v.push(KnnKernel::Avx2);
+            }
+            if avx512::available() {
+                v.push(KnnKernel::Avx512);
+            }
         }
-        KnnKernel::Scalar
+        v
     }
 }
 
@@ -256,16 +273,22 @@ pub fn knn_with(
     kernel: KnnKernel,
 ) -> Vec<Option<ClassId>> {
     #[cfg(target_arch = "x86_64")]
-    if kernel == KnnKernel::Simd && avx2::available() && classes.len() <= 31 {
+    if kernel != KnnKernel::Scalar
+        && KnnKernel::available().contains(&kernel)
+        && classes.len() <= 31
+        && matches!((p.window, p.k), (3, 3) | (5, 5) | (7, 7))
+    {
         let vote = Vote::new(m, p, classes);
         let mut out = vec![None; m.point_cell.len()];
         let o = &mut out;
-        // SAFETY (each call): the CPU has AVX2, checked just above.
-        match (p.window, p.k) {
-            (5, 5) => unsafe { avx2::knn::<5, 25, 5>(m, pred, p, &vote, o) },
-            (3, 3) => unsafe { avx2::knn::<3, 9, 3>(m, pred, p, &vote, o) },
-            (7, 7) => unsafe { avx2::knn::<7, 49, 7>(m, pred, p, &vote, o) },
-            _ => return knn_with(m, pred, p, classes, KnnKernel::Scalar),
+        // SAFETY (each call): the CPU has the kernel's instructions, checked just above.
+        match (kernel, p.window) {
+            (KnnKernel::Avx512, 5) => unsafe { avx512::knn::<5, 25, 5>(m, pred, p, &vote, o) },
+            (KnnKernel::Avx512, 3) => unsafe { avx512::knn::<3, 9, 3>(m, pred, p, &vote, o) },
+            (KnnKernel::Avx512, _) => unsafe { avx512::knn::<7, 49, 7>(m, pred, p, &vote, o) },
+            (_, 5) => unsafe { avx2::knn::<5, 25, 5>(m, pred, p, &vote, o) },
+            (_, 3) => unsafe { avx2::knn::<3, 9, 3>(m, pred, p, &vote, o) },
+            (_, _) => unsafe { avx2::knn::<7, 49, 7>(m, pred, p, &vote, o) },
         }
         return out;
     }

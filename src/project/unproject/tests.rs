@@ -45,13 +45,13 @@ fn cell_and_knn_on_a_tiny_map() {
     assert!(unproject(&m, &pred, &Method::Knn(even), &map).is_err());
 }
 
-/// The scalar and the eight-lane kernels give the same class to every point of a real
+/// The scalar and the eight- and sixteen-lane kernels give the same class to every point of a real
 /// scan, for the usual windows, with and without the cutoff and the seam wrapped, for a
 /// class map whose class 0 may win and one where it may not, on a 360-degree map and on a
 /// 90-degree one (most points outside), with predictions at random and ranges rounded to
 /// whole metres (many ties among distances).
 #[test]
-fn the_eight_lane_kernel_is_the_scalar_one_point_for_point() {
+fn the_lane_kernels_are_the_scalar_one_point_for_point() {
     use crate::kitti::velodyne::Scan;
     use crate::project::{norm, project_with_point_cells, MapPreset};
     let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -93,10 +93,13 @@ fn the_eight_lane_kernel_is_the_scalar_one_point_for_point() {
                     wrap_columns: wrap,
                 };
                 let a = knn_with(&m, &pred, &p, &map, KnnKernel::Scalar);
-                let b = knn_with(&m, &pred, &p, &map, KnnKernel::Simd);
-                assert_eq!(a.len(), b.len());
-                let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-                assert_eq!(differ, 0, "{preset:?} rounded {rounded} {} {p:?}", map.name);
+                for kernel in KnnKernel::available() {
+                    let b = knn_with(&m, &pred, &p, &map, kernel);
+                    assert_eq!(a.len(), b.len());
+                    let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+                    let what = format!("{kernel:?}: {preset:?} rounded {rounded} {}", map.name);
+                    assert_eq!(differ, 0, "{what} {p:?}");
+                }
             }
         }
     }

@@ -168,6 +168,22 @@ pub fn points_arg(
     })
 }
 
+/// The range of every point of an (N, 3) or (N, 4) float32 array (`norm`, as the converter
+/// computes it), read in place.
+pub fn point_ranges(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f32>> {
+    let want = "a float32 array of shape (N, 3) or (N, 4)";
+    with_values(obj, name, want, |v: &[f32], shape| match shape[..] {
+        [_, cols @ (3 | 4)] => Ok(v
+            .chunks_exact(cols)
+            .map(|r| kitti2pgm::project::norm(&Point3::new(r[0], r[1], r[2])))
+            .collect()),
+        _ => Err(PyValueError::new_err(format!(
+            "{name} must be {want}, got {}",
+            describe(obj)
+        ))),
+    })
+}
+
 /// A one-dimensional array of `n` entries of type `T` (`dtype` names it in the message).
 pub fn vec_arg<T: Element + Copy + DtypeName>(
     obj: &Bound<'_, PyAny>,
