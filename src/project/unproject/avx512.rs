@@ -4,7 +4,7 @@
 
 use std::arch::x86_64::*;
 
-use super::lanes::{drive, Block, Grid, Setup};
+use super::lanes::{drive, lane_ranges, store, window_starts, Block, Grid, Setup};
 use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
 
@@ -32,48 +32,19 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
     drive::<16>(m, |block, lanes| {
         // SAFETY: this function runs with AVX-512F.
         unsafe {
-            let r = ranges(lanes, m.point_range);
+            let r = _mm512_loadu_ps(lane_ranges(lanes, m.point_range).as_ptr());
             let winners = match block {
                 Block::Row(at) => k.vote_row(&grid, r, grid.top_left(at, m.cols)),
                 Block::Scattered => {
-                    let mut starts = [0i32; 16];
-                    for (s, &l) in starts.iter_mut().zip(lanes) {
-                        if l != u32::MAX {
-                            *s = grid.top_left(m.point_cell[l as usize] as usize, m.cols) as i32;
-                        }
-                    }
+                    let starts = window_starts(&grid, m, lanes);
                     k.vote_cells(&grid, r, _mm512_loadu_si512(starts.as_ptr() as *const _))
                 }
             };
-            store(lanes, winners, out)
+            let mut w = [0i32; 16];
+            _mm512_storeu_si512(w.as_mut_ptr() as *mut _, winners);
+            store(lanes, &w, out)
         }
     });
-}
-
-/// The ranges of the lanes' points (0 for an empty lane).
-#[inline]
-#[target_feature(enable = "avx512f")]
-unsafe fn ranges(lanes: &[u32; 16], point_range: &[f32]) -> __m512 {
-    let mut r = [0.0f32; 16];
-    for (v, &l) in r.iter_mut().zip(lanes) {
-        if l != u32::MAX {
-            *v = point_range[l as usize];
-        }
-    }
-    _mm512_loadu_ps(r.as_ptr())
-}
-
-/// Writes each lane's winner to its point.
-#[inline]
-#[target_feature(enable = "avx512f")]
-unsafe fn store(lanes: &[u32; 16], winners: __m512i, out: &mut [Option<ClassId>]) {
-    let mut w = [0i32; 16];
-    _mm512_storeu_si512(w.as_mut_ptr() as *mut _, winners);
-    for (l, c) in lanes.iter().zip(w) {
-        if *l != u32::MAX {
-            out[*l as usize] = Some(c as ClassId);
-        }
-    }
 }
 
 /// The window's shape in the type: `S` x `S` = `N` cells, `K` nearest.

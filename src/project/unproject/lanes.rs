@@ -135,3 +135,45 @@ pub(super) fn drive<const L: usize>(m: &PointsInMap<'_>, mut block: impl FnMut(B
         block(Block::Scattered, &lanes);
     }
 }
+
+/// The ranges of the lanes' points (0 for an empty lane).
+#[inline]
+pub(super) fn lane_ranges<const L: usize>(lanes: &[u32; L], point_range: &[f32]) -> [f32; L] {
+    let mut r = [0.0f32; L];
+    for (v, &l) in r.iter_mut().zip(lanes) {
+        if l != u32::MAX {
+            *v = point_range[l as usize];
+        }
+    }
+    r
+}
+
+/// Where each lane's window starts in `grid` (0 for an empty lane).
+#[inline]
+pub(super) fn window_starts<const L: usize>(
+    grid: &Grid,
+    m: &PointsInMap<'_>,
+    lanes: &[u32; L],
+) -> [i32; L] {
+    let mut starts = [0i32; L];
+    for (s, &l) in starts.iter_mut().zip(lanes) {
+        if l != u32::MAX {
+            *s = grid.top_left(m.point_cell[l as usize] as usize, m.cols) as i32;
+        }
+    }
+    starts
+}
+
+/// Writes each lane's winner to its point.
+#[inline]
+pub(super) fn store<const L: usize>(
+    lanes: &[u32; L],
+    winners: &[i32; L],
+    out: &mut [Option<ClassId>],
+) {
+    for (l, &c) in lanes.iter().zip(winners) {
+        if *l != u32::MAX {
+            out[*l as usize] = Some(c as ClassId);
+        }
+    }
+}
