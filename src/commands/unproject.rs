@@ -4,28 +4,13 @@ use kitti2pgm::format::imageset;
 use kitti2pgm::report::score::Predictions;
 use kitti2pgm::report::truth::GroundTruth;
 use kitti2pgm::report::unproject::{
-    refuse_output_over_inputs, unproject_all, write_viz, UnprojectOptions, UnprojectSummary,
+    refuse_viz_over_inputs, unproject_all, write_viz, UnprojectOptions, UnprojectSummary,
     NOT_PREDICTED,
 };
 
 use super::{completeness, durability, progress, Global};
 use crate::cli::UnprojectArgs;
 use crate::Outcome;
-
-/// Refuses a `--viz` file over an input (or the output folder).
-fn refuse_viz_over_inputs(a: &UnprojectArgs) -> anyhow::Result<()> {
-    use kitti2pgm::fs::Role;
-    if let Some(viz) = &a.viz {
-        let inputs = [
-            (Role::GroundTruth, a.gt.as_path()),
-            (Role::Predictions, a.pred.as_path()),
-            (Role::Dataset, a.raw.as_path()),
-            (Role::Predictions, a.out.as_path()),
-        ];
-        kitti2pgm::fs::refuse_overlap(viz, &inputs)?;
-    }
-    Ok(())
-}
 
 pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
     // Parameters first: a usage error before anything is read.
@@ -54,8 +39,11 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
         only,
         durability: durability(a.sync),
     };
-    refuse_output_over_inputs(&opts.out, &gt, &preds, &opts)?;
-    refuse_viz_over_inputs(&a)?;
+    // `unproject_all` checks the output folder before any work; the --viz file is written
+    // after the work, so it is checked here, before it.
+    if let Some(viz) = &a.viz {
+        refuse_viz_over_inputs(viz, &gt, &preds, &opts)?;
+    }
     let total = opts.only.as_ref().map_or(gt.frames.len(), |o| o.len());
     let pb = progress::bar(total as u64, g.progress, "unprojecting");
     let pool = g.pool()?;
@@ -71,7 +59,7 @@ pub fn run(a: UnprojectArgs, g: &Global) -> anyhow::Result<Outcome> {
     }
     if let Some(viz) = &a.viz {
         let frames = &s.written;
-        write_viz(&gt, &opts, frames, viz)?;
+        write_viz(&gt, &preds, &opts, frames, viz)?;
         if !a.json {
             println!("viz              {:>10}  ({})", frames.len(), viz.display());
         }

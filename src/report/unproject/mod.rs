@@ -38,7 +38,7 @@ use crate::project::{norm, project_with_point_cells};
 
 pub use crate::format::label_file::NOT_PREDICTED;
 
-pub use viz::write_viz;
+pub use viz::{refuse_viz_over_inputs, write_viz};
 
 /// What to carry back, from where, to where.
 #[derive(Debug, Clone)]
@@ -88,10 +88,10 @@ pub struct UnprojectSummary {
     pub written: Vec<FrameId>,
 }
 
-/// Refuses an output (`--out`, `--viz`) that is, lies inside or holds the ground truth, the
+/// Refuses an output folder (`--out`) that is, lies inside or holds the ground truth, the
 /// predictions or the dataset, or that is a conversion's folder (its journal would list files
 /// this command replaces).
-pub fn refuse_output_over_inputs(
+fn refuse_output_over_inputs(
     out: &Path,
     gt: &GroundTruth,
     preds: &Predictions,
