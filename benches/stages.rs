@@ -175,13 +175,7 @@ fn knn(c: &mut Criterion) {
     let pred: Vec<u8> = (0..spec.rows * spec.cols)
         .map(|_| (kitti2pgm::rng::splitmix64(&mut state) % 20) as u8)
         .collect();
-    let m = PointsInMap {
-        rows: spec.rows,
-        cols: spec.cols,
-        point_cell: &proj.point_cell,
-        point_range: &point_range,
-        cell_range: &proj.cell_range,
-    };
+    let m = PointsInMap::of(&proj, &point_range);
     let p = KnnParams::default();
     let mut g = c.benchmark_group("knn");
     g.throughput(Throughput::Elements(1));

@@ -176,6 +176,20 @@ pub struct PointsInMap<'a> {
     pub cell_range: &'a [f32],
 }
 
+impl<'a> PointsInMap<'a> {
+    /// The points of `proj` (made [`with point cells`](super::project_with_point_cells)), whose
+    /// ranges are `point_range`.
+    pub fn of(proj: &'a super::Projection, point_range: &'a [f32]) -> PointsInMap<'a> {
+        PointsInMap {
+            rows: proj.spec.rows,
+            cols: proj.spec.cols,
+            point_cell: &proj.point_cell,
+            point_range,
+            cell_range: &proj.cell_range,
+        }
+    }
+}
+
 /// The class of every point (`None`: outside the map) from `pred`, the predicted class of each
 /// cell (row-major), for a map of the classes of `classes`.
 pub fn unproject(

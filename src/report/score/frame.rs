@@ -248,13 +248,7 @@ fn carry(
     pred_cells: &[u8],
     opts: &ScoreOptions,
 ) -> Result<Vec<u8>> {
-    let m = PointsInMap {
-        rows: gt.params.spec.rows,
-        cols: gt.params.spec.cols,
-        point_cell: &proj.point_cell,
-        point_range: range,
-        cell_range: &proj.cell_range,
-    };
+    let m = PointsInMap::of(proj, range);
     Ok(
         unproject(&m, pred_cells, &opts.unproject, &gt.params.class_map)?
             .into_iter()

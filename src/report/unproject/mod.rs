@@ -154,13 +154,7 @@ fn one(
     }
     let proj = project_with_point_cells(&scan.points, spec);
     let point_range: Vec<f32> = scan.points.iter().map(norm).collect();
-    let m = PointsInMap {
-        rows: spec.rows,
-        cols: spec.cols,
-        point_cell: &proj.point_cell,
-        point_range: &point_range,
-        cell_range: &proj.cell_range,
-    };
+    let m = PointsInMap::of(&proj, &point_range);
     let classes = unproject(&m, &pred, &opts.method, map)?;
     let per_point = scan.to_file_order(&classes, None);
     let (_, missing) =
