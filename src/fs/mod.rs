@@ -123,12 +123,7 @@ pub fn open(path: &Path) -> Result<(File, Metadata)> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::OpenOptionsExt as _;
-        // O_NONBLOCK: on Linux and the BSDs alike.
-        #[cfg(any(target_os = "linux", target_os = "android"))]
-        const O_NONBLOCK: i32 = 0o4000;
-        #[cfg(not(any(target_os = "linux", target_os = "android")))]
-        const O_NONBLOCK: i32 = 0x0004;
-        options.custom_flags(O_NONBLOCK);
+        options.custom_flags(libc::O_NONBLOCK);
     }
     let file = options.open(path).map_err(|e| Error::io(path, e))?;
     let meta = file.metadata().map_err(|e| Error::io(path, e))?;
@@ -191,7 +186,7 @@ mod tests {
             std::os::unix::fs::symlink("/dev/zero", d.join("zero")).unwrap();
             let fifo = std::ffi::CString::new(d.join("fifo").to_str().unwrap()).unwrap();
             // SAFETY: a valid C string; mkfifo only creates the node.
-            assert_eq!(unsafe { mkfifo(fifo.as_ptr(), 0o644) }, 0);
+            assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o644) }, 0);
         }
         let kind = |name: &str| match read(&d.join(name), Limit::Text) {
             Err(Error::NotAFile { found, path }) => {
@@ -212,11 +207,6 @@ mod tests {
             read(&d.join("absent"), Limit::Text),
             Err(Error::Io { .. })
         ));
-    }
-
-    #[cfg(unix)]
-    extern "C" {
-        fn mkfifo(path: *const std::ffi::c_char, mode: u32) -> i32;
     }
 
     #[test]
