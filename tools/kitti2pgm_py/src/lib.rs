@@ -91,9 +91,6 @@ fn presets(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
-/// Ring (laser) index of every point of a scan from its order: an (N,) uint8 array, or None
-/// when the scan does not show exactly 64 rings (the converter then bins by elevation).
-/// `points`: (N, 3+) float32, in the order of the `.bin` file.
 /// A library enum from its name, as the CLI spells it (`FromStr`: names and aliases); a
 /// `ValueError` naming the argument and the names otherwise.
 pub(crate) fn named<T: std::str::FromStr<Err = kitti2pgm::Error>>(
@@ -109,6 +106,9 @@ pub(crate) fn named<T: std::str::FromStr<Err = kitti2pgm::Error>>(
     })
 }
 
+/// Ring (laser) index of every point of a scan from its order: an (N,) uint8 array, or None
+/// when the scan does not show exactly 64 rings (the converter then bins by elevation).
+/// `points`: (N, 3+) float32, in the order of the `.bin` file.
 #[pyfunction]
 fn rings<'py>(
     py: Python<'py>,
