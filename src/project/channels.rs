@@ -44,18 +44,6 @@ crate::named_enum!(Channel, "channel", [
     B => "b" [] "blue, 0-1",
 ]);
 
-impl Channel {
-    /// The name written to shards and reports (`x`, `intensity`, `r`, ...).
-    pub fn name(self) -> &'static str {
-        self.as_str()
-    }
-
-    /// The channel of a name.
-    pub fn from_name(name: &str) -> Option<Channel> {
-        name.parse().ok()
-    }
-}
-
 /// The channels of a tensor, in plane order.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(transparent)]
@@ -115,14 +103,14 @@ impl Channels {
 
     /// The names, in order.
     pub fn names(&self) -> Vec<&'static str> {
-        self.0.iter().map(|c| c.name()).collect()
+        self.0.iter().map(|c| c.as_str()).collect()
     }
 
     /// Parses names (as stored in shards); the unknown name is returned as the error.
     pub fn from_names<S: AsRef<str>>(names: &[S]) -> Result<Channels, String> {
         names
             .iter()
-            .map(|n| Channel::from_name(n.as_ref()).ok_or_else(|| n.as_ref().to_string()))
+            .map(|n| n.as_ref().parse().map_err(|_| n.as_ref().to_string()))
             .collect::<Result<Vec<_>, _>>()
             .map(Channels)
     }
