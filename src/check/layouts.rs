@@ -223,13 +223,7 @@ pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector)
     };
     let scans: Vec<u32> = r.scans.keys().copied().collect();
     let poses = read_sequence_poses(drive, r, c, scans.last().copied());
-    let labels = drive.dir.join("labels");
-    let label_frames = if labels.is_dir() {
-        frames_in(&labels, 6, ".label")
-    } else {
-        Vec::new()
-    };
-    sequence_labels(drive, r, &label_frames, c);
+    let label_frames = sequence_labels(drive, r, &scans, c);
     r.layout = LayoutRead::Sequence {
         calib,
         poses,
@@ -237,9 +231,9 @@ pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector)
     };
 }
 
-/// A sequence's label files compared with its scans.
-fn sequence_labels(drive: &Drive, r: &mut DriveRead, label_frames: &[u32], c: &mut Collector) {
-    let scans: Vec<u32> = r.scans.keys().copied().collect();
+/// A sequence's label files (their frames; none without a labels/ folder) compared with its
+/// scans `scans`.
+fn sequence_labels(drive: &Drive, r: &mut DriveRead, scans: &[u32], c: &mut Collector) -> Vec<u32> {
     let labels = drive.dir.join("labels");
     if !labels.is_dir() {
         c.add(
@@ -250,8 +244,9 @@ fn sequence_labels(drive: &Drive, r: &mut DriveRead, label_frames: &[u32], c: &m
             None,
             "no labels/ folder (a test sequence): nothing to train on".into(),
         );
-        return;
+        return Vec::new();
     }
+    let label_frames = frames_in(&labels, 6, ".label");
     r.inventory.label_files = Some(label_frames.len());
     r.inventory.annotated = label_frames.len();
     r.inventory.annotated_range = label_frames
@@ -263,12 +258,13 @@ fn sequence_labels(drive: &Drive, r: &mut DriveRead, label_frames: &[u32], c: &m
         C::Coverage,
         S::Warning,
         &labels,
-        &scans,
-        label_frames,
+        scans,
+        &label_frames,
         "scans have no label file",
     );
-    extra_labels(drive, &scans, c);
-    label_counts(drive, r, label_frames, c);
+    extra_labels(drive, scans, c);
+    label_counts(drive, r, &label_frames, c);
+    label_frames
 }
 
 fn extra_labels(drive: &Drive, scans: &[u32], c: &mut Collector) {
