@@ -270,7 +270,6 @@ fn label_points<'py>(
     ))
 }
 
-/// Adds the readers to the module.
 /// A frame id from its string (`2011_09_26_0001_0000000010`, `00_000000`, `000042`).
 fn frame_id(frame: &str) -> PyResult<kitti2pgm::kitti::FrameId> {
     frame
@@ -331,6 +330,7 @@ pub fn write_point_predictions(
     .map_err(py_err)
 }
 
+/// Adds the readers to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_scan, m)?)?;
     m.add_function(wrap_pyfunction!(read_point_labels, m)?)?;
