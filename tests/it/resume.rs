@@ -185,13 +185,7 @@ fn resume_never_mixes_parameters() {
     assert_eq!(maps(&out), maps(&fresh), "every map is a 360-degree map");
     // An interrupted run (the summary says so) that changed parameters: the same.
     convert_fixtures(&out, &[]);
-    let summary = out.join("convert_summary.json");
-    let text = std::fs::read_to_string(&summary).unwrap();
-    std::fs::write(
-        &summary,
-        text.replace("\"complete\": true", "\"complete\": false"),
-    )
-    .unwrap();
+    mark_unfinished(&out);
     let (code, j, e) = convert_json(&fixtures(), &out, &["--fov-deg", "360"]);
     assert_eq!(code, 0, "{e}");
     assert_eq!(j["resumed_frames"], 0, "{j}");
@@ -253,13 +247,7 @@ fn incomplete_conversions_are_refused_unless_partial() {
     let t = tmp();
     let out = t.path().join("out");
     convert_fixtures(&out, &["--format", "npy,mcap"]);
-    let summary = out.join("convert_summary.json");
-    let text = std::fs::read_to_string(&summary).unwrap();
-    std::fs::write(
-        &summary,
-        text.replace("\"complete\": true", "\"complete\": false"),
-    )
-    .unwrap();
+    let finished = mark_unfinished(&out);
     for gt in [out.clone(), out.join("lidar_2d"), out.join("shards")] {
         let (code, _, e) = run_text(&["stats", s(&gt)]);
         assert_eq!(code, 1, "{e}");
@@ -283,7 +271,7 @@ fn incomplete_conversions_are_refused_unless_partial() {
     let (code, _, e) = run_text(&["preview", s(&out), "--out", s(&png), "--partial"]);
     assert_eq!(code, 0, "{e}");
     // A map the journal does not list (copied in): refused.
-    std::fs::write(&summary, text).unwrap();
+    std::fs::write(out.join("convert_summary.json"), finished).unwrap();
     let from = out.join("lidar_2d/2011_09_26_0001_0000000000.npy");
     let to = out.join("lidar_2d/2011_09_26_0001_0000000099.npy");
     std::fs::copy(from, to).unwrap();
@@ -304,4 +292,18 @@ fn tmp_leftovers_in_points_are_removed_and_never_shards() {
     assert_eq!(code, 0, "{e}");
     assert!(!leftover.exists());
     assert_eq!(j["leftovers_removed"], 1, "{j}");
+}
+
+/// Makes the convert folder `out` look like a run that did not finish (its summary says so);
+/// returns the summary as it was.
+fn mark_unfinished(out: &Path) -> String {
+    let summary = out.join("convert_summary.json");
+    let text = std::fs::read_to_string(&summary).unwrap();
+    assert!(text.contains("\"complete\": true"), "{text}");
+    std::fs::write(
+        &summary,
+        text.replace("\"complete\": true", "\"complete\": false"),
+    )
+    .unwrap();
+    text
 }
