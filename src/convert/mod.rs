@@ -290,7 +290,9 @@ fn remove_unproduced_shards(opts: &ConvertOptions, run: &Run) -> Result<()> {
 }
 
 /// Converts every frame of `plan`, calling `progress` after each one (from worker threads).
-/// Fails as a whole only when the output folder cannot be created.
+/// A frame that fails is recorded in the summary and the others go on; the whole run fails only
+/// over its folder: parameters or a class map that do not fit, an output folder over the
+/// dataset, a folder that cannot be created, locked, cleaned or journalled.
 pub fn convert(
     plan: &Plan,
     opts: &ConvertOptions,
