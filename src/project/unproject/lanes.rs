@@ -1,13 +1,14 @@
 //! What the kernels that take several points at a time share: the padded map ([`Grid`]), the
 //! numbers of the window ([`Setup`]), and the order the points are taken in ([`drive`]).
 
-use super::{KnnParams, PointsInMap, Vote};
+use super::{far, KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
 use crate::project::EMPTY;
 
-/// The map's cell ranges and classes with `h` cells of padding on every side (zero range, the
-/// padding's vote; or the columns wrapped) and `lanes` more columns on the right, so that no
-/// window needs a bounds test and a block of lanes starting at any column stays inside.
+/// The map's cell ranges (as the kNN compares them: empty cells infinitely far) and classes
+/// with `h` cells of padding on every side (zero range, the padding's vote; or the columns
+/// wrapped) and `lanes` more columns on the right, so that no window needs a bounds test and a
+/// block of lanes starting at any column stays inside.
 pub(super) struct Grid {
     pub far: Vec<f32>,
     pub cls: Vec<i32>,
@@ -25,15 +26,17 @@ impl Grid {
     ) -> Grid {
         let stride = m.cols + 2 * h + lanes;
         let rows = m.rows + 2 * h;
-        let mut far = vec![0.0f32; rows * stride];
+        let mut grid_far = vec![0.0f32; rows * stride];
         let mut cls = vec![vote.pad_vote as i32; rows * stride];
         for r in 0..m.rows {
-            let (src_far, src_cls) = (
-                &vote.far[r * m.cols..(r + 1) * m.cols],
+            let (src_range, src_cls) = (
+                &m.cell_range[r * m.cols..(r + 1) * m.cols],
                 &pred[r * m.cols..(r + 1) * m.cols],
             );
             let at = (r + h) * stride + h;
-            far[at..at + m.cols].copy_from_slice(src_far);
+            for (d, &s) in grid_far[at..at + m.cols].iter_mut().zip(src_range) {
+                *d = far(s);
+            }
             for (d, &s) in cls[at..at + m.cols].iter_mut().zip(src_cls) {
                 *d = s as i32;
             }
@@ -41,14 +44,18 @@ impl Grid {
                 // The h columns beyond each side, taken from the other side.
                 for c in 1..=h {
                     let (left, right) = (m.cols - c % m.cols.max(1), (c - 1) % m.cols);
-                    far[at - c] = src_far[left % m.cols];
+                    grid_far[at - c] = far(src_range[left % m.cols]);
                     cls[at - c] = src_cls[left % m.cols] as i32;
-                    far[at + m.cols - 1 + c] = src_far[right];
+                    grid_far[at + m.cols - 1 + c] = far(src_range[right]);
                     cls[at + m.cols - 1 + c] = src_cls[right] as i32;
                 }
             }
         }
-        Grid { far, cls, stride }
+        Grid {
+            far: grid_far,
+            cls,
+            stride,
+        }
     }
 
     /// Where the window of the cell `cell` (`row * cols + col`) starts (its top-left cell).

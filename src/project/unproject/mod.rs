@@ -293,7 +293,7 @@ pub fn knn_with(
         && classes.len() <= 31
         && matches!((p.window, p.k), (3, 3) | (5, 5) | (7, 7))
     {
-        let vote = Vote::new(m, p, classes);
+        let vote = Vote::new(p, classes);
         let mut out = vec![None; m.point_cell.len()];
         let o = &mut out;
         // SAFETY (each call): the CPU has the kernel's instructions, checked just above.
@@ -318,18 +318,27 @@ pub fn knn_with(
     }
 }
 
-/// What both kNN paths share: who may win, what padding votes for, the weights, the ranges.
+/// What every kNN kernel shares: who may win, what padding votes for, the weights.
 struct Vote {
     can_win: Vec<bool>,
     first_winner: usize,
     nobody: usize,
     pad_vote: usize,
     weights: Vec<f32>,
-    far: Vec<f32>,
+}
+
+/// A cell's range as the kNN compares it: an empty cell (range 0) is infinitely far.
+#[inline(always)]
+fn far(cell_range: f32) -> f32 {
+    if cell_range > 0.0 {
+        cell_range
+    } else {
+        f32::INFINITY
+    }
 }
 
 impl Vote {
-    fn new(m: &PointsInMap<'_>, p: &KnnParams, classes: &ClassMap) -> Vote {
+    fn new(p: &KnnParams, classes: &ClassMap) -> Vote {
         let n_classes = classes.len();
         let can_win: Vec<bool> = (0..n_classes)
             .map(|c| !classes.ignore.contains(&(c as ClassId)))
@@ -346,12 +355,6 @@ impl Vote {
             },
             can_win,
             weights: p.weights(),
-            // Each cell's range for the comparison: empty cells infinitely far.
-            far: m
-                .cell_range
-                .iter()
-                .map(|&r| if r > 0.0 { r } else { f32::INFINITY })
-                .collect(),
         }
     }
 

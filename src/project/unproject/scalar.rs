@@ -1,7 +1,7 @@
 //! The kNN one point at a time: any window, any k, any CPU (the reference the lane kernels are
 //! tested against).
 
-use super::{KnnParams, PointsInMap, Vote};
+use super::{far, KnnParams, PointsInMap, Vote};
 use crate::label::{ClassId, ClassMap};
 use crate::project::EMPTY;
 
@@ -12,12 +12,12 @@ pub(super) fn knn_fixed<const S: usize, const N: usize, const K: usize>(
     p: &KnnParams,
     classes: &ClassMap,
 ) -> Vec<Option<ClassId>> {
-    let vote = Vote::new(m, p, classes);
+    let vote = Vote::new(p, classes);
     let w: [f32; N] = vote.weights[..].try_into().expect("S x S weights");
     let half = S / 2;
     let centre = half * S + half;
     let (rows, cols) = (m.rows, m.cols);
-    let far = &vote.far[..];
+    let far: Vec<f32> = m.cell_range.iter().map(|&r| far(r)).collect();
     let mut out = Vec::with_capacity(m.point_cell.len());
     for (&cell, &r) in m.point_cell.iter().zip(m.point_range) {
         if cell == EMPTY {
@@ -95,7 +95,7 @@ fn window(
                 (0.0, vote.pad_vote)
             } else {
                 let k = (rr * cols + cc) as usize;
-                (vote.far[k], pred[k] as usize)
+                (far(m.cell_range[k]), pred[k] as usize)
             };
             dist[j] = (range - r).abs() * vote.weights[j];
             cls[j] = class;
@@ -111,7 +111,7 @@ pub(super) fn knn(
     p: &KnnParams,
     classes: &ClassMap,
 ) -> Vec<Option<ClassId>> {
-    let vote = Vote::new(m, p, classes);
+    let vote = Vote::new(p, classes);
     let mut dist = vec![0f32; p.window * p.window];
     let mut cls = vec![0usize; p.window * p.window];
     let mut best = vec![u64::MAX; p.k];
