@@ -3,6 +3,8 @@
 //! Data flows one way, one module per stage (`docs/architecture.md` draws it):
 //!
 //! - [`kitti`] READ: drives, velodyne scans, calibration, tracklets, timestamps, OXTS, images;
+//! - [`source`] READ: point clouds of any spinning LiDAR (PCD, flat `.bin`, nuScenes);
+//! - [`sensor`] the sensor model: beam tables (Velodyne, Hesai, Ouster) that make rows beams;
 //! - [`plan`] which frames, which split: the selection and split rules, on the input side;
 //! - [`label`] LABEL: the [`ClassMap`](label::ClassMap) and points in boxes (parry containment);
 //! - [`project`] PROJECT: points -> Polar Grid Map (rings from the scan order), named channels, RGB;
@@ -38,5 +40,7 @@ pub mod plan;
 pub mod project;
 pub mod report;
 pub mod rng;
+pub mod sensor;
+pub mod source;
 
 pub use error::{Error, Result};

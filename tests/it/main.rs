@@ -10,6 +10,7 @@ mod defaults;
 mod errors;
 mod fuzz;
 mod label;
+mod lidars;
 mod outputs;
 mod pinned;
 mod points;

@@ -1,0 +1,367 @@
+//! The SENSOR MODEL: which beam of a spinning LiDAR measured each point, so that the map's rows
+//! are the sensor's beams, exactly, for any sensor whose beam table is known.
+//!
+//! A [`BeamTable`] lists the beams (an id as the sensor's driver numbers it, and the beam's
+//! elevation); the rows of a map are the beams ordered from the highest elevation (row 0) to the
+//! lowest, as KITTI's rings are. Tables come from the vendors' calibration files, each read by
+//! its own module ([`velodyne`]: velodyne_pointcloud's YAML, [`hesai`]: Hesai's angle-correction
+//! CSV, [`ouster`]: Ouster's metadata JSON), or from the built-in [`presets`] by sensor name.
+//!
+//! A point's beam is the beam of the nearest elevation ([`SensorModel::beams`]), seen from the
+//! beam's origin: Ouster's beams start `lidar_origin_to_beam_origin_mm` off the axis, and its
+//! points are written in the sensor frame (`lidar_to_sensor_transform`), both undone first. A
+//! point farther from its nearest beam than half the smallest gap between that beam and its
+//! neighbours fits no beam: it keeps the nearest beam's row and is counted ([`BeamRows::off_model`]);
+//! many of them mean the cloud is not in the sensor's frame.
+
+pub mod hesai;
+pub mod ouster;
+pub mod presets;
+pub mod velodyne;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::geom::{na, Degrees, Point3};
+
+/// The most beams a table may have (rows of a map are `u8` ring ids).
+pub const MAX_BEAMS: usize = 256;
+
+/// Two beams closer in elevation than this (degrees) are one elevation: a table with them cannot
+/// tell their points apart.
+pub const SAME_ELEVATION_DEG: f64 = 1e-4;
+
+/// One beam (laser) of a spinning sensor.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Beam {
+    /// The beam's id as the sensor's driver numbers it (the value of a ring / channel / laser id
+    /// field), 0-based.
+    pub id: u16,
+    /// Elevation above the horizontal plane.
+    pub elevation: Degrees,
+    /// Azimuth offset of the beam (informative; columns come from each point's own azimuth).
+    pub azimuth: Degrees,
+}
+
+/// The beams of a sensor, ordered from the highest elevation (row 0) to the lowest.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BeamTable {
+    beams: Vec<Beam>,
+    /// Row of each beam id (`u8::MAX` where no beam has the id).
+    row_of_id: Vec<u8>,
+    /// Elevations in radians, in row order (for the assignment).
+    elevations: Vec<f64>,
+    /// Half the smallest gap around each beam, radians.
+    tolerance: Vec<f64>,
+}
+
+impl BeamTable {
+    /// A table of `beams` (any order). Errors (naming `path`, the file they came from): no
+    /// beam, more than [`MAX_BEAMS`], a non-finite or impossible elevation, two beams with one
+    /// id, two beams at one elevation.
+    pub fn new(mut beams: Vec<Beam>, path: &Path) -> Result<BeamTable> {
+        let bad = |m: String| Error::format(path, m);
+        if beams.is_empty() {
+            return Err(bad("the table has no beam".into()));
+        }
+        if beams.len() > MAX_BEAMS {
+            return Err(bad(format!(
+                "the table has {} beams, more than the {MAX_BEAMS} a map's rows can hold",
+                beams.len()
+            )));
+        }
+        for b in &beams {
+            if !(b.elevation.0.is_finite() && (-90.0..=90.0).contains(&b.elevation.0)) {
+                return Err(bad(format!(
+                    "beam {} has elevation {} deg, not an angle in [-90, 90]",
+                    b.id, b.elevation.0
+                )));
+            }
+            if !b.azimuth.0.is_finite() {
+                return Err(bad(format!("beam {} has a non-finite azimuth", b.id)));
+            }
+        }
+        let mut ids: Vec<u16> = beams.iter().map(|b| b.id).collect();
+        ids.sort_unstable();
+        if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
+            return Err(bad(format!("two beams have id {}", w[0])));
+        }
+        beams.sort_by(|a, b| {
+            b.elevation
+                .0
+                .total_cmp(&a.elevation.0)
+                .then(a.id.cmp(&b.id))
+        });
+        if let Some(w) = beams
+            .windows(2)
+            .find(|w| w[0].elevation.0 - w[1].elevation.0 < SAME_ELEVATION_DEG)
+        {
+            return Err(bad(format!(
+                "beams {} and {} are at one elevation ({} deg): their points cannot be told apart",
+                w[0].id, w[1].id, w[0].elevation.0
+            )));
+        }
+        let max_id = *ids.last().expect("not empty") as usize;
+        let mut row_of_id = vec![u8::MAX; max_id + 1];
+        for (row, b) in beams.iter().enumerate() {
+            row_of_id[b.id as usize] = row as u8;
+        }
+        let elevations: Vec<f64> = beams.iter().map(|b| b.elevation.to_radians()).collect();
+        let n = elevations.len();
+        let tolerance = (0..n)
+            .map(|i| {
+                let up = (i > 0).then(|| elevations[i - 1] - elevations[i]);
+                let down = (i + 1 < n).then(|| elevations[i] - elevations[i + 1]);
+                // A one-beam table takes anything within 1 degree.
+                let gap = match (up, down) {
+                    (Some(a), Some(b)) => a.min(b),
+                    (Some(a), None) | (None, Some(a)) => a,
+                    (None, None) => 2f64.to_radians(),
+                };
+                gap / 2.0
+            })
+            .collect();
+        Ok(BeamTable {
+            beams,
+            row_of_id,
+            elevations,
+            tolerance,
+        })
+    }
+
+    /// The beams in row order (highest elevation first).
+    pub fn beams(&self) -> &[Beam] {
+        &self.beams
+    }
+
+    /// Number of beams (the map's rows).
+    pub fn len(&self) -> usize {
+        self.beams.len()
+    }
+
+    /// Whether the table has no beam (never: [`BeamTable::new`] refuses it).
+    pub fn is_empty(&self) -> bool {
+        self.beams.is_empty()
+    }
+
+    /// The row of the beam with id `id`, if the table has it.
+    pub fn row_of_id(&self, id: u32) -> Option<u8> {
+        self.row_of_id
+            .get(id as usize)
+            .copied()
+            .filter(|&r| r != u8::MAX)
+    }
+
+    /// The row of the beam nearest to elevation `e` (radians), and whether `e` fits that beam
+    /// (within half the smallest gap around it).
+    #[inline]
+    pub fn nearest(&self, e: f64) -> (u8, bool) {
+        // Elevations descend: the first beam at or below `e`.
+        let k = self.elevations.partition_point(|&b| b > e);
+        let row = if k == 0 {
+            0
+        } else if k == self.elevations.len()
+            || self.elevations[k - 1] - e <= e - self.elevations[k]
+        {
+            k - 1
+        } else {
+            k
+        };
+        let fits = (self.elevations[row] - e).abs() <= self.tolerance[row];
+        (row as u8, fits)
+    }
+}
+
+/// Where the points of a cloud are, relative to the beams' origins: Ouster's beams start
+/// `beam_origin_offset` metres off the axis, and its points are in the sensor frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorModel {
+    /// The sensor's name (`VLP-16`, `OS-1-32-G`, a calibration file's name).
+    pub name: String,
+    /// The beams.
+    pub table: BeamTable,
+    /// Distance from the lidar's axis to each beam's origin, metres (Ouster; 0 otherwise).
+    pub beam_origin_offset: f64,
+    /// The lidar frame (beams) to the frame the points are written in (Ouster's
+    /// `lidar_to_sensor_transform`; identity otherwise), metres.
+    pub lidar_to_points: na::Isometry3<f64>,
+}
+
+/// The beam of every point of a cloud.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct BeamRows {
+    /// The row (beam rank by elevation, 0 = highest) of every point.
+    pub rows: Vec<u8>,
+    /// Points whose elevation fits no beam (they keep the nearest beam's row).
+    pub off_model: u64,
+}
+
+impl SensorModel {
+    /// A model of beams at the origin, points in the lidar frame (Velodyne, Hesai).
+    pub fn plain(name: impl Into<String>, table: BeamTable) -> SensorModel {
+        SensorModel {
+            name: name.into(),
+            table,
+            beam_origin_offset: 0.0,
+            lidar_to_points: na::Isometry3::identity(),
+        }
+    }
+
+    /// Number of beams (rows).
+    pub fn beams(&self) -> usize {
+        self.table.len()
+    }
+
+    /// The elevation of `p` seen from its beam's origin, radians.
+    #[inline]
+    pub fn elevation(&self, p: &Point3, points_to_lidar: &na::Isometry3<f64>) -> f64 {
+        let q = points_to_lidar * na::Point3::new(p.x as f64, p.y as f64, p.z as f64);
+        let horizontal = q.x.hypot(q.y) - self.beam_origin_offset;
+        q.z.atan2(horizontal)
+    }
+
+    /// The beam row of every point (nearest elevation), and how many fit no beam.
+    pub fn assign(&self, points: &[Point3]) -> BeamRows {
+        let inverse = self.lidar_to_points.inverse();
+        let plain = self.beam_origin_offset == 0.0 && inverse == na::Isometry3::identity();
+        let mut off_model = 0u64;
+        let rows = points
+            .iter()
+            .map(|p| {
+                let e = if plain {
+                    (p.z as f64).atan2((p.x as f64).hypot(p.y as f64))
+                } else {
+                    self.elevation(p, &inverse)
+                };
+                let (row, fits) = self.table.nearest(e);
+                off_model += u64::from(!fits);
+                row
+            })
+            .collect();
+        BeamRows { rows, off_model }
+    }
+}
+
+/// How a ring / channel field numbers the beams.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum RingOrder {
+    /// Ring 0 is the lowest beam (velodyne_pointcloud's `ring`, nebula's `channel`, nuScenes'
+    /// ring index).
+    #[default]
+    BottomUp,
+    /// Ring 0 is the highest beam (Hesai's own driver, Ouster's channel).
+    TopDown,
+}
+
+crate::named_enum!(RingOrder, "ring order", [
+    BottomUp => "bottom-up" [] "Ring 0 is the lowest beam (velodyne_pointcloud, nebula, nuScenes)",
+    TopDown => "top-down" [] "Ring 0 is the highest beam (Hesai's driver, Ouster)",
+]);
+
+/// The rows of a cloud whose points carry their ring (a ring / channel / laser id field) of a
+/// sensor of `beams` beams: row 0 the highest beam. A ring at or beyond `beams` is an error
+/// naming `path`.
+pub fn ring_rows(rings: &[u16], beams: usize, order: RingOrder, path: &Path) -> Result<Vec<u8>> {
+    if beams == 0 || beams > MAX_BEAMS {
+        return Err(Error::Config(format!(
+            "{beams} beams: a sensor has 1 to {MAX_BEAMS}"
+        )));
+    }
+    if let Some((i, r)) = rings.iter().enumerate().find(|(_, &r)| r as usize >= beams) {
+        return Err(Error::format(
+            path,
+            format!(
+                "point {i} has ring {r}, but the sensor has {beams} beams (rings 0-{}); give the \
+                 sensor (--sensor, --sensor-calibration) or its beam count (--beams)",
+                beams - 1
+            ),
+        ));
+    }
+    Ok(match order {
+        RingOrder::BottomUp => rings
+            .iter()
+            .map(|&r| (beams - 1 - r as usize) as u8)
+            .collect(),
+        RingOrder::TopDown => rings.iter().map(|&r| r as u8).collect(),
+    })
+}
+
+/// Reads a sensor model from a vendor's calibration file, by its extension: `.yaml` / `.yml`
+/// (velodyne_pointcloud), `.csv` (Hesai), `.json` (Ouster metadata).
+pub fn read_calibration(path: &Path) -> Result<SensorModel> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("yaml" | "yml") => velodyne::read(path),
+        Some("csv") => hesai::read(path),
+        Some("json") => ouster::read(path),
+        _ => Err(Error::format(
+            path,
+            "not a calibration table kitti2pgm reads: expected a velodyne_pointcloud .yaml, a \
+             Hesai angle-correction .csv or an Ouster metadata .json",
+        )),
+    }
+}
+
+/// The sensor name of a calibration file: its stem.
+pub(crate) fn file_stem(path: &Path) -> String {
+    path.file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("sensor")
+        .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn beam(id: u16, e: f64) -> Beam {
+        Beam {
+            id,
+            elevation: Degrees(e),
+            azimuth: Degrees(0.0),
+        }
+    }
+
+    #[test]
+    fn rows_run_from_the_highest_beam() {
+        let t = BeamTable::new(
+            vec![beam(0, -15.0), beam(1, 1.0), beam(2, -13.0)],
+            Path::new("t"),
+        )
+        .unwrap();
+        assert_eq!(t.row_of_id(1), Some(0));
+        assert_eq!(t.row_of_id(2), Some(1));
+        assert_eq!(t.row_of_id(0), Some(2));
+        assert_eq!(t.row_of_id(3), None);
+        // Half the smallest gap around beam 2 (-13) is 1 degree.
+        assert_eq!(t.nearest((-13.9f64).to_radians()), (1, true));
+        assert_eq!(t.nearest((-14.1f64).to_radians()), (2, true));
+        // 5 degrees above the top beam (half its gap: 7 degrees) still fits; 8 do not.
+        assert_eq!(t.nearest(6f64.to_radians()), (0, true));
+        assert_eq!(t.nearest(9f64.to_radians()), (0, false));
+    }
+
+    #[test]
+    fn bad_tables_are_refused() {
+        let p = Path::new("calib.csv");
+        let e = BeamTable::new(vec![], p).unwrap_err().to_string();
+        assert!(e.contains("calib.csv") && e.contains("no beam"), "{e}");
+        let e = BeamTable::new(vec![beam(0, 1.0), beam(1, 1.0)], p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("one elevation"), "{e}");
+        let e = BeamTable::new(vec![beam(0, 1.0), beam(0, 2.0)], p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("two beams have id 0"), "{e}");
+        let e = BeamTable::new(vec![beam(0, f64::NAN)], p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not an angle"), "{e}");
+    }
+}

@@ -1,0 +1,182 @@
+//! Ouster sensor metadata (the JSON the sensor and its SDK write): beam altitude and azimuth
+//! angles, `lidar_origin_to_beam_origin_mm`, `lidar_to_sensor_transform`, and the data format
+//! (pixels per column, columns per frame, pixel shift by row). Both layouts are read: the flat
+//! one of firmware 2.0-2.3 and the nested one (`beam_intrinsics`, `lidar_intrinsics`,
+//! `lidar_data_format`, `sensor_info`) of later firmware.
+//!
+//! Ouster's beam angles differ from unit to unit: there is no nominal table, each unit's own
+//! metadata file is the model.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::{file_stem, Beam, BeamTable, SensorModel};
+use crate::error::{Error, Result};
+use crate::fs::{self, Limit};
+use crate::geom::{check_rotation, na, Degrees};
+
+/// Ouster's frame layout: the image the vendor's tools show (rows = beams in metadata order,
+/// columns = measurement ids, destaggered by each row's pixel shift).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OusterFormat {
+    /// Beams (pixels per column).
+    pub pixels_per_column: usize,
+    /// Columns (measurements) per frame.
+    pub columns_per_frame: usize,
+    /// The pixel shift of each row (staggered -> destaggered).
+    pub pixel_shift_by_row: Vec<i64>,
+}
+
+/// Reads an Ouster metadata JSON; the sensor is named by its `prod_line` (else the file).
+pub fn read(path: &Path) -> Result<SensorModel> {
+    let text = fs::read_text(path, Limit::Text)?;
+    parse(&text, path).map(|(m, _)| m)
+}
+
+/// Reads an Ouster metadata JSON with its frame layout.
+pub fn read_with_format(path: &Path) -> Result<(SensorModel, OusterFormat)> {
+    let text = fs::read_text(path, Limit::Text)?;
+    parse(&text, path)
+}
+
+/// Looks `key` up at the top level or in one of the nested sections.
+fn field<'a>(root: &'a Value, sections: &[&str], key: &str) -> Option<&'a Value> {
+    root.get(key)
+        .or_else(|| sections.iter().find_map(|s| root.get(*s)?.get(key)))
+}
+
+fn numbers(v: &Value, path: &Path, key: &str) -> Result<Vec<f64>> {
+    let bad = || Error::format(path, format!("{key} is not a list of numbers"));
+    v.as_array()
+        .ok_or_else(bad)?
+        .iter()
+        .map(|x| x.as_f64().filter(|x| x.is_finite()).ok_or_else(bad))
+        .collect()
+}
+
+/// Parses the metadata text of `path`.
+pub fn parse(text: &str, path: &Path) -> Result<(SensorModel, OusterFormat)> {
+    let root: Value = serde_json::from_str(text).map_err(|e| Error::NotFormat {
+        path: path.into(),
+        format: "Ouster metadata (JSON)",
+        detail: e.to_string(),
+    })?;
+    let need = |sections: &[&str], key: &str| {
+        field(&root, sections, key).ok_or_else(|| {
+            Error::format(
+                path,
+                format!("no {key}: not the metadata of an Ouster sensor"),
+            )
+        })
+    };
+    let beam = ["beam_intrinsics"];
+    let altitude = numbers(
+        need(&beam, "beam_altitude_angles")?,
+        path,
+        "beam_altitude_angles",
+    )?;
+    let azimuth = numbers(
+        need(&beam, "beam_azimuth_angles")?,
+        path,
+        "beam_azimuth_angles",
+    )?;
+    if altitude.len() != azimuth.len() {
+        return Err(Error::format(
+            path,
+            format!(
+                "{} beam altitude angles but {} azimuth angles",
+                altitude.len(),
+                azimuth.len()
+            ),
+        ));
+    }
+    let offset_mm = need(&beam, "lidar_origin_to_beam_origin_mm")?
+        .as_f64()
+        .filter(|v| v.is_finite() && *v >= 0.0)
+        .ok_or_else(|| {
+            Error::format(
+                path,
+                "lidar_origin_to_beam_origin_mm is not a non-negative number",
+            )
+        })?;
+    let transform = numbers(
+        need(&["lidar_intrinsics"], "lidar_to_sensor_transform")?,
+        path,
+        "lidar_to_sensor_transform",
+    )?;
+    if transform.len() != 16 {
+        return Err(Error::format(
+            path,
+            format!(
+                "lidar_to_sensor_transform has {} numbers, expected 16",
+                transform.len()
+            ),
+        ));
+    }
+    let m = na::Matrix4::from_row_slice(&transform);
+    let rotation = m.fixed_view::<3, 3>(0, 0).into_owned();
+    check_rotation(&rotation)
+        .map_err(|e| Error::format(path, format!("lidar_to_sensor_transform {e}")))?;
+    let translation = na::Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]) / 1000.0;
+    let lidar_to_points = na::Isometry3::from_parts(
+        translation.into(),
+        na::UnitQuaternion::from_matrix(&rotation),
+    );
+    let beams = altitude
+        .iter()
+        .zip(&azimuth)
+        .enumerate()
+        .map(|(i, (&alt, &az))| Beam {
+            id: i as u16,
+            elevation: Degrees(alt),
+            azimuth: Degrees(az),
+        })
+        .collect();
+    let table = BeamTable::new(beams, path)?;
+    let name = field(&root, &["sensor_info"], "prod_line")
+        .and_then(Value::as_str)
+        .map_or_else(|| file_stem(path), str::to_string);
+    let data = ["data_format", "lidar_data_format"];
+    let count = |key: &str| -> Result<usize> {
+        need(&data, key)?
+            .as_u64()
+            .filter(|&v| v > 0 && v <= 1 << 16)
+            .map(|v| v as usize)
+            .ok_or_else(|| Error::format(path, format!("{key} is not a positive whole number")))
+    };
+    let format = OusterFormat {
+        pixels_per_column: count("pixels_per_column")?,
+        columns_per_frame: count("columns_per_frame")?,
+        pixel_shift_by_row: numbers(
+            need(&data, "pixel_shift_by_row")?,
+            path,
+            "pixel_shift_by_row",
+        )?
+        .into_iter()
+        .map(|v| v as i64)
+        .collect(),
+    };
+    if format.pixels_per_column != altitude.len()
+        || format.pixel_shift_by_row.len() != altitude.len()
+    {
+        return Err(Error::format(
+            path,
+            format!(
+                "{} beams, but pixels_per_column is {} and pixel_shift_by_row has {} values",
+                altitude.len(),
+                format.pixels_per_column,
+                format.pixel_shift_by_row.len()
+            ),
+        ));
+    }
+    Ok((
+        SensorModel {
+            name,
+            table,
+            beam_origin_offset: offset_mm / 1000.0,
+            lidar_to_points,
+        },
+        format,
+    ))
+}

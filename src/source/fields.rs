@@ -1,0 +1,303 @@
+//! Point layouts: the fields of one point record (name, type, count, offset), as PCD headers,
+//! PointCloud2 messages and `--fields` declarations describe them, and their decoding into a
+//! [`LidarCloud`].
+//!
+//! Roles by field name: `x`, `y`, `z` (required); the intensity is the first of `intensity`,
+//! `reflectivity`, `reflectance`, `remission`, `i`; the beam id the first of `ring`, `channel`,
+//! `laser_id`, `laser`, `line`. Other fields are read past.
+
+use std::fmt;
+use std::path::Path;
+
+use super::LidarCloud;
+use crate::error::{Error, Result};
+use crate::geom::Point3;
+
+/// The scalar type of a field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FieldType {
+    /// Signed 8-bit integer.
+    I8,
+    /// Unsigned 8-bit integer.
+    U8,
+    /// Signed 16-bit integer.
+    I16,
+    /// Unsigned 16-bit integer.
+    U16,
+    /// Signed 32-bit integer.
+    I32,
+    /// Unsigned 32-bit integer.
+    U32,
+    /// Signed 64-bit integer.
+    I64,
+    /// Unsigned 64-bit integer.
+    U64,
+    /// 32-bit float.
+    F32,
+    /// 64-bit float.
+    F64,
+}
+
+impl FieldType {
+    /// Bytes of one value.
+    pub fn size(self) -> usize {
+        match self {
+            FieldType::I8 | FieldType::U8 => 1,
+            FieldType::I16 | FieldType::U16 => 2,
+            FieldType::I32 | FieldType::U32 | FieldType::F32 => 4,
+            FieldType::I64 | FieldType::U64 | FieldType::F64 => 8,
+        }
+    }
+
+    /// PCD's type letter and size (`F 4`, `U 2`).
+    pub fn from_pcd(letter: &str, size: usize) -> Option<FieldType> {
+        Some(match (letter, size) {
+            ("I", 1) => FieldType::I8,
+            ("U", 1) => FieldType::U8,
+            ("I", 2) => FieldType::I16,
+            ("U", 2) => FieldType::U16,
+            ("I", 4) => FieldType::I32,
+            ("U", 4) => FieldType::U32,
+            ("I", 8) => FieldType::I64,
+            ("U", 8) => FieldType::U64,
+            ("F", 4) => FieldType::F32,
+            ("F", 8) => FieldType::F64,
+            _ => return None,
+        })
+    }
+
+    /// A declared type name (`f32`, `u16`, ...).
+    pub fn from_name(name: &str) -> Option<FieldType> {
+        Some(match name {
+            "i8" => FieldType::I8,
+            "u8" => FieldType::U8,
+            "i16" => FieldType::I16,
+            "u16" => FieldType::U16,
+            "i32" => FieldType::I32,
+            "u32" => FieldType::U32,
+            "i64" => FieldType::I64,
+            "u64" => FieldType::U64,
+            "f32" => FieldType::F32,
+            "f64" => FieldType::F64,
+            _ => return None,
+        })
+    }
+
+    /// Decodes one value from the start of `b` (at least [`FieldType::size`] bytes).
+    #[inline]
+    pub fn read(self, b: &[u8], big_endian: bool) -> f64 {
+        macro_rules! num {
+            ($t:ty, $n:literal) => {{
+                let a: [u8; $n] = b[..$n].try_into().expect("sized by the layout");
+                (if big_endian {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                }) as f64
+            }};
+        }
+        match self {
+            FieldType::I8 => b[0] as i8 as f64,
+            FieldType::U8 => b[0] as f64,
+            FieldType::I16 => num!(i16, 2),
+            FieldType::U16 => num!(u16, 2),
+            FieldType::I32 => num!(i32, 4),
+            FieldType::U32 => num!(u32, 4),
+            FieldType::I64 => num!(i64, 8),
+            FieldType::U64 => num!(u64, 8),
+            FieldType::F32 => num!(f32, 4),
+            FieldType::F64 => num!(f64, 8),
+        }
+    }
+}
+
+impl fmt::Display for FieldType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            FieldType::I8 => "i8",
+            FieldType::U8 => "u8",
+            FieldType::I16 => "i16",
+            FieldType::U16 => "u16",
+            FieldType::I32 => "i32",
+            FieldType::U32 => "u32",
+            FieldType::I64 => "i64",
+            FieldType::U64 => "u64",
+            FieldType::F32 => "f32",
+            FieldType::F64 => "f64",
+        })
+    }
+}
+
+/// One field of a point record.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Field {
+    /// Its name.
+    pub name: String,
+    /// Its scalar type.
+    pub ty: FieldType,
+    /// Values per point (1 for scalars).
+    pub count: usize,
+    /// Byte offset in the record.
+    pub offset: usize,
+}
+
+/// The fields of one point record and the record's length (`point_step`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PointLayout {
+    /// The fields, in record order.
+    pub fields: Vec<Field>,
+    /// Bytes of one record (at least the end of the last field).
+    pub step: usize,
+    /// Whether the values are big-endian (PointCloud2's `is_bigendian`).
+    pub big_endian: bool,
+}
+
+/// Names of the intensity field, by preference.
+pub const INTENSITY_NAMES: [&str; 5] =
+    ["intensity", "reflectivity", "reflectance", "remission", "i"];
+/// Names of the beam id field, by preference.
+pub const RING_NAMES: [&str; 5] = ["ring", "channel", "laser_id", "laser", "line"];
+
+/// Where the roles sit in a record.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Roles {
+    xyz: [(usize, FieldType); 3],
+    intensity: Option<(usize, FieldType)>,
+    ring: Option<(usize, FieldType)>,
+}
+
+impl PointLayout {
+    /// A packed layout of `fields` (name, type), offsets in order.
+    pub fn packed(fields: &[(&str, FieldType)]) -> PointLayout {
+        let mut offset = 0;
+        let fields = fields
+            .iter()
+            .map(|&(name, ty)| {
+                let f = Field {
+                    name: name.into(),
+                    ty,
+                    count: 1,
+                    offset,
+                };
+                offset += ty.size();
+                f
+            })
+            .collect();
+        PointLayout {
+            fields,
+            step: offset,
+            big_endian: false,
+        }
+    }
+
+    /// Parses a declaration such as `x,y,z,intensity,ring:f32` or `x,y,z:f32,intensity:u8,_:u8,
+    /// ring:u16`: comma-separated names, each with an optional `:type`; a field without a type
+    /// takes the type of the next field that has one (the last ones default to `f32`); `_` is
+    /// padding.
+    pub fn declared(spec: &str) -> Result<PointLayout> {
+        let bad = |m: String| Error::Config(format!("--fields {spec:?}: {m}"));
+        let mut named: Vec<(String, Option<FieldType>)> = Vec::new();
+        for part in spec.split(',') {
+            let part = part.trim();
+            let (name, ty) = match part.split_once(':') {
+                Some((n, t)) => (
+                    n.trim(),
+                    Some(FieldType::from_name(t.trim()).ok_or_else(|| {
+                        bad(format!(
+                            "unknown type {t:?} (one of i8, u8, i16, u16, i32, u32, i64, u64, f32, f64)"
+                        ))
+                    })?),
+                ),
+                None => (part, None),
+            };
+            if name.is_empty() {
+                return Err(bad("an empty field name".into()));
+            }
+            named.push((name.to_string(), ty));
+        }
+        let mut next = FieldType::F32;
+        let mut typed: Vec<(String, FieldType)> = Vec::with_capacity(named.len());
+        for (name, ty) in named.into_iter().rev() {
+            next = ty.unwrap_or(next);
+            typed.push((name, next));
+        }
+        typed.reverse();
+        let pairs: Vec<(&str, FieldType)> = typed.iter().map(|(n, t)| (n.as_str(), *t)).collect();
+        let layout = PointLayout::packed(&pairs);
+        layout
+            .roles(Path::new("--fields"))
+            .map_err(|e| bad(e.to_string()))?;
+        Ok(layout)
+    }
+
+    fn find(&self, names: &[&str]) -> Option<&Field> {
+        names
+            .iter()
+            .find_map(|n| self.fields.iter().find(|f| f.name.eq_ignore_ascii_case(n)))
+    }
+
+    /// Checks the layout (fields inside the record, x, y, z present) and finds the roles.
+    pub(crate) fn roles(&self, path: &Path) -> Result<Roles> {
+        for f in &self.fields {
+            let end = f.offset + f.ty.size() * f.count;
+            if end > self.step {
+                return Err(Error::format(
+                    path,
+                    format!(
+                        "field {} ends at byte {end}, beyond the {}-byte point record",
+                        f.name, self.step
+                    ),
+                ));
+            }
+        }
+        let scalar = |f: &Field| (f.offset, f.ty);
+        let axis = |n: &str| {
+            self.find(&[n]).map(scalar).ok_or_else(|| {
+                Error::format(
+                    path,
+                    format!(
+                        "no {n} field (fields: {})",
+                        self.fields
+                            .iter()
+                            .map(|f| f.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )
+            })
+        };
+        Ok(Roles {
+            xyz: [axis("x")?, axis("y")?, axis("z")?],
+            intensity: self.find(&INTENSITY_NAMES).map(scalar),
+            ring: self.find(&RING_NAMES).map(scalar),
+        })
+    }
+
+    /// Decodes `n` records laid end to end in `data` (record `i` at `i * step`), as a cloud of
+    /// `path`. Points with a non-finite coordinate are dropped and counted (a non-dense cloud's
+    /// NaN points).
+    pub fn decode(&self, data: &[u8], n: usize, path: &Path) -> Result<LidarCloud> {
+        let need = n.checked_mul(self.step).filter(|&b| b <= data.len());
+        if need.is_none() {
+            return Err(Error::Length {
+                path: path.into(),
+                what: format!("the data of {n} points of {} bytes", self.step),
+                found: data.len(),
+                expected: n.saturating_mul(self.step),
+                unit: "bytes",
+            });
+        }
+        let roles = self.roles(path)?;
+        let mut out = LidarCloud::with_capacity(n, roles.intensity.is_some(), roles.ring.is_some());
+        let be = self.big_endian;
+        let get = |rec: &[u8], (off, ty): (usize, FieldType)| ty.read(&rec[off..], be);
+        for (i, rec) in data.chunks_exact(self.step).take(n).enumerate() {
+            let [x, y, z] = roles.xyz.map(|r| get(rec, r) as f32);
+            let intensity = roles.intensity.map_or(0.0, |r| get(rec, r) as f32);
+            let ring = roles.ring.map(|r| get(rec, r));
+            out.push(i, Point3::new(x, y, z), intensity, ring, path)?;
+        }
+        out.file_len = n;
+        Ok(out)
+    }
+}

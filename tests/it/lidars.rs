@@ -1,0 +1,350 @@
+//! Other sensors than KITTI's HDL-64E: the PCD and flat readers and the sensor model (beam
+//! tables, presets) on the real scans of `fixtures/lidars` and `../shared/lidars`.
+
+use std::path::{Path, PathBuf};
+
+use kitti2pgm::sensor::{self, presets::Sensor, RingOrder, SensorModel};
+use kitti2pgm::source::{self, pcd, LidarCloud};
+
+/// `../shared/lidars` where present, else `fixtures/lidars` (a subset).
+fn lidars() -> PathBuf {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/lidars");
+    if shared.join("hesai").is_dir() {
+        shared
+    } else {
+        super::util::fixture("lidars")
+    }
+}
+
+/// The scans with their sensors: (scan, calibration file, preset).
+fn scans() -> Vec<(PathBuf, PathBuf, Sensor)> {
+    let root = lidars();
+    let all = [
+        (
+            "velodyne/vlp16_1673400472138016708.pcd",
+            "velodyne/VLP16.yaml",
+            Sensor::Vlp16,
+        ),
+        (
+            "velodyne/vlp32_1713492677464078412.pcd",
+            "velodyne/VLP32.yaml",
+            Sensor::Vlp32c,
+        ),
+        (
+            "hesai/Pandar40P_1673400149711850138.pcd",
+            "hesai/Pandar40P.csv",
+            Sensor::Pandar40p,
+        ),
+        (
+            "hesai/Pandar64_1673403880898440686.pcd",
+            "hesai/Pandar64.csv",
+            Sensor::Pandar64,
+        ),
+        (
+            "hesai/PandarQT64_1673401196087570870.pcd",
+            "hesai/PandarQT64.csv",
+            Sensor::PandarQt64,
+        ),
+        (
+            "hesai/PandarXT16_1732848128093928016.pcd",
+            "hesai/PandarXT16.csv",
+            Sensor::PandarXt16,
+        ),
+        (
+            "hesai/PandarXT32_1673400678101968885.pcd",
+            "hesai/PandarXT32.csv",
+            Sensor::PandarXt32,
+        ),
+        (
+            "hesai/PandarXT32M_1660893203292679064.pcd",
+            "hesai/PandarXT32M.csv",
+            Sensor::PandarXt32m,
+        ),
+    ];
+    all.iter()
+        .map(|(s, c, p)| (root.join(s), root.join(c), *p))
+        .filter(|(s, _, _)| s.is_file())
+        .collect()
+}
+
+/// Largest difference between a point's elevation and its row's beam, degrees.
+fn worst_fit(cloud: &LidarCloud, model: &SensorModel, rows: &[u8]) -> f64 {
+    cloud
+        .points
+        .iter()
+        .zip(rows)
+        .map(|(p, &r)| {
+            let e = (p.z as f64)
+                .atan2((p.x as f64).hypot(p.y as f64))
+                .to_degrees();
+            (e - model.table.beams()[r as usize].elevation.0).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn every_point_of_every_real_scan_is_on_one_beam_of_its_table() {
+    let scans = scans();
+    assert!(scans.len() >= 3, "fixtures/lidars holds three scans");
+    for (scan, calib, preset) in scans {
+        let cloud = pcd::read(&scan).unwrap();
+        assert!(cloud.len() > 10_000, "{}", scan.display());
+        for model in [
+            sensor::read_calibration(&calib).unwrap(),
+            preset.model_table(),
+        ] {
+            let rows = model.assign(&cloud.points);
+            assert_eq!(rows.off_model, 0, "{} with {}", scan.display(), model.name);
+            // Within 1e-3 degrees of the beam (float32 coordinates): no row holds two beams.
+            let worst = worst_fit(&cloud, &model, &rows.rows);
+            assert!(worst < 1e-3, "{}: {worst} deg off", scan.display());
+        }
+    }
+}
+
+#[test]
+fn the_vlp16_rows_are_its_channels() {
+    let root = lidars();
+    let cloud = pcd::read(&root.join("velodyne/vlp16_1673400472138016708.pcd")).unwrap();
+    assert_eq!(cloud.file_len, 14_831);
+    let channel = cloud.ring.as_ref().expect("the scan has a channel field");
+    let model = Sensor::Vlp16.model_table();
+    let by_ring = sensor::ring_rows(channel, 16, RingOrder::BottomUp, Path::new("vlp16")).unwrap();
+    let by_elevation = model.assign(&cloud.points);
+    assert!(
+        by_ring == by_elevation.rows,
+        "the channel field and the table disagree"
+    );
+    // The driver's channel counts from the lowest beam; the YAML's laser 0 is -15 deg too
+    // (row 15), its laser 1 +1 deg (row 7): rows run top to bottom.
+    assert_eq!(model.table.row_of_id(0), Some(15));
+    assert_eq!(model.table.row_of_id(1), Some(7));
+    let e = sensor::ring_rows(&[3, 16], 16, RingOrder::BottomUp, Path::new("c.pcd"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("c.pcd") && e.contains("point 1 has ring 16"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_nuscenes_keyframe_has_its_ring_column_and_32_beams() {
+    let dir = lidars().join("nuscenes");
+    let path = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().ends_with(".pcd.bin"))
+        .unwrap();
+    let cloud = source::read_cloud(&path, None).unwrap();
+    assert_eq!(cloud.file_len, 34_688);
+    let ring = cloud.ring.as_ref().unwrap();
+    assert_eq!(ring.iter().copied().max(), Some(31));
+    // Ring 0 is the lowest beam: its points lie below those of ring 31.
+    let median = |r: u16| {
+        let mut e: Vec<f64> = cloud
+            .points
+            .iter()
+            .zip(ring)
+            .filter(|(_, &q)| q == r)
+            .map(|(p, _)| (p.z as f64).atan2((p.x as f64).hypot(p.y as f64)))
+            .collect();
+        e.sort_by(f64::total_cmp);
+        e[e.len() / 2]
+    };
+    assert!(median(0) < median(15) && median(15) < median(31));
+    assert!(cloud.has_intensity);
+}
+
+#[test]
+fn ouster_metadata_gives_the_beams_the_origin_offset_and_the_sensor_frame() {
+    let path = lidars().join("ouster/OS-1-32-G_v2.1.1_1024x10.json");
+    let (model, format) = sensor::ouster::read_with_format(&path).unwrap();
+    assert_eq!(model.name, "OS-1-32-G");
+    assert_eq!(model.beams(), 32);
+    assert_eq!(format.columns_per_frame, 1024);
+    assert!((model.beam_origin_offset - 0.015806).abs() < 1e-9);
+    // 180 degrees about z, 36.18 mm up.
+    let t = model.lidar_to_points;
+    assert!((t.translation.vector.z - 0.03618).abs() < 1e-9);
+    let x = t.rotation * kitti2pgm::geom::na::Vector3::x();
+    assert!((x.x + 1.0).abs() < 1e-12);
+    // A point straight along beam 0 (12.75 deg) at 10 m, from its beam origin, written in the
+    // sensor frame, is on beam 0.
+    let alt = 12.75f64.to_radians();
+    let lidar =
+        kitti2pgm::geom::na::Point3::new(0.015806 + 10.0 * alt.cos(), 0.0, 10.0 * alt.sin());
+    let s = t * lidar;
+    let p = kitti2pgm::geom::Point3::new(s.x as f32, s.y as f32, s.z as f32);
+    let rows = model.assign(&[p]);
+    assert_eq!((rows.rows[0], rows.off_model), (0, 0));
+}
+
+/// A PCD of `body` after a header for `fields` (name, size, type) and `n` points.
+fn pcd_file(fields: &[(&str, usize, char)], n: usize, data: &str, body: &[u8]) -> Vec<u8> {
+    let names: Vec<&str> = fields.iter().map(|f| f.0).collect();
+    let sizes: Vec<String> = fields.iter().map(|f| f.1.to_string()).collect();
+    let types: Vec<String> = fields.iter().map(|f| f.2.to_string()).collect();
+    let mut out = format!(
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE {}\nCOUNT {}\nWIDTH {n}\nHEIGHT 1\n\
+         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA {data}\n",
+        names.join(" "),
+        sizes.join(" "),
+        types.join(" "),
+        vec!["1"; fields.len()].join(" ")
+    )
+    .into_bytes();
+    out.extend_from_slice(body);
+    out
+}
+
+#[test]
+fn pcd_field_order_types_and_nan_points() {
+    // z, a padding byte, intensity u8, x as f64, y, ring u16 and a NaN point.
+    let fields = [
+        ("z", 4, 'F'),
+        ("pad", 1, 'U'),
+        ("intensity", 1, 'U'),
+        ("x", 8, 'F'),
+        ("y", 4, 'F'),
+        ("ring", 2, 'U'),
+    ];
+    let mut body = Vec::new();
+    for (i, (x, y, z)) in [
+        (1.0f64, 2.0f32, 3.0f32),
+        (f64::NAN, 0.0, 0.0),
+        (4.0, 5.0, 6.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        body.extend_from_slice(&z.to_le_bytes());
+        body.push(0);
+        body.push(10 * i as u8);
+        body.extend_from_slice(&x.to_le_bytes());
+        body.extend_from_slice(&y.to_le_bytes());
+        body.extend_from_slice(&(i as u16 + 7).to_le_bytes());
+    }
+    let bytes = pcd_file(&fields, 3, "binary", &body);
+    let c = pcd::decode(&bytes, Path::new("t.pcd")).unwrap();
+    assert_eq!(c.points.len(), 2);
+    assert_eq!(c.dropped, vec![1]);
+    assert_eq!(c.points[1].coords.as_slice(), &[4.0, 5.0, 6.0]);
+    assert_eq!(c.intensity, vec![0.0, 20.0]);
+    assert_eq!(c.ring, Some(vec![7, 9]));
+    // The same points as text.
+    let text = "3 0 0 1 2 7\nnan 0 10 nan 0 8\n6 0 20 4 5 9\n";
+    let a = pcd::decode(
+        &pcd_file(&fields, 3, "ascii", text.as_bytes()),
+        Path::new("a.pcd"),
+    )
+    .unwrap();
+    assert_eq!(a, c);
+}
+
+#[test]
+fn bad_pcd_files_are_named_with_what_is_wrong() {
+    let f = [("x", 4, 'F'), ("y", 4, 'F'), ("z", 4, 'F')];
+    let p = Path::new("bad.pcd");
+    let err = |b: &[u8]| pcd::decode(b, p).unwrap_err().to_string();
+    let body = vec![0u8; 24];
+    // Truncated: the header says 3 points, the data holds 2.
+    let e = err(&pcd_file(&f, 3, "binary", &body));
+    assert!(
+        e.contains("bad.pcd") && e.contains("24") && e.contains("36"),
+        "{e}"
+    );
+    // A header that lies about its field sizes (SIZE 3 for a float).
+    let e = err(&pcd_file(
+        &[("x", 3, 'F'), ("y", 4, 'F'), ("z", 4, 'F')],
+        2,
+        "binary",
+        &body,
+    ));
+    assert!(e.contains("not a PCD type"), "{e}");
+    // An unknown type letter.
+    let e = err(&pcd_file(
+        &[("x", 4, 'Q'), ("y", 4, 'F'), ("z", 4, 'F')],
+        2,
+        "binary",
+        &body,
+    ));
+    assert!(e.contains("TYPE Q"), "{e}");
+    // POINTS against WIDTH x HEIGHT.
+    let mut lie = pcd_file(&f, 2, "binary", &body);
+    let s = String::from_utf8_lossy(&lie).replace("POINTS 2", "POINTS 5");
+    lie = s.into_bytes();
+    let e = err(&lie);
+    assert!(e.contains("POINTS is 5"), "{e}");
+    // No z field.
+    let e = err(&pcd_file(
+        &[("x", 4, 'F'), ("y", 4, 'F')],
+        3,
+        "binary",
+        &body,
+    ));
+    assert!(e.contains("no z field"), "{e}");
+    // Damaged compressed data: sizes that do not add up, then garbage.
+    let mut cmp = 16u32.to_le_bytes().to_vec();
+    cmp.extend_from_slice(&24u32.to_le_bytes());
+    cmp.extend_from_slice(&[0xff; 16]);
+    let e = err(&pcd_file(&f, 2, "binary_compressed", &cmp));
+    assert!(
+        e.contains("corrupted") && e.contains("binary_compressed"),
+        "{e}"
+    );
+    let e = err(&pcd_file(&f, 2, "binary_compressed", &cmp[..12]));
+    assert!(e.contains("truncated"), "{e}");
+    // Not a PCD at all.
+    let e = err(b"\x89PNG\r\n\x1a\n");
+    assert!(e.contains("not a PCD file"), "{e}");
+    // An ascii line with a missing value.
+    let e = err(&pcd_file(&f, 2, "ascii", b"1 2 3\n4 5\n"));
+    assert!(e.contains("point 1 has 2 values"), "{e}");
+}
+
+#[test]
+fn bad_calibration_tables_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let e = sensor::read_calibration(&write("none.csv", "Laser id,Elevation,Azimuth\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("none.csv") && e.contains("no beam"), "{e}");
+    let e = sensor::read_calibration(&write(
+        "two.csv",
+        "Laser id,Elevation,Azimuth\n1,2.0,0\n2,2.0,0\n",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("one elevation"), "{e}");
+    let e = sensor::read_calibration(&write("x.csv", "a,b\n1,2\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("Hesai"), "{e}");
+    let e = sensor::read_calibration(&write("v.yaml", "lasers: []\nnum_lasers: 16\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("num_lasers is 16"), "{e}");
+    let e = sensor::read_calibration(&write("o.json", "{\"beam_altitude_angles\": [1, 2]}"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("beam_azimuth_angles"), "{e}");
+}
+
+#[test]
+fn a_cloud_outside_the_sensor_frame_leaves_its_points_off_the_model() {
+    let root = lidars();
+    // The Pandar40P scan in a vehicle frame (1.8 m above the sensor): its own table no longer
+    // fits.
+    let mut lifted = pcd::read(&root.join("hesai/Pandar40P_1673400149711850138.pcd")).unwrap();
+    for p in &mut lifted.points {
+        p.z += 1.8;
+    }
+    let shifted = Sensor::Pandar40p.model_table().assign(&lifted.points);
+    assert!(shifted.off_model as usize > lifted.len() / 4);
+}
