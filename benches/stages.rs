@@ -59,6 +59,11 @@ fn stages(c: &mut Criterion) {
     // Labelling is part of processing a frame.
     let labelled = || FrameLabels::from_boxes(boxes.clone(), &scan, &classes);
 
+    let map = kitti2pgm::params::MapParams {
+        spec,
+        class_map: classes.clone(),
+        ..Default::default()
+    };
     let mut g = c.benchmark_group("stage");
     g.throughput(Throughput::Elements(1));
     g.bench_function("read_bin", |b| {
@@ -82,12 +87,12 @@ fn stages(c: &mut Criterion) {
         b.iter(|| project(black_box(&scan.points), &spec))
     });
     g.bench_function("process_lidar", |b| {
-        b.iter(|| process(&id, &scan, &labelled(), &spec, &classes, None))
+        b.iter(|| process(&id, &scan, &labelled(), &map, None, None))
     });
     g.bench_function("process_rgb", |b| {
-        b.iter(|| process(&id, &scan, &labelled(), &spec, &classes, Some((&cam, &img))))
+        b.iter(|| process(&id, &scan, &labelled(), &map, None, Some((&cam, &img))))
     });
-    let out = process(&id, &scan, &labelled(), &spec, &classes, Some((&cam, &img)));
+    let out = process(&id, &scan, &labelled(), &map, None, Some((&cam, &img)));
     g.bench_function("encode_npy_9ch", |b| {
         b.iter(|| encode_f32(&[64, 512, 9], black_box(&out.pgm.data)))
     });
@@ -188,9 +193,35 @@ fn knn(c: &mut Criterion) {
     g.finish();
 }
 
+/// Reading other sensors' files against KITTI's `.bin`, in points per second (issue 27's goal:
+/// PCD binary at least 0.8x the `.bin` path).
+fn read(c: &mut Criterion) {
+    let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let bin = drive_0052().0.drive.scan_path(0);
+    let pcd = here.join("fixtures/lidars/hesai/Pandar40P_1673400149711850138.pcd");
+    let nus = std::fs::read_dir(here.join("fixtures/lidars/nuscenes"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .next()
+        .unwrap();
+    let mut g = c.benchmark_group("read");
+    for (name, path) in [
+        ("kitti_bin", &bin),
+        ("pcd_binary", &pcd),
+        ("nuscenes_pcd_bin", &nus),
+    ] {
+        let n = kitti2pgm::source::points_in_file(path).unwrap();
+        g.throughput(Throughput::Elements(n));
+        g.bench_function(name, |b| {
+            b.iter(|| Scan::read_with_rings(black_box(path), None).unwrap())
+        });
+    }
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(30).measurement_time(std::time::Duration::from_secs(3));
-    targets = stages, knn
+    targets = stages, knn, read
 }
 criterion_main!(benches);

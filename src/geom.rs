@@ -26,6 +26,10 @@ pub type RigidF64 = na::IsometryMatrix3<f64>;
 /// A 3x4 projection matrix (rectified camera), pixels.
 pub type Matrix3x4 = na::Matrix3x4<f64>;
 
+/// Points farther than this from the sensor are dropped, metres (four times the HDL-64E's
+/// 120 m reach; beyond every spinning LiDAR's).
+pub const MAX_RANGE_M: f32 = 500.0;
+
 /// An angle in degrees, only used at configuration boundaries.
 #[derive(Debug, Clone, Copy, PartialEq, PartialOrd, serde::Serialize, serde::Deserialize)]
 pub struct Degrees(pub f64);

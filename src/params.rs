@@ -25,6 +25,10 @@ pub struct MapParams {
     pub selection: FrameSelection,
     /// The classes and how they are labelled.
     pub class_map: ClassMap,
+    /// The sensor model that decides the rows of another sensor's scans (`--sensor`,
+    /// `--sensor-calibration`); `None`: KITTI's HDL-64E, rows from the scan order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<crate::sensor::SensorParams>,
 }
 
 impl Default for MapParams {
@@ -36,6 +40,7 @@ impl Default for MapParams {
             rgb: None,
             selection: FrameSelection::Annotated,
             class_map: ClassMap::kitti_paper(),
+            sensor: None,
         }
     }
 }

@@ -11,6 +11,7 @@ use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::{MapChoice, RowMode};
+use kitti2pgm::sensor::SensorParams;
 
 use super::{progress, Global};
 use crate::cli::{ConvertArgs, FormatArg};
@@ -28,9 +29,13 @@ impl ConvertArgs {
                 .rule()?
                 .unwrap_or_else(|| SplitRule::default_for(layout)),
         };
+        let sensor = self.sensor_params()?;
+        let mut choice = self.map_choice();
+        // One row per beam unless --rows says otherwise.
+        choice.rows = choice.rows.or(sensor.as_ref().map(|s| s.beams));
         Ok(ConvertParams {
             map: MapParams {
-                spec: self.map_choice().spec(Some(layout)),
+                spec: choice.spec(Some(layout)),
                 rgb: self.rgb.then_some(RgbOptions {
                     camera: self.camera,
                     sampling: self.rgb_sampling,
@@ -41,6 +46,7 @@ impl ConvertArgs {
                     FrameSelection::Annotated
                 },
                 class_map,
+                sensor,
             },
             npy: self.format.contains(&FormatArg::Npy),
             // Per-point labels go with the .npy maps (SqueezeSeg's layout); shards carry their
@@ -61,6 +67,15 @@ impl ConvertArgs {
 }
 
 impl ConvertArgs {
+    /// The sensor model asked for: `--sensor` or `--sensor-calibration`.
+    fn sensor_params(&self) -> kitti2pgm::Result<Option<SensorParams>> {
+        Ok(match (&self.sensor, &self.sensor_calibration) {
+            (Some(s), _) => Some(SensorParams::preset(*s, self.ring_order)),
+            (None, Some(path)) => Some(SensorParams::file(path, self.ring_order)?),
+            (None, None) => None,
+        })
+    }
+
     /// The map asked for: `--preset` and the single values.
     fn map_choice(&self) -> MapChoice {
         MapChoice {
@@ -166,9 +181,16 @@ fn table(s: &ConvertSummary) -> String {
     use std::fmt::Write;
     let mut t = String::new();
     let spec = &s.params.map.spec;
-    let rows = match spec.row_mode {
-        RowMode::Rings => "from the laser rings",
-        RowMode::Elevation => "by elevation",
+    let beams = s
+        .params
+        .map
+        .sensor
+        .as_ref()
+        .map(|m| format!("the beams of {}", m.name));
+    let rows = match (spec.row_mode, beams) {
+        (RowMode::Rings, Some(b)) => b,
+        (RowMode::Rings, None) => "from the laser rings".into(),
+        (RowMode::Elevation, _) => "by elevation".into(),
     };
     let shape = format!(
         "{} x {} x {}",
@@ -249,11 +271,25 @@ fn points_and_cells(t: &mut String, s: &ConvertSummary) {
         "cell collisions     {:>12}  (nearest point kept)",
         p.collisions
     );
-    let _ = writeln!(
-        t,
-        "ring fallbacks      {:>12}  (frames binned by elevation)",
-        p.ring_fallbacks
-    );
+    if let Some(sensor) = &s.params.map.sensor {
+        let _ = writeln!(
+            t,
+            "sensor model        {:>12}  ({} beams; rows from its ring field in {} frames, from \
+             its beam table in {})",
+            sensor.name, sensor.beams, p.ring_field_frames, p.beam_table_frames
+        );
+        let _ = writeln!(
+            t,
+            "points off model    {:>12}  (fit no beam: not in the sensor's frame?)",
+            p.off_model
+        );
+    } else {
+        let _ = writeln!(
+            t,
+            "ring fallbacks      {:>12}  (frames binned by elevation)",
+            p.ring_fallbacks
+        );
+    }
     if s.shards_written + s.shards_skipped > 0 {
         let _ = writeln!(
             t,

@@ -11,12 +11,12 @@ use crate::fs::Inputs;
 use crate::kitti::camera::decode_image;
 use crate::kitti::velodyne::Scan;
 use crate::kitti::FrameId;
-use crate::label::{ClassCounts, ClassMap};
+use crate::label::ClassCounts;
 use crate::params::MapParams;
 use crate::plan::DrivePlan;
 use crate::project::camera::CameraProjector;
 use crate::project::frame::{assemble, PgmFrame, PointValues};
-use crate::project::{project, PgmSpec, ProjectionStats};
+use crate::project::{project, project_beams, ProjectionStats};
 
 /// What converting one frame found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -93,17 +93,80 @@ pub struct Converted {
     pub inputs: Inputs,
 }
 
-/// Projects one labelled scan (no file access but the image, already decoded, if any).
+/// The rows of a frame of another sensor, from its sensor model ([`crate::sensor`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BeamRowsOf {
+    /// The beam row of every point of the scan (0 = the highest beam).
+    pub rows: Vec<u8>,
+    /// The sensor's beams.
+    pub beams: usize,
+    /// Where they came from.
+    pub from: RowsFrom,
+    /// Points that fit no beam of the table (0 for a ring field).
+    pub off_model: u64,
+}
+
+/// Where a frame's beam rows came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowsFrom {
+    /// A ring / channel / laser id field of the scan.
+    RingField,
+    /// The sensor's beam table (nearest beam by elevation).
+    BeamTable,
+}
+
+/// The beam rows of `scan` (read with `rings`) by the sensor of `map`, if any: its ring field
+/// where the scan has one, else the nearest beam of the table.
+pub fn beam_rows(
+    map: &MapParams,
+    scan: &Scan,
+    rings: Option<&[u16]>,
+    path: &std::path::Path,
+) -> Result<Option<BeamRowsOf>> {
+    let Some(sensor) = &map.sensor else {
+        return Ok(None);
+    };
+    let model = sensor.model()?;
+    Ok(Some(match rings {
+        Some(r) => BeamRowsOf {
+            rows: crate::sensor::ring_rows(r, model.beams(), sensor.ring_order, path)?,
+            beams: model.beams(),
+            from: RowsFrom::RingField,
+            off_model: 0,
+        },
+        None => {
+            let b = model.assign(&scan.points);
+            BeamRowsOf {
+                rows: b.rows,
+                beams: model.beams(),
+                from: RowsFrom::BeamTable,
+                off_model: b.off_model,
+            }
+        }
+    }))
+}
+
+/// Projects one labelled scan (no file access but the image, already decoded, if any); with
+/// `beams`, rows are the sensor's beams.
 pub fn process(
     id: &FrameId,
     scan: &Scan,
     frame_labels: &FrameLabels,
-    spec: &PgmSpec,
-    classes: &ClassMap,
+    map: &MapParams,
+    beams: Option<&BeamRowsOf>,
     camera: Option<(&CameraProjector, &image::RgbImage)>,
 ) -> Converted {
+    let (spec, classes) = (&map.spec, &map.class_map);
     let labels = &frame_labels.points;
-    let proj = project(&scan.points, spec);
+    let mut proj = match beams {
+        Some(b) => project_beams(&scan.points, spec, &b.rows, b.beams),
+        None => project(&scan.points, spec),
+    };
+    if let Some(b) = beams {
+        proj.stats.ring_field_frames = (b.from == RowsFrom::RingField) as u64;
+        proj.stats.beam_table_frames = (b.from == RowsFrom::BeamTable) as u64;
+        proj.stats.off_model = b.off_model;
+    }
     let colour_fn = camera.map(|(cam, img)| move |i: usize| cam.colour(img, &scan.points[i]));
     let pgm = assemble(
         PointValues::of_scan(scan, labels),
@@ -152,6 +215,8 @@ pub struct LoadedFrame {
     pub camera: Option<(CameraProjector, image::RgbImage)>,
     /// The camera's PNG bytes, when kept (visualisation).
     pub png: Option<Vec<u8>>,
+    /// The rows of another sensor's scan, by its sensor model.
+    pub beams: Option<BeamRowsOf>,
     /// Every file read for it (scan, labels, calibration, image, the drive's tracklets and
     /// timestamps) with its fingerprint, and every path looked for and absent: what the
     /// frame's outputs are made from.
@@ -186,7 +251,9 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
 
 fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
-    let scan = Scan::read(&dp.drive.scan_path(frame))?;
+    let scan_path = dp.drive.scan_path(frame);
+    let (scan, rings) = Scan::read_with_rings(&scan_path, None)?;
+    let beams = beam_rows(map, &scan, rings.as_deref(), &scan_path)?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
     let mut png = None;
     let camera = match &map.rgb {
@@ -228,6 +295,7 @@ fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<L
         labels,
         camera,
         png,
+        beams,
         inputs: Inputs::default(),
     })
 }
@@ -242,10 +310,11 @@ impl LoadedFrame {
             labels,
             camera,
             png,
+            beams,
             inputs,
         } = self;
         let camera = camera.as_ref().map(|(p, i)| (p, i));
-        let mut out = process(&id, &scan, &labels, &map.spec, &map.class_map, camera);
+        let mut out = process(&id, &scan, &labels, map, beams.as_ref(), camera);
         out.inputs = inputs;
         if viz == Viz::On {
             let file_idx = scan.file_indices();

@@ -30,7 +30,6 @@ use crate::format::layout::{self, OutputDir};
 use crate::format::{npy, Durability};
 use crate::fs::inputs::Change;
 use crate::fs::{Fingerprint, Inputs};
-use crate::kitti::velodyne::POINT_BYTES;
 use crate::kitti::FrameId;
 use crate::plan::{DrivePlan, Reconverted, Restart};
 
@@ -365,7 +364,7 @@ fn files_present(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> bool {
     let npy_ok =
         !opts.params.npy || len(&opts.out.npy_path(&id)) == Some(npy::file_len_f32(&shape));
     let labels_ok = !opts.params.labels || {
-        let points = len(&dp.drive.scan_path(frame)).map(|b| b / POINT_BYTES as u64);
+        let points = crate::source::points_in_file(&dp.drive.scan_path(frame));
         points.is_some() && len(&opts.out.label_path(&id)) == points.map(|n| n * 4)
     };
     npy_ok && labels_ok

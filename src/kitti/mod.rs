@@ -285,10 +285,18 @@ impl Drive {
         }
     }
 
-    /// Path of a velodyne scan.
+    /// Path of a velodyne scan: `<frame>.bin`; in a sequence of another sensor's scans
+    /// (point_labeler's layout) the `<frame6>.pcd` where there is no `.bin`.
     pub fn scan_path(&self, frame: u32) -> PathBuf {
         let name = self.frame_id(frame).frame_name();
-        self.scan_dir().join(format!("{name}.bin"))
+        let bin = self.scan_dir().join(format!("{name}.bin"));
+        if self.layout == Layout::Sequence && !bin.exists() {
+            let pcd = self.scan_dir().join(format!("{name}.pcd"));
+            if pcd.exists() {
+                return pcd;
+            }
+        }
+        bin
     }
 
     /// Path of a camera image (camera 0-3).
@@ -386,11 +394,16 @@ impl Drive {
         if !dir.exists() {
             return Ok(out);
         }
+        // A sequence of another sensor may hold PCD files (one per frame, not beside a .bin).
+        let pcd = self.layout == Layout::Sequence;
         for p in crate::fs::sorted_dir(&dir)? {
             let frame = p
                 .file_name()
                 .and_then(|n| n.to_str())
-                .and_then(|n| n.strip_suffix(".bin"))
+                .and_then(|n| {
+                    n.strip_suffix(".bin")
+                        .or_else(|| n.strip_suffix(".pcd").filter(|_| pcd))
+                })
                 .filter(|stem| stem.len() == width && stem.bytes().all(|c| c.is_ascii_digit()))
                 // 10 digits beyond u32 (9999999999.bin) or beyond any drive's length: not a
                 // frame, named as such.
@@ -402,6 +415,20 @@ impl Drive {
             }
         }
         out.frames.sort_unstable();
+        // A frame with both a .bin and a .pcd: the .bin is read, the .pcd named as not a frame.
+        let mut seen = out.frames.clone();
+        seen.dedup();
+        if seen.len() != out.frames.len() {
+            for &f in &seen {
+                let name = self.frame_id(f).frame_name();
+                let pcd = dir.join(format!("{name}.pcd"));
+                if dir.join(format!("{name}.bin")).exists() && pcd.exists() {
+                    out.not_frames.push(pcd);
+                }
+            }
+            out.not_frames.sort();
+            out.frames = seen;
+        }
         Ok(out)
     }
 }
@@ -411,7 +438,8 @@ impl Drive {
 pub struct ScanListing {
     /// Frame indices with a scan, ascending.
     pub frames: Vec<u32>,
-    /// Entries that are not `<frame10>.bin` scans (a stray file, a 26-digit name, a folder).
+    /// Entries that are not `<frame10>.bin` scans (a stray file, a 26-digit name, a folder; a
+    /// sequence's `.pcd` beside the `.bin` of its frame).
     pub not_frames: Vec<PathBuf>,
 }
 

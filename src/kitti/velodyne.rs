@@ -17,9 +17,7 @@ use crate::geom::Point3;
 /// Bytes of one point in a `.bin`.
 pub const POINT_BYTES: usize = 16;
 
-/// Points farther than this from the sensor are dropped, metres (four times the HDL-64E's
-/// 120 m reach).
-pub const MAX_RANGE_M: f32 = 500.0;
+pub use crate::geom::MAX_RANGE_M;
 
 /// The reflectance a real return has; a point outside it (1e30, -5) is a corrupt record and is
 /// dropped with the far ones (counted in `dropped_out_of_range`).
@@ -87,10 +85,40 @@ impl Scan {
         })
     }
 
-    /// Reads and decodes a `.bin` file.
+    /// Reads and decodes a scan file: KITTI's `.bin`, or another sensor's cloud by its name
+    /// (`.pcd`, nuScenes' `.pcd.bin`: [`crate::source::read_cloud`]; its ring field is left
+    /// out: [`Scan::read_with_rings`] keeps it).
     pub fn read(path: &Path) -> Result<Scan> {
-        let bytes = crate::fs::read(path, crate::fs::Limit::Data)?;
-        Scan::from_bytes(&bytes, path)
+        Ok(Scan::read_with_rings(path, None)?.0)
+    }
+
+    /// Reads a scan file with the ring of every kept point, where the file has a ring field:
+    /// KITTI's `.bin` (no rings), a `.pcd`, nuScenes' `.pcd.bin`, or a `.bin` of `layout`.
+    pub fn read_with_rings(
+        path: &Path,
+        layout: Option<&crate::source::PointLayout>,
+    ) -> Result<(Scan, Option<Vec<u16>>)> {
+        if crate::source::is_kitti_bin(path) && layout.is_none() {
+            let bytes = crate::fs::read(path, crate::fs::Limit::Data)?;
+            return Ok((Scan::from_bytes(&bytes, path)?, None));
+        }
+        let cloud = crate::source::read_cloud(path, layout)?;
+        Ok(Scan::from_cloud(cloud))
+    }
+
+    /// A cloud of another sensor as a scan (its intensity as stored in `reflectance`), and its
+    /// rings.
+    pub fn from_cloud(c: crate::source::LidarCloud) -> (Scan, Option<Vec<u16>>) {
+        (
+            Scan {
+                points: c.points,
+                reflectance: c.intensity,
+                file_len: c.file_len,
+                dropped: c.dropped,
+                dropped_out_of_range: c.dropped_out_of_range,
+            },
+            c.ring,
+        )
     }
 
     /// Number of finite points.

@@ -26,8 +26,13 @@ pub struct Cloud<'a> {
     pub points: &'a [Point3],
     /// Reflectance (0-1).
     pub intensity: &'a [f32],
-    /// Ring (laser) index of each point, below [`LASERS`]; `None`: from the scan order.
+    /// Beam row of each point (0 = the highest beam), below `beams`; `None`: from the scan
+    /// order.
     pub rings: Option<&'a [u8]>,
+    /// The beams `rings` counts ([`LASERS`] for KITTI's HDL-64E; a sensor model's beams).
+    pub beams: usize,
+    /// What the intensities are, and so which values are valid.
+    pub intensity_kind: IntensityKind,
     /// Class id of each point; `None`: 0 everywhere.
     pub labels: Option<&'a [ClassId]>,
     /// Instance id of each point; `None`: 0 everywhere.
@@ -36,6 +41,16 @@ pub struct Cloud<'a> {
     pub colours: Option<&'a [[f32; 3]]>,
     /// Whether each point has a colour; `None`: all have.
     pub colour_valid: Option<&'a [bool]>,
+}
+
+/// What a cloud's intensities are.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum IntensityKind {
+    /// KITTI's reflectance: 0 to 1, as the converter checks every scan.
+    #[default]
+    Reflectance,
+    /// Another sensor's intensity as its reader stored it (0-255 for most): any finite value.
+    AsStored,
 }
 
 /// A projected cloud: its map (a [`PgmFrame`], the one type of a map in memory) and where
@@ -62,6 +77,8 @@ impl Cloud<'_> {
             points,
             intensity,
             rings: None,
+            beams: LASERS,
+            intensity_kind: IntensityKind::Reflectance,
             labels: None,
             instance: None,
             colours: None,
@@ -94,8 +111,11 @@ impl Cloud<'_> {
         let ok_point = |p: &Point3| {
             p.x.is_finite() & p.y.is_finite() & p.z.is_finite() & (p.coords.norm_squared() <= max2)
         };
-        let ok_intensity =
-            |v: f32| (v >= *REFLECTANCE_RANGE.start()) & (v <= *REFLECTANCE_RANGE.end());
+        let range = match self.intensity_kind {
+            IntensityKind::Reflectance => REFLECTANCE_RANGE,
+            IntensityKind::AsStored => f32::MIN..=f32::MAX,
+        };
+        let ok_intensity = |v: f32| (v >= *range.start()) & (v <= *range.end());
         if self.points.iter().fold(true, |ok, p| ok & ok_point(p))
             && self
                 .intensity
@@ -112,8 +132,9 @@ impl Cloud<'_> {
         }
         if let Some(i) = self.intensity.iter().position(|v| !ok_intensity(*v)) {
             return Err(Error::Config(format!(
-                "intensity of point {i} is {:?}, outside {:?} (KITTI reflectance)",
-                self.intensity[i], REFLECTANCE_RANGE
+                "intensity of point {i} is {:?}, outside {:?} (KITTI reflectance; another \
+                 sensor's intensity is taken as stored when its beams are given)",
+                self.intensity[i], range
             )));
         }
         self.validate_rings_and_colours()
@@ -128,11 +149,18 @@ impl Cloud<'_> {
                 )));
             }
         }
+        if self.beams == 0 || self.beams > crate::sensor::MAX_BEAMS {
+            return Err(Error::Config(format!(
+                "{} beams: a sensor has 1 to {}",
+                self.beams,
+                crate::sensor::MAX_BEAMS
+            )));
+        }
         if let Some(r) = self.rings {
-            if let Some(i) = r.iter().position(|&v| v as usize >= LASERS) {
+            if let Some(i) = r.iter().position(|&v| v as usize >= self.beams) {
                 return Err(Error::Config(format!(
-                    "ring {} of point {i} is not below {LASERS}",
-                    r[i]
+                    "ring {} of point {i} is not below {}",
+                    r[i], self.beams
                 )));
             }
         }
@@ -184,7 +212,9 @@ pub fn project_cloud(
         None => None,
     };
     let Some(aug) = aug else {
-        let rows = cloud.rings.map_or(Rows::FromSpec, Rows::Rings);
+        let rows = cloud
+            .rings
+            .map_or(Rows::FromSpec, |r| Rows::Beams(r, cloud.beams));
         let proj = project_impl(
             cloud.points,
             spec,
@@ -235,7 +265,7 @@ fn augmented(
     // Rings from the original order, before any point moves or goes.
     let (recovered, rings_found) = match (cloud.rings, spec.row_mode) {
         (_, RowMode::Elevation) => (None, 0),
-        (Some(_), RowMode::Rings) => (None, LASERS),
+        (Some(_), RowMode::Rings) => (None, cloud.beams),
         (None, RowMode::Rings) => rings(cloud.points),
     };
     // For a view narrower than 180 degrees, points that cannot reach its wedge (the one the
@@ -245,7 +275,14 @@ fn augmented(
     let all_rings = cloud.rings.or(recovered.as_deref());
     let kept_rings = all_rings.map(|r| pick(&a.kept, r));
     let rows = match &kept_rings {
-        Some(r) => Rows::Rings(r),
+        Some(r) => Rows::Beams(
+            r,
+            if cloud.rings.is_some() {
+                cloud.beams
+            } else {
+                LASERS
+            },
+        ),
         None if spec.row_mode == RowMode::Rings => Rows::Fallback,
         None => Rows::FromSpec,
     };

@@ -29,7 +29,7 @@ pub mod unproject;
 
 pub use augment::Augment;
 pub use channels::{Channel, Channels};
-pub use cloud::{project_cloud, Cloud, CloudProjection};
+pub use cloud::{project_cloud, Cloud, CloudProjection, IntensityKind};
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
 pub use preset::{MapChoice, MapOrigin, MapPreset, MapValue};
@@ -147,10 +147,17 @@ impl PgmSpec {
     /// Row of ring `ring` (0..LASERS): the ring itself for 64 rows, scaled otherwise.
     #[inline]
     pub fn ring_row(&self, ring: u8) -> usize {
-        if self.rows == LASERS {
-            ring as usize
+        self.beam_row(ring, LASERS)
+    }
+
+    /// Row of beam row `beam` of a sensor of `beams` beams: the beam itself when the map has
+    /// one row per beam, scaled otherwise.
+    #[inline]
+    pub fn beam_row(&self, beam: u8, beams: usize) -> usize {
+        if self.rows == beams {
+            beam as usize
         } else {
-            ring as usize * self.rows / LASERS
+            beam as usize * self.rows / beams
         }
     }
 }
@@ -192,6 +199,16 @@ pub struct ProjectionStats {
     pub collisions: u64,
     /// Frames whose rows came from elevation binning because the rings were not usable.
     pub ring_fallbacks: u64,
+    /// Frames whose rows came from a ring / channel field of the scan (another sensor's).
+    #[serde(default)]
+    pub ring_field_frames: u64,
+    /// Frames whose rows came from the sensor's beam table (nearest beam by elevation).
+    #[serde(default)]
+    pub beam_table_frames: u64,
+    /// Points whose elevation fits no beam of the sensor's table (they keep the nearest beam's
+    /// row); many of them mean the scans are not in the sensor's frame.
+    #[serde(default)]
+    pub off_model: u64,
 }
 
 impl ProjectionStats {
@@ -212,6 +229,9 @@ impl std::ops::AddAssign<&ProjectionStats> for ProjectionStats {
         self.total_cells += o.total_cells;
         self.collisions += o.collisions;
         self.ring_fallbacks += o.ring_fallbacks;
+        self.ring_field_frames += o.ring_field_frames;
+        self.beam_table_frames += o.beam_table_frames;
+        self.off_model += o.off_model;
     }
 }
 
@@ -250,6 +270,18 @@ pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
         spec,
         PointCells::Drop,
         Rows::FromSpec,
+        Geometry::plain(points),
+    )
+}
+
+/// Projects a scan's points with the rows of a sensor model ([`crate::sensor`]): `rows` holds
+/// the beam row of every point (0 = the highest beam) of a sensor of `beams` beams.
+pub fn project_beams(points: &[Point3], spec: &PgmSpec, rows: &[u8], beams: usize) -> Projection {
+    project_impl(
+        points,
+        spec,
+        PointCells::Drop,
+        Rows::Beams(rows, beams),
         Geometry::plain(points),
     )
 }
@@ -298,6 +330,7 @@ pub(crate) fn project_impl(
     let RowSource {
         rings: ring_ids,
         found: rings_found,
+        beams,
         fallback,
     } = row_source(points, spec, rows);
     let ring_ids = ring_ids.as_deref();
@@ -340,7 +373,7 @@ pub(crate) fn project_impl(
             };
             let range = range[k];
             let row = match ring_ids {
-                Some(r) => spec.ring_row(r[i]),
+                Some(r) => spec.beam_row(r[i], beams),
                 None => spec.elevation_row(p, range),
             };
             in_fov += 1;
@@ -374,6 +407,7 @@ impl ProjectionStats {
             total_cells: cell_point.len() as u64,
             collisions: in_fov - filled,
             ring_fallbacks: ring_fallback as u64,
+            ..Default::default()
         }
     }
 }

@@ -44,6 +44,10 @@ pub enum Rows<'a> {
     /// These ring indices (one per point, each below [`LASERS`]), e.g. recovered before the
     /// points were augmented; elevation binning if the spec asks for it.
     Rings(&'a [u8]),
+    /// The beam row of every point (0 = the highest beam) of a sensor with this many beams
+    /// ([`crate::sensor`]: a ring field or the beam table); elevation binning if the spec asks
+    /// for it.
+    Beams(&'a [u8], usize),
     /// Elevation binning, counted as a ring fallback (the rings were not recoverable).
     Fallback,
 }
@@ -52,8 +56,10 @@ pub enum Rows<'a> {
 pub(crate) struct RowSource<'a> {
     /// The ring of every point, when rows are rings and the rings are known.
     pub(crate) rings: Option<Cow<'a, [u8]>>,
-    /// Rings recovered from the scan order (64 when given).
+    /// Rings recovered from the scan order (64 when given; the beams of a sensor model).
     pub(crate) found: usize,
+    /// The beams the rings count (rows of the ring map before scaling to the spec's rows).
+    pub(crate) beams: usize,
     /// Rows by rings were asked for, and elevation bins stand in.
     pub(crate) fallback: bool,
 }
@@ -68,11 +74,17 @@ pub(crate) fn row_source<'a>(points: &[Point3], spec: &PgmSpec, rows: Rows<'a>) 
             (r.map(Cow::Owned), found, fallback)
         }
         Rows::Rings(r) => (Some(Cow::Borrowed(r)), LASERS, false),
+        Rows::Beams(r, beams) => (Some(Cow::Borrowed(r)), beams, false),
         Rows::Fallback => (None, 0, true),
+    };
+    let beams = match rows {
+        Rows::Beams(_, beams) => beams,
+        _ => LASERS,
     };
     RowSource {
         rings,
         found,
+        beams,
         fallback,
     }
 }

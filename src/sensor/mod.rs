@@ -16,12 +16,15 @@
 
 pub mod hesai;
 pub mod ouster;
+pub mod params;
 pub mod presets;
 pub mod velodyne;
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
+
+pub use params::{SensorParams, SensorSource};
 
 use crate::error::{Error, Result};
 use crate::geom::{na, Degrees, Point3};
@@ -162,8 +165,7 @@ impl BeamTable {
         let k = self.elevations.partition_point(|&b| b > e);
         let row = if k == 0 {
             0
-        } else if k == self.elevations.len()
-            || self.elevations[k - 1] - e <= e - self.elevations[k]
+        } else if k == self.elevations.len() || self.elevations[k - 1] - e <= e - self.elevations[k]
         {
             k - 1
         } else {

@@ -55,6 +55,70 @@ fn numbers(v: &Value, path: &Path, key: &str) -> Result<Vec<f64>> {
         .collect()
 }
 
+/// `lidar_to_sensor_transform` (row-major 4x4, millimetres) as a rigid motion in metres.
+fn sensor_frame(root: &Value, path: &Path) -> Result<na::Isometry3<f64>> {
+    let key = "lidar_to_sensor_transform";
+    let v = field(root, &["lidar_intrinsics"], key).ok_or_else(|| {
+        Error::format(
+            path,
+            format!("no {key}: not the metadata of an Ouster sensor"),
+        )
+    })?;
+    let transform = numbers(v, path, key)?;
+    if transform.len() != 16 {
+        return Err(Error::format(
+            path,
+            format!("{key} has {} numbers, expected 16", transform.len()),
+        ));
+    }
+    let m = na::Matrix4::from_row_slice(&transform);
+    let rotation = m.fixed_view::<3, 3>(0, 0).into_owned();
+    check_rotation(&rotation).map_err(|e| Error::format(path, format!("{key} {e}")))?;
+    let translation = na::Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]) / 1000.0;
+    Ok(na::Isometry3::from_parts(
+        translation.into(),
+        na::UnitQuaternion::from_matrix(&rotation),
+    ))
+}
+
+/// The frame layout of a sensor of `beams` beams.
+fn data_format(root: &Value, path: &Path, beams: usize) -> Result<OusterFormat> {
+    let need = |key: &str| {
+        field(root, &["data_format", "lidar_data_format"], key).ok_or_else(|| {
+            Error::format(
+                path,
+                format!("no {key}: not the metadata of an Ouster sensor"),
+            )
+        })
+    };
+    let count = |key: &str| -> Result<usize> {
+        need(key)?
+            .as_u64()
+            .filter(|&v| v > 0 && v <= 1 << 16)
+            .map(|v| v as usize)
+            .ok_or_else(|| Error::format(path, format!("{key} is not a positive whole number")))
+    };
+    let format = OusterFormat {
+        pixels_per_column: count("pixels_per_column")?,
+        columns_per_frame: count("columns_per_frame")?,
+        pixel_shift_by_row: numbers(need("pixel_shift_by_row")?, path, "pixel_shift_by_row")?
+            .into_iter()
+            .map(|v| v as i64)
+            .collect(),
+    };
+    if format.pixels_per_column != beams || format.pixel_shift_by_row.len() != beams {
+        return Err(Error::format(
+            path,
+            format!(
+                "{beams} beams, but pixels_per_column is {} and pixel_shift_by_row has {} values",
+                format.pixels_per_column,
+                format.pixel_shift_by_row.len()
+            ),
+        ));
+    }
+    Ok(format)
+}
+
 /// Parses the metadata text of `path`.
 pub fn parse(text: &str, path: &Path) -> Result<(SensorModel, OusterFormat)> {
     let root: Value = serde_json::from_str(text).map_err(|e| Error::NotFormat {
@@ -100,29 +164,7 @@ pub fn parse(text: &str, path: &Path) -> Result<(SensorModel, OusterFormat)> {
                 "lidar_origin_to_beam_origin_mm is not a non-negative number",
             )
         })?;
-    let transform = numbers(
-        need(&["lidar_intrinsics"], "lidar_to_sensor_transform")?,
-        path,
-        "lidar_to_sensor_transform",
-    )?;
-    if transform.len() != 16 {
-        return Err(Error::format(
-            path,
-            format!(
-                "lidar_to_sensor_transform has {} numbers, expected 16",
-                transform.len()
-            ),
-        ));
-    }
-    let m = na::Matrix4::from_row_slice(&transform);
-    let rotation = m.fixed_view::<3, 3>(0, 0).into_owned();
-    check_rotation(&rotation)
-        .map_err(|e| Error::format(path, format!("lidar_to_sensor_transform {e}")))?;
-    let translation = na::Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]) / 1000.0;
-    let lidar_to_points = na::Isometry3::from_parts(
-        translation.into(),
-        na::UnitQuaternion::from_matrix(&rotation),
-    );
+    let lidar_to_points = sensor_frame(&root, path)?;
     let beams = altitude
         .iter()
         .zip(&azimuth)
@@ -137,39 +179,7 @@ pub fn parse(text: &str, path: &Path) -> Result<(SensorModel, OusterFormat)> {
     let name = field(&root, &["sensor_info"], "prod_line")
         .and_then(Value::as_str)
         .map_or_else(|| file_stem(path), str::to_string);
-    let data = ["data_format", "lidar_data_format"];
-    let count = |key: &str| -> Result<usize> {
-        need(&data, key)?
-            .as_u64()
-            .filter(|&v| v > 0 && v <= 1 << 16)
-            .map(|v| v as usize)
-            .ok_or_else(|| Error::format(path, format!("{key} is not a positive whole number")))
-    };
-    let format = OusterFormat {
-        pixels_per_column: count("pixels_per_column")?,
-        columns_per_frame: count("columns_per_frame")?,
-        pixel_shift_by_row: numbers(
-            need(&data, "pixel_shift_by_row")?,
-            path,
-            "pixel_shift_by_row",
-        )?
-        .into_iter()
-        .map(|v| v as i64)
-        .collect(),
-    };
-    if format.pixels_per_column != altitude.len()
-        || format.pixel_shift_by_row.len() != altitude.len()
-    {
-        return Err(Error::format(
-            path,
-            format!(
-                "{} beams, but pixels_per_column is {} and pixel_shift_by_row has {} values",
-                altitude.len(),
-                format.pixels_per_column,
-                format.pixel_shift_by_row.len()
-            ),
-        ));
-    }
+    let format = data_format(&root, path, altitude.len())?;
     Ok((
         SensorModel {
             name,

@@ -291,8 +291,18 @@ impl PointLayout {
         let mut out = LidarCloud::with_capacity(n, roles.intensity.is_some(), roles.ring.is_some());
         let be = self.big_endian;
         let get = |rec: &[u8], (off, ty): (usize, FieldType)| ty.read(&rec[off..], be);
+        // The common case, little-endian float32 coordinates, read without the type dispatch.
+        let f32_xyz = !be && roles.xyz.iter().all(|&(_, t)| t == FieldType::F32);
+        let [(ox, _), (oy, _), (oz, _)] = roles.xyz;
+        let f = |rec: &[u8], o: usize| {
+            f32::from_le_bytes(rec[o..o + 4].try_into().expect("inside the record"))
+        };
         for (i, rec) in data.chunks_exact(self.step).take(n).enumerate() {
-            let [x, y, z] = roles.xyz.map(|r| get(rec, r) as f32);
+            let [x, y, z] = if f32_xyz {
+                [f(rec, ox), f(rec, oy), f(rec, oz)]
+            } else {
+                roles.xyz.map(|r| get(rec, r) as f32)
+            };
             let intensity = roles.intensity.map_or(0.0, |r| get(rec, r) as f32);
             let ring = roles.ring.map(|r| get(rec, r));
             out.push(i, Point3::new(x, y, z), intensity, ring, path)?;

@@ -15,7 +15,7 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::geom::Point3;
-use crate::kitti::velodyne::{Scan, MAX_RANGE_M};
+use crate::geom::MAX_RANGE_M;
 
 pub use fields::{Field, FieldType, PointLayout};
 
@@ -53,6 +53,7 @@ impl LidarCloud {
 
     /// Adds point `index` of the file: kept when finite and within range, else dropped and
     /// counted. A beam id that is not a whole number in 0-65535 is an error naming `path`.
+    #[inline]
     pub(crate) fn push(
         &mut self,
         index: usize,
@@ -62,7 +63,8 @@ impl LidarCloud {
         path: &Path,
     ) -> Result<()> {
         let finite = p.x.is_finite() && p.y.is_finite() && p.z.is_finite() && intensity.is_finite();
-        let far = finite && p.coords.cast::<f64>().norm() > MAX_RANGE_M as f64;
+        let (x, y, z) = (p.x as f64, p.y as f64, p.z as f64);
+        let far = finite && x * x + y * y + z * z > (MAX_RANGE_M as f64).powi(2);
         if !finite || far {
             self.dropped.push(index as u32);
             self.dropped_out_of_range += far as usize;
@@ -91,21 +93,35 @@ impl LidarCloud {
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
+}
 
-    /// The cloud as the conversion's [`Scan`] (intensity as stored in `reflectance`) and its
-    /// beam ids.
-    pub fn into_scan(self) -> (Scan, Option<Vec<u16>>) {
-        (
-            Scan {
-                points: self.points,
-                reflectance: self.intensity,
-                file_len: self.file_len,
-                dropped: self.dropped,
-                dropped_out_of_range: self.dropped_out_of_range,
-            },
-            self.ring,
-        )
+/// Whether `path` names a KITTI `.bin` scan (a `.bin` that is not nuScenes' `.pcd.bin`).
+pub fn is_kitti_bin(path: &Path) -> bool {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    name.ends_with(".bin") && !name.ends_with(".pcd.bin")
+}
+
+/// How many points a scan file holds, from its size or header alone (the per-point `.label`
+/// files hold one label each): KITTI `.bin` size / 16, nuScenes `.pcd.bin` size / 20, a PCD's
+/// `POINTS`. `None` when the file cannot be read or is not a scan.
+pub fn points_in_file(path: &Path) -> Option<u64> {
+    let name = path.file_name()?.to_str()?;
+    let len = std::fs::metadata(path).ok()?.len();
+    if name.ends_with(".pcd") {
+        use std::io::Read;
+        let mut head = Vec::with_capacity(4096);
+        std::fs::File::open(path)
+            .ok()?
+            .take(64 << 10)
+            .read_to_end(&mut head)
+            .ok()?;
+        return pcd::header(&head, path).ok().map(|h| h.points as u64);
     }
+    if name.ends_with(".pcd.bin") {
+        return Some(len / bin::nuscenes_layout().step as u64);
+    }
+    name.ends_with(".bin")
+        .then(|| len / bin::kitti_layout().step as u64)
 }
 
 /// Reads a point cloud file by its name: `.pcd` (PCD), `.pcd.bin` (nuScenes: x, y, z,

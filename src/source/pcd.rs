@@ -51,8 +51,12 @@ pub fn read(path: &Path) -> Result<LidarCloud> {
 /// The most points a header may declare (a PCD of 4 GiB holds at most 4 GiB / 12 bytes).
 const MAX_POINTS: usize = 1 << 30;
 
-/// Parses the header at the start of `bytes`.
-pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
+/// A header line: its keyword, its values and its line number.
+type Entry = (String, Vec<String>, usize);
+
+/// The header's lines up to `DATA`: the other entries, `DATA`'s values and line, and the byte
+/// offset after it.
+fn header_lines(bytes: &[u8], path: &Path) -> Result<(Vec<Entry>, Entry, usize)> {
     let not_pcd = |detail: String| Error::NotFormat {
         path: path.into(),
         format: "a PCD file",
@@ -60,9 +64,8 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
     };
     let mut pos = 0;
     let mut line_no = 0;
-    let mut entries: Vec<(String, Vec<String>, usize)> = Vec::new();
-    let mut data = None;
-    while pos < bytes.len() && data.is_none() {
+    let mut entries: Vec<Entry> = Vec::new();
+    while pos < bytes.len() {
         let end = bytes[pos..]
             .iter()
             .position(|&b| b == b'\n')
@@ -79,17 +82,18 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
         let key = words.next().unwrap_or_default().to_ascii_uppercase();
         let values: Vec<String> = words.map(str::to_string).collect();
         if key == "DATA" {
-            data = Some((values, line_no));
-        } else {
-            entries.push((key, values, line_no));
+            return Ok((entries, (key, values, line_no), pos));
         }
-        if line_no > 64 && data.is_none() {
+        entries.push((key, values, line_no));
+        if line_no > 64 {
             return Err(not_pcd("no DATA line in the first 64 lines".into()));
         }
     }
-    let Some((data_words, data_line)) = data else {
-        return Err(not_pcd("no DATA line: the header never ends".into()));
-    };
+    Err(not_pcd("no DATA line: the header never ends".into()))
+}
+
+/// The fields of the header's `FIELDS`, `SIZE`, `TYPE` and `COUNT` lines.
+fn fields_of(entries: &[Entry], path: &Path) -> Result<Vec<Field>> {
     let bad = |line: usize, m: String| Error::Format {
         path: path.into(),
         line: Some(line),
@@ -97,7 +101,11 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
     };
     let get = |key: &str| entries.iter().find(|(k, _, _)| k == key);
     let Some((_, names, fields_line)) = get("FIELDS").or_else(|| get("COLUMNS")) else {
-        return Err(not_pcd("no FIELDS line".into()));
+        return Err(Error::NotFormat {
+            path: path.into(),
+            format: "a PCD file",
+            detail: "no FIELDS line".into(),
+        });
     };
     let n = names.len();
     let list = |key: &str, default: Option<&str>| -> Result<Vec<String>> {
@@ -113,13 +121,15 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
             },
         }
     };
-    let sizes = list("SIZE", None)?;
-    let types = list("TYPE", None)?;
-    let counts = list("COUNT", Some("1"))?;
+    let (sizes, types, counts) = (
+        list("SIZE", None)?,
+        list("TYPE", None)?,
+        list("COUNT", Some("1"))?,
+    );
+    let line = get("TYPE").map_or(*fields_line, |e| e.2);
     let mut fields = Vec::with_capacity(n);
     let mut offset = 0usize;
     for i in 0..n {
-        let line = get("TYPE").map_or(*fields_line, |e| e.2);
         let size: usize = sizes[i].parse().map_err(|_| {
             bad(
                 line,
@@ -157,6 +167,19 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
         });
         offset += size * count;
     }
+    Ok(fields)
+}
+
+/// Parses the header at the start of `bytes`.
+pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
+    let (entries, (_, data_words, data_line), data_start) = header_lines(bytes, path)?;
+    let fields = fields_of(&entries, path)?;
+    let bad = |line: usize, m: String| Error::Format {
+        path: path.into(),
+        line: Some(line),
+        message: m,
+    };
+    let get = |key: &str| entries.iter().find(|(k, _, _)| k == key);
     let number = |key: &str| -> Result<Option<usize>> {
         match get(key) {
             None => Ok(None),
@@ -168,7 +191,7 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
                 .ok_or_else(|| bad(*l, format!("{key} {:?} is not a point count", v.join(" ")))),
         }
     };
-    let width = number("WIDTH")?.ok_or_else(|| bad(*fields_line, "no WIDTH line".into()))?;
+    let width = number("WIDTH")?.ok_or_else(|| bad(data_line, "no WIDTH line".into()))?;
     let height = number("HEIGHT")?.unwrap_or(1);
     let points = number("POINTS")?.unwrap_or(width * height);
     if points != width * height {
@@ -195,9 +218,10 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
             ))
         }
     };
+    let step = fields.iter().map(|f| f.ty.size() * f.count).sum();
     let layout = PointLayout {
         fields,
-        step: offset,
+        step,
         big_endian: false,
     };
     layout.roles(path)?;
@@ -207,7 +231,7 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
         height,
         points,
         data,
-        data_start: pos,
+        data_start,
     })
 }
 

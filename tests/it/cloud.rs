@@ -62,8 +62,8 @@ fn cloud_projection_is_the_conversion() {
                 &l.id,
                 &l.scan,
                 &l.labels,
-                &spec,
-                &map.class_map,
+                &map,
+                None,
                 l.camera.as_ref().map(|(p, i)| (p, i)),
             );
             let m = cloud_map(&l, &spec, None);

@@ -348,3 +348,148 @@ fn a_cloud_outside_the_sensor_frame_leaves_its_points_off_the_model() {
     let shifted = Sensor::Pandar40p.model_table().assign(&lifted.points);
     assert!(shifted.off_model as usize > lifted.len() / 4);
 }
+
+/// A sequence folder holding `scans` (file name in `velodyne/`, source file).
+fn sequence_of(dir: &Path, scans: &[(&str, &Path)]) -> PathBuf {
+    let root = dir.join("own");
+    let v = root.join("sequences/00/velodyne");
+    std::fs::create_dir_all(&v).unwrap();
+    for (name, from) in scans {
+        std::fs::copy(from, v.join(name)).unwrap();
+    }
+    root
+}
+
+#[test]
+fn convert_makes_one_row_per_beam_from_the_ring_field_or_the_table() {
+    use super::util::{convert_json, s, tmp};
+    let t = tmp();
+    let root = lidars();
+    let vlp = root.join("velodyne/vlp16_1673400472138016708.pcd");
+    let p40 = root.join("hesai/Pandar40P_1673400149711850138.pcd");
+    let seq = sequence_of(t.path(), &[("000000.pcd", &vlp)]);
+    // VLP-16 by its ring (channel) field: every point in the 360-degree map, on its channel's row.
+    let out = t.path().join("vlp");
+    let (code, j, err) = convert_json(
+        &seq,
+        &out,
+        &["--sensor", "vlp16", "--all-frames", "--cols", "2048"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(j["params"]["map"]["spec"]["rows"], 16);
+    assert_eq!(j["params"]["map"]["sensor"]["source"]["preset"], "vlp16");
+    assert_eq!(j["ring_field_frames"], 1);
+    assert_eq!(j["off_model"], 0);
+    assert_eq!(j["in_fov"], 14_831);
+    let (shape, data) =
+        kitti2pgm::format::npy::read_f32(&out.join("lidar_2d/00_000000.npy")).unwrap();
+    assert_eq!(shape, vec![16, 2048, 6]);
+    // Each filled cell's point has the elevation of its row's beam.
+    let model = Sensor::Vlp16.model_table();
+    for (cell, v) in data.chunks_exact(6).enumerate() {
+        if v[4] > 0.0 {
+            let e = (v[2] as f64)
+                .atan2((v[0] as f64).hypot(v[1] as f64))
+                .to_degrees();
+            let beam = model.table.beams()[cell / 2048].elevation.0;
+            assert!(
+                (e - beam).abs() < 1e-3,
+                "cell {cell}: {e} deg on the {beam} deg row"
+            );
+        }
+    }
+    // A re-run keeps the frame (the .label holds one label per point of the PCD).
+    let (code, j, _) = convert_json(
+        &seq,
+        &out,
+        &["--sensor", "vlp16", "--all-frames", "--cols", "2048"],
+    );
+    assert_eq!((code, j["resumed_frames"].as_u64()), (0, Some(1)));
+    // Pandar40P has no ring field: rows by its calibration table.
+    let seq = sequence_of(&t.path().join("p"), &[("000000.pcd", &p40)]);
+    let calib = root.join("hesai/Pandar40P.csv");
+    let out = t.path().join("p40");
+    let (code, j, err) = convert_json(
+        &seq,
+        &out,
+        &["--sensor-calibration", s(&calib), "--all-frames"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(j["params"]["map"]["spec"]["rows"], 40);
+    assert_eq!(j["beam_table_frames"], 1);
+    assert_eq!(j["off_model"], 0);
+    assert!(j["params"]["map"]["sensor"]["source"]["file"]["digest"].is_string());
+}
+
+#[test]
+fn convert_names_a_bad_scan_of_another_sensor_and_finishes_the_rest() {
+    use super::util::{convert_json, tmp};
+    let t = tmp();
+    let vlp = lidars().join("velodyne/vlp16_1673400472138016708.pcd");
+    let seq = sequence_of(t.path(), &[("000000.pcd", &vlp), ("000001.pcd", &vlp)]);
+    // Frame 1 truncated.
+    let bad = seq.join("sequences/00/velodyne/000001.pcd");
+    let bytes = std::fs::read(&bad).unwrap();
+    std::fs::write(&bad, &bytes[..bytes.len() - 100]).unwrap();
+    let out = t.path().join("out");
+    let (code, j, err) = convert_json(&seq, &out, &["--sensor", "vlp16", "--all-frames"]);
+    assert_ne!(code, 0, "{err}");
+    assert_eq!(j["frames_converted"], 1);
+    let failure = j["failures"].to_string();
+    assert!(
+        failure.contains("000001.pcd") && failure.contains("bytes"),
+        "{failure}"
+    );
+    // A ring field beyond the sensor's beams: the VLP-16's channels read as a 16-beam... of 8.
+    let calib = t.path().join("eight.csv");
+    let mut csv = "Laser id,Elevation,Azimuth\n".to_string();
+    for i in 1..=8 {
+        csv += &format!("{i},{},0\n", 15 - 4 * i);
+    }
+    std::fs::write(&calib, csv).unwrap();
+    let out = t.path().join("out8");
+    let (code, j, _) = convert_json(
+        &seq,
+        &out,
+        &[
+            "--sensor-calibration",
+            calib.to_str().unwrap(),
+            "--all-frames",
+        ],
+    );
+    assert_ne!(code, 0);
+    let failure = j["failures"].to_string();
+    assert!(
+        failure.contains("000000.pcd") && failure.contains("8 beams"),
+        "{failure}"
+    );
+}
+
+#[test]
+fn an_unknown_sensor_or_a_bad_calibration_stops_before_any_work() {
+    use super::util::{fails_with, fixture, run_text, s, tmp};
+    let t = tmp();
+    let seq = fixture("own_lidar");
+    let out = t.path().join("out");
+    let (code, _, err) = run_text(&["convert", s(&seq), "--out", s(&out), "--sensor", "vlp17"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("vlp16") && err.contains("pandar40p"), "{err}");
+    let bad = t.path().join("bad.csv");
+    std::fs::write(&bad, "Laser id,Elevation,Azimuth\n1,2,0\n2,2,0\n").unwrap();
+    let e = fails_with(
+        &[
+            "convert",
+            s(&seq),
+            "--out",
+            s(&out),
+            "--sensor-calibration",
+            s(&bad),
+        ],
+        "format",
+    );
+    assert!(
+        e["message"].as_str().unwrap().contains("one elevation"),
+        "{e}"
+    );
+    assert!(!out.join("lidar_2d").exists());
+}

@@ -16,6 +16,8 @@ import numpy.typing as npt
 
 __version__: str
 LASERS: int
+SENSORS: Dict[str, int]
+"""Every built-in sensor (``project(sensor=...)``, ``convert --sensor``) with its beam count."""
 MAX_RANGE_M: float
 PRESETS: Dict[str, Dict[str, Any]]
 """Every map preset by name (squeezeseg, rangenet, full): rows, cols, fov_deg, fov_up_deg,
@@ -43,6 +45,8 @@ def project(
     fov_down_deg: Optional[float] = None,
     row_mode: Optional[str] = None,
     rings: Optional[_Array] = None,
+    beams: Optional[int] = None,
+    sensor: Optional[str] = None,
     labels: Optional[_Array] = None,
     instance: Optional[_Array] = None,
     rgb: Optional[_Array] = None,
@@ -81,6 +85,7 @@ def label_points(
     points: _Array, boxes: List[Dict[str, Any]], *, background: int = 0
 ) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint16]]: ...
 def read_scan(path: _Path, *, with_file_index: bool = False) -> Any: ...
+def read_cloud(path: _Path, *, fields: Optional[str] = None) -> Dict[str, Any]: ...
 def read_point_labels(path: _Path) -> npt.NDArray[np.uint32]: ...
 def read_calibration(date_dir: _Path) -> Dict[str, Any]: ...
 def read_frame_calibration(path: _Path) -> Dict[str, Any]: ...

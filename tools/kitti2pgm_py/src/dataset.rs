@@ -265,7 +265,16 @@ impl Dataset {
                 let cloud = Cloud {
                     points: &l.scan.points,
                     intensity: &l.scan.reflectance,
-                    rings: None,
+                    rings: l.beams.as_ref().map(|b| &b.rows[..]),
+                    beams: l
+                        .beams
+                        .as_ref()
+                        .map_or(kitti2pgm::project::LASERS, |b| b.beams),
+                    intensity_kind: if l.beams.is_some() {
+                        kitti2pgm::project::IntensityKind::AsStored
+                    } else {
+                        kitti2pgm::project::IntensityKind::Reflectance
+                    },
                     labels: Some(&l.labels.points.class),
                     instance: Some(&l.labels.points.instance),
                     colours: flat.as_deref(),

@@ -17,7 +17,8 @@ use pyo3::types::PyDict;
 
 use kitti2pgm::kitti::Layout;
 use kitti2pgm::project::{
-    project_cloud, Augment, Cloud, CloudProjection, MapChoice, MapPreset, PgmSpec, RowMode, EMPTY,
+    project_cloud, Augment, Cloud, CloudProjection, IntensityKind, MapChoice, MapPreset, PgmSpec,
+    RowMode, EMPTY,
 };
 
 use arrays::{colours_arg, points_arg, vec_arg};
@@ -124,7 +125,14 @@ fn rings<'py>(
 /// points: (N, 4) float32 x, y, z, intensity (velodyne frame, metres), in scan order.
 /// preset: "squeezeseg" (the default), "rangenet" or "full" (`kitti2pgm.PRESETS` holds their
 /// numbers); rows, cols, fov_deg, fov_up_deg, fov_down_deg, row_mode: single values over it.
-/// rings: optional (N,) uint8 ring indices (< 64); default: recovered from the scan order.
+/// rings: optional (N,) uint8 beam rows (0 = the highest beam, < beams); default: recovered
+/// from the scan order (KITTI), or from `sensor`.
+/// beams: the beams `rings` counts (64, KITTI's HDL-64E, by default); with another count the
+/// intensity is taken as stored (not KITTI's 0-1 reflectance).
+/// sensor: a sensor's beam table, by preset name ("vlp16", "pandar64", ...: `SENSORS`) or
+/// calibration file (velodyne .yaml, Hesai .csv, Ouster .json): each point's row is its nearest
+/// beam (stats["off_model"] counts the points that fit none), `beams` the table's; with `rings`
+/// the table gives only the beam count.
 /// labels: optional (N,) uint8 class ids; instance: optional (N,) uint16.
 /// rgb: optional (N, 3) float32 in [0, 1] (adds r, g, b channels); rgb_valid: (N,) bool.
 /// rotate_deg, scale, flip, jitter (metres), drop (probability), seed: 3D augmentation applied
@@ -138,10 +146,10 @@ fn rings<'py>(
 /// point_cells=False, row, col and point_index are None (a little faster, for training).
 #[pyfunction]
 #[pyo3(signature = (points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None,
-    fov_down_deg=None, row_mode=None, rings=None, labels=None, instance=None, rgb=None,
-    rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0, drop=0.0, seed=0,
-    point_cells=true),
-    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
+    fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, labels=None,
+    instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0,
+    drop=0.0, seed=0, point_cells=true),
+    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
 // One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
@@ -155,6 +163,8 @@ fn project<'py>(
     fov_down_deg: Option<f64>,
     row_mode: Option<String>,
     rings: Option<&Bound<'py, PyAny>>,
+    beams: Option<usize>,
+    sensor: Option<String>,
     labels: Option<&Bound<'py, PyAny>>,
     instance: Option<&Bound<'py, PyAny>>,
     rgb: Option<&Bound<'py, PyAny>>,
@@ -176,10 +186,33 @@ fn project<'py>(
         fov_down_deg,
         row_mode,
     };
-    let spec = spec_of(&map, None)?;
     let (pts, intensity) = points_arg(points, "points", true)?;
     let n = pts.len();
-    let rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
+    let mut rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
+    let model = sensor.as_deref().map(sensor_model).transpose()?;
+    let mut off_model = None;
+    let beams = match (&model, beams) {
+        (Some(m), Some(b)) if b != m.beams() => {
+            return Err(PyValueError::new_err(format!(
+                "beams={b}, but sensor {} has {} beams",
+                m.name,
+                m.beams()
+            )))
+        }
+        (Some(m), _) => Some(m.beams()),
+        (None, b) => b,
+    };
+    // One row per beam unless rows says otherwise (as `convert --sensor`).
+    let map = MapArgs {
+        rows: map.rows.or(beams),
+        ..map
+    };
+    let spec = spec_of(&map, None)?;
+    if let (Some(m), None) = (&model, &rings) {
+        let assigned = py.detach(|| m.assign(&pts));
+        off_model = Some(assigned.off_model);
+        rings = Some(assigned.rows);
+    }
     let labels = labels.map(|a| vec_arg::<u8>(a, "labels", n)).transpose()?;
     let instance = instance
         .map(|a| vec_arg::<u16>(a, "instance", n))
@@ -203,6 +236,13 @@ fn project<'py>(
                 points: &pts,
                 intensity: &intensity,
                 rings: rings.as_deref(),
+                beams: beams.unwrap_or(kitti2pgm::project::LASERS),
+                intensity_kind: match beams {
+                    Some(b) if b != kitti2pgm::project::LASERS || model.is_some() => {
+                        IntensityKind::AsStored
+                    }
+                    _ => IntensityKind::Reflectance,
+                },
                 labels: labels.as_deref(),
                 instance: instance.as_deref(),
                 colours: colours.as_deref(),
@@ -211,7 +251,30 @@ fn project<'py>(
             project_cloud(&cloud, &spec, Some(&augment))
         })
         .map_err(py_err)?;
-    map_dict(py, map, point_cells)
+    let d = map_dict(py, map, point_cells)?;
+    if let Some(off) = off_model {
+        d.get_item("stats")?
+            .expect("map_dict sets stats")
+            .set_item("off_model", off)?;
+    }
+    Ok(d)
+}
+
+/// A sensor model from a preset name or a calibration file path.
+fn sensor_model(name: &str) -> PyResult<kitti2pgm::sensor::SensorModel> {
+    use kitti2pgm::sensor::presets::Sensor;
+    if let Ok(s) = name.parse::<Sensor>() {
+        return Ok(s.model_table());
+    }
+    let path = std::path::Path::new(name);
+    if path.extension().is_some() {
+        return kitti2pgm::sensor::read_calibration(path).map_err(py_err);
+    }
+    let names: Vec<&str> = Sensor::ALL.iter().map(|s| s.as_str()).collect();
+    Err(PyValueError::new_err(format!(
+        "sensor {name:?} is neither a built-in sensor ({}) nor a calibration file (.yaml, .csv, .json)",
+        names.join(", ")
+    )))
 }
 
 /// Carries a map prediction back to every point of the scan it was projected from.
@@ -430,6 +493,11 @@ fn stats_into(
 fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("LASERS", kitti2pgm::project::LASERS)?;
+    let sensors = PyDict::new(m.py());
+    for s in kitti2pgm::sensor::presets::Sensor::ALL {
+        sensors.set_item(s.as_str(), s.model_table().beams())?;
+    }
+    m.add("SENSORS", sensors)?;
     m.add("MAX_RANGE_M", kitti2pgm::kitti::velodyne::MAX_RANGE_M)?;
     m.add_function(wrap_pyfunction!(project, m)?)?;
     m.add_function(wrap_pyfunction!(rings, m)?)?;

@@ -37,6 +37,38 @@ fn matrix<'py, R: na::Dim, C: na::Dim, S: na::RawStorage<f64, R, C>>(
     Ok(PyArray2::from_vec2(py, &rows)?)
 }
 
+/// Reads a point cloud of any spinning LiDAR: a PCD file (ascii, binary, binary_compressed),
+/// nuScenes' `.pcd.bin`, or a flat `.bin` of the declared `fields` (e.g.
+/// "x,y,z,intensity,ring:f32"; KITTI's x, y, z, reflectance float32 by default).
+///
+/// Returns a dict: points (N, 4) float32 x, y, z, intensity (as stored; 0 where the file has
+/// no intensity), ring (N,) uint16 or None (the ring / channel / laser id field), file_index
+/// (N,) uint32 (the index in the file of each kept point), file_points, dropped (points with a
+/// non-finite value or beyond MAX_RANGE_M).
+#[pyfunction]
+#[pyo3(signature = (path, *, fields=None))]
+fn read_cloud<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    fields: Option<String>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let layout = fields
+        .map(|f| kitti2pgm::source::PointLayout::declared(&f))
+        .transpose()
+        .map_err(py_err)?;
+    let cloud = py
+        .detach(|| kitti2pgm::source::read_cloud(&path, layout.as_ref()))
+        .map_err(py_err)?;
+    let (scan, ring) = Scan::from_cloud(cloud);
+    let d = PyDict::new(py);
+    d.set_item("points", scan_array(py, &scan)?)?;
+    d.set_item("ring", ring.map(|r| PyArray1::from_vec(py, r)))?;
+    d.set_item("file_index", PyArray1::from_vec(py, scan.file_indices()))?;
+    d.set_item("file_points", scan.file_len)?;
+    d.set_item("dropped", scan.dropped.len())?;
+    Ok(d)
+}
+
 /// Reads a velodyne `.bin`: its points as an (N, 4) float32 array (x, y, z, intensity), without
 /// the non-finite points and those beyond MAX_RANGE_M (as the converter reads them). With
 /// `with_file_index`, also the index in the file of each point ((N,) uint32), to line up
@@ -333,6 +365,7 @@ pub fn write_point_predictions(
 /// Adds the readers to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_scan, m)?)?;
+    m.add_function(wrap_pyfunction!(read_cloud, m)?)?;
     m.add_function(wrap_pyfunction!(read_point_labels, m)?)?;
     m.add_function(wrap_pyfunction!(read_calibration, m)?)?;
     m.add_function(wrap_pyfunction!(read_frame_calibration, m)?)?;

@@ -1,0 +1,82 @@
+"""Other sensors from Python: `read_cloud` reads PCD and nuScenes files as pypcd4 and numpy do,
+`project(sensor=...)` gives the bytes `convert --sensor` writes, and rows are the beams."""
+
+import pathlib
+import subprocess
+
+import kitti2pgm as k2
+import numpy as np
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parents[3]
+LIDARS = REPO / "fixtures" / "lidars"
+VLP16 = LIDARS / "velodyne" / "vlp16_1673400472138016708.pcd"
+P40 = LIDARS / "hesai" / "Pandar40P_1673400149711850138.pcd"
+NUSCENES = next((LIDARS / "nuscenes").glob("*.pcd.bin"))
+OWN = REPO / "fixtures" / "own_lidar"
+
+
+def test_read_cloud_matches_numpy_on_the_vlp16_pcd():
+    c = k2.read_cloud(VLP16)
+    raw = VLP16.read_bytes()
+    start = raw.index(b"DATA binary\n") + len(b"DATA binary\n")
+    dt = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("intensity", "u1"), ("return_type", "u1"),
+                   ("channel", "<u2"), ("azimuth", "<f4"), ("elevation", "<f4"), ("distance", "<f4"),
+                   ("time_stamp", "<u4")])
+    a = np.frombuffer(raw[start:], dt)
+    assert c["file_points"] == len(a) == 14831
+    np.testing.assert_array_equal(c["points"][:, 0], a["x"])
+    np.testing.assert_array_equal(c["points"][:, 3], a["intensity"].astype(np.float32))
+    np.testing.assert_array_equal(c["ring"], a["channel"])
+
+
+def test_read_cloud_reads_what_pypcd4_writes_in_every_encoding(tmp_path):
+    pypcd4 = pytest.importorskip("pypcd4")
+    src = k2.read_cloud(P40)["points"][:, :3]
+    ring = (np.arange(len(src)) % 40).astype(np.uint16)
+    for enc in ("ascii", "binary", "binary_compressed"):
+        pc = pypcd4.PointCloud.from_points([src[:, 0], src[:, 1], src[:, 2], ring], ("x", "y", "z", "ring"),
+                                           (np.float32, np.float32, np.float32, np.uint16))
+        path = tmp_path / f"{enc}.pcd"
+        pc.save(path, encoding=getattr(pypcd4.Encoding, enc.upper()))
+        c = k2.read_cloud(path)
+        if enc == "ascii":  # pypcd4 writes about 8 significant digits
+            np.testing.assert_allclose(c["points"][:, :3], src, rtol=1e-6, atol=1e-9, err_msg=enc)
+        else:
+            np.testing.assert_array_equal(c["points"][:, :3], src, err_msg=enc)
+        np.testing.assert_array_equal(c["ring"], ring, err_msg=enc)
+
+
+def test_nuscenes_keyframe_and_declared_fields(tmp_path):
+    c = k2.read_cloud(NUSCENES)
+    a = np.fromfile(NUSCENES, "<f4").reshape(-1, 5)
+    np.testing.assert_array_equal(c["ring"], a[:, 4].astype(np.uint16))
+    # The same bytes named .bin with its layout declared.
+    p = tmp_path / "scan.bin"
+    p.write_bytes(NUSCENES.read_bytes())
+    d = k2.read_cloud(p, fields="x,y,z,intensity,ring:f32")
+    np.testing.assert_array_equal(d["points"], c["points"])
+    with pytest.raises(ValueError, match="unknown type"):
+        k2.read_cloud(p, fields="x,y,z:f33")
+    with pytest.raises(ValueError, match="not a multiple of 24"):
+        k2.read_cloud(p, fields="x,y,z,intensity,ring,extra:f32")
+
+
+def test_project_with_a_sensor_is_convert_with_that_sensor(tmp_path, kitti2pgm_path):
+    subprocess.run([kitti2pgm_path, "--no-progress", "convert", str(OWN), "--out", str(tmp_path), "--sensor",
+                    "vlp16", "--all-frames", "--cols", "1024"], check=True, capture_output=True)
+    written = np.load(tmp_path / "lidar_2d" / "00_000000.npy")
+    c = k2.read_cloud(VLP16)
+    # Rows from the channel field (bottom-up) as convert takes it.
+    rows = (15 - c["ring"]).astype(np.uint8)
+    m = k2.project(c["points"], preset="full", cols=1024, rings=rows, beams=16)
+    np.testing.assert_array_equal(m["map"], written)
+    # The beam table alone gives the same rows.
+    t = k2.project(c["points"], preset="full", cols=1024, rows=16, sensor="vlp16")
+    np.testing.assert_array_equal(t["map"], written)
+    assert t["stats"]["off_model"] == 0
+    assert k2.SENSORS["vlp16"] == 16 and k2.SENSORS["ot128"] == 128
+    with pytest.raises(ValueError, match="neither a built-in sensor"):
+        k2.project(c["points"], sensor="vlp17")
+    with pytest.raises(ValueError, match="not below 16"):
+        k2.project(c["points"], rings=np.full(len(rows), 16, np.uint8), beams=16)
