@@ -90,7 +90,7 @@ pub struct ConvertArgs {
     /// How rows are assigned (preset: rings; elevation for rangenet).
     #[arg(long, value_enum)]
     pub row_mode: Option<RowMode>,
-    /// Another sensor's scans (a sequence of .pcd files, or of .bin with --fields): the rows are
+    /// Another sensor's scans (a sequence of .pcd files, or of KITTI-layout .bin): the rows are
     /// this sensor's beams, by its built-in nominal beam table. The map gets one row per beam
     /// unless --rows says otherwise; a ring / channel field in the scans decides first.
     #[arg(
