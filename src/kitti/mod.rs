@@ -394,15 +394,18 @@ impl Drive {
         if !dir.exists() {
             return Ok(out);
         }
-        // A sequence of another sensor may hold PCD files (one per frame, not beside a .bin).
+        // A sequence of another sensor may hold PCD files (one per frame); a `.pcd` beside the
+        // `.bin` of its frame is not read ([`Drive::scan_path`] takes the `.bin`).
         let pcd = self.layout == Layout::Sequence;
         for p in crate::fs::sorted_dir(&dir)? {
             let frame = p
                 .file_name()
                 .and_then(|n| n.to_str())
                 .and_then(|n| {
-                    n.strip_suffix(".bin")
-                        .or_else(|| n.strip_suffix(".pcd").filter(|_| pcd))
+                    n.strip_suffix(".bin").or_else(|| {
+                        n.strip_suffix(".pcd")
+                            .filter(|_| pcd && !p.with_extension("bin").exists())
+                    })
                 })
                 .filter(|stem| stem.len() == width && stem.bytes().all(|c| c.is_ascii_digit()))
                 // 10 digits beyond u32 (9999999999.bin) or beyond any drive's length: not a
@@ -415,20 +418,6 @@ impl Drive {
             }
         }
         out.frames.sort_unstable();
-        // A frame with both a .bin and a .pcd: the .bin is read, the .pcd named as not a frame.
-        let mut seen = out.frames.clone();
-        seen.dedup();
-        if seen.len() != out.frames.len() {
-            for &f in &seen {
-                let name = self.frame_id(f).frame_name();
-                let pcd = dir.join(format!("{name}.pcd"));
-                if dir.join(format!("{name}.bin")).exists() && pcd.exists() {
-                    out.not_frames.push(pcd);
-                }
-            }
-            out.not_frames.sort();
-            out.frames = seen;
-        }
         Ok(out)
     }
 }

@@ -41,12 +41,10 @@ pub enum Rows<'a> {
     /// The spec's rule: rings recovered from the scan order (elevation binning when the scan does
     /// not show [`LASERS`] rings), or elevation binning.
     FromSpec,
-    /// These ring indices (one per point, each below [`LASERS`]), e.g. recovered before the
-    /// points were augmented; elevation binning if the spec asks for it.
-    Rings(&'a [u8]),
-    /// The beam row of every point (0 = the highest beam) of a sensor with this many beams
-    /// ([`crate::sensor`]: a ring field or the beam table); elevation binning if the spec asks
-    /// for it.
+    /// The beam row of every point (0 = the highest beam) of a sensor with this many beams:
+    /// KITTI's rings recovered before the points were augmented (with [`LASERS`]), or another
+    /// sensor's ([`crate::sensor`]: a ring field or the beam table); elevation binning if the
+    /// spec asks for it.
     Beams(&'a [u8], usize),
     /// Elevation binning, counted as a ring fallback (the rings were not recoverable).
     Fallback,
@@ -66,20 +64,15 @@ pub(crate) struct RowSource<'a> {
 
 /// Resolves [`Rows`] for `spec`: rings recovered from the scan order, given, or none.
 pub(crate) fn row_source<'a>(points: &[Point3], spec: &PgmSpec, rows: Rows<'a>) -> RowSource<'a> {
-    let (rings, found, fallback) = match rows {
-        _ if spec.row_mode != RowMode::Rings => (None, 0, false),
+    let (rings, found, beams, fallback) = match rows {
+        _ if spec.row_mode != RowMode::Rings => (None, 0, LASERS, false),
         Rows::FromSpec => {
             let (r, found) = rings(points);
             let fallback = r.is_none();
-            (r.map(Cow::Owned), found, fallback)
+            (r.map(Cow::Owned), found, LASERS, fallback)
         }
-        Rows::Rings(r) => (Some(Cow::Borrowed(r)), LASERS, false),
-        Rows::Beams(r, beams) => (Some(Cow::Borrowed(r)), beams, false),
-        Rows::Fallback => (None, 0, true),
-    };
-    let beams = match rows {
-        Rows::Beams(_, beams) => beams,
-        _ => LASERS,
+        Rows::Beams(r, beams) => (Some(Cow::Borrowed(r)), beams, beams, false),
+        Rows::Fallback => (None, 0, LASERS, true),
     };
     RowSource {
         rings,

@@ -39,8 +39,8 @@ pub const SAME_ELEVATION_DEG: f64 = 1e-4;
 /// One beam (laser) of a spinning sensor.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Beam {
-    /// The beam's id as the sensor's driver numbers it (the value of a ring / channel / laser id
-    /// field), 0-based.
+    /// The beam's id in its calibration table, 0-based (Velodyne's `laser_id`, Hesai's laser id
+    /// - 1, Ouster's beam index). Drivers' ring fields count otherwise: [`ring_rows`].
     pub id: u16,
     /// Elevation above the horizontal plane.
     pub elevation: Degrees,
@@ -52,8 +52,6 @@ pub struct Beam {
 #[derive(Debug, Clone, PartialEq)]
 pub struct BeamTable {
     beams: Vec<Beam>,
-    /// Row of each beam id (`u8::MAX` where no beam has the id).
-    row_of_id: Vec<u8>,
     /// Elevations in radians, in row order (for the assignment).
     elevations: Vec<f64>,
     /// Half the smallest gap around each beam, radians.
@@ -106,11 +104,6 @@ impl BeamTable {
                 w[0].id, w[1].id, w[0].elevation.0
             )));
         }
-        let max_id = *ids.last().expect("not empty") as usize;
-        let mut row_of_id = vec![u8::MAX; max_id + 1];
-        for (row, b) in beams.iter().enumerate() {
-            row_of_id[b.id as usize] = row as u8;
-        }
         let elevations: Vec<f64> = beams.iter().map(|b| b.elevation.to_radians()).collect();
         let n = elevations.len();
         let tolerance = (0..n)
@@ -128,7 +121,6 @@ impl BeamTable {
             .collect();
         Ok(BeamTable {
             beams,
-            row_of_id,
             elevations,
             tolerance,
         })
@@ -151,10 +143,10 @@ impl BeamTable {
 
     /// The row of the beam with id `id`, if the table has it.
     pub fn row_of_id(&self, id: u32) -> Option<u8> {
-        self.row_of_id
-            .get(id as usize)
-            .copied()
-            .filter(|&r| r != u8::MAX)
+        self.beams
+            .iter()
+            .position(|b| u32::from(b.id) == id)
+            .map(|row| row as u8)
     }
 
     /// The row of the beam nearest to elevation `e` (radians), and whether `e` fits that beam
@@ -307,6 +299,24 @@ pub fn read_calibration(path: &Path) -> Result<SensorModel> {
              Hesai angle-correction .csv or an Ouster metadata .json",
         )),
     }
+}
+
+/// A sensor model by a built-in sensor's name (`vlp16`, `pandar64`: [`presets::Sensor`]) or a
+/// calibration file's path (`.yaml`, `.csv`, `.json`: [`read_calibration`]).
+pub fn named_or_file(name: &str) -> Result<SensorModel> {
+    if let Ok(s) = name.parse::<presets::Sensor>() {
+        return Ok(s.model_table());
+    }
+    let path = Path::new(name);
+    if path.extension().is_some() {
+        return read_calibration(path);
+    }
+    let names: Vec<&str> = presets::Sensor::ALL.iter().map(|s| s.as_str()).collect();
+    Err(Error::Config(format!(
+        "sensor {name:?} is neither a built-in sensor ({}) nor a calibration file (.yaml, .csv, \
+         .json)",
+        names.join(", ")
+    )))
 }
 
 /// The sensor name of a calibration file: its stem.

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::presets::Sensor;
 use super::{read_calibration, RingOrder, SensorModel};
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// Where the beam table comes from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -62,14 +62,13 @@ impl SensorParams {
         }
     }
 
-    /// A calibration file (read now; its digest recorded).
+    /// A calibration file (read now, once; the digest of the bytes read recorded).
     pub fn file(path: &Path, ring_order: RingOrder) -> Result<SensorParams> {
-        let bytes = crate::fs::read(path, crate::fs::Limit::Text)?;
-        let model = read_calibration(path)?;
+        let (model, digest) = read_with_digest(path)?;
         Ok(SensorParams {
             source: SensorSource::File {
                 path: path.to_path_buf(),
-                digest: format!("{:016x}", xxhash_rust::xxh3::xxh3_64(&bytes)),
+                digest,
             },
             name: model.name.clone(),
             beams: model.beams(),
@@ -78,14 +77,61 @@ impl SensorParams {
         })
     }
 
-    /// The resolved model (a built-in one is rebuilt where the params were read back).
+    /// The resolved model (rebuilt where the params were read back: a built-in one from its
+    /// table, a file only while its content is the one recorded).
     pub fn model(&self) -> Result<Arc<SensorModel>> {
         if let Some(m) = &self.model {
             return Ok(m.clone());
         }
         Ok(Arc::new(match &self.source {
             SensorSource::Preset(s) => s.model_table(),
-            SensorSource::File { path, .. } => read_calibration(path)?,
+            SensorSource::File { path, digest } => {
+                let (model, now) = read_with_digest(path)?;
+                if &now != digest {
+                    return Err(Error::format(
+                        path,
+                        format!(
+                            "the calibration changed since the conversion read it (content \
+                             {now}, recorded {digest})"
+                        ),
+                    ));
+                }
+                model
+            }
         }))
+    }
+}
+
+/// Reads a calibration file once, with the XXH3-64 digest (hex) of the bytes read
+/// ([`crate::fs::recording`] fingerprints them).
+fn read_with_digest(path: &Path) -> Result<(SensorModel, String)> {
+    let (model, inputs) = crate::fs::recording(|| read_calibration(path));
+    let model = model?;
+    let fingerprint = inputs
+        .records()
+        .iter()
+        .find(|r| r.path == path)
+        .and_then(|r| r.file)
+        .expect("read_calibration reads its file through fs::read");
+    Ok((model, format!("{:016x}", fingerprint.xxh3)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_calibration_read_back_is_used_only_while_its_content_is_the_recorded_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        std::fs::write(&path, "Laser id,Elevation,Azimuth\n1,2.0,0\n2,-2.0,0\n").unwrap();
+        let made = SensorParams::file(&path, RingOrder::BottomUp).unwrap();
+        let json = serde_json::to_string(&made).unwrap();
+        let back: SensorParams = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, made);
+        assert_eq!(back.model().unwrap().beams(), 2);
+        std::fs::write(&path, "Laser id,Elevation,Azimuth\n1,3.0,0\n2,-2.0,0\n").unwrap();
+        let e = back.model().unwrap_err().to_string();
+        assert!(e.contains("t.csv") && e.contains("changed since"), "{e}");
     }
 }

@@ -6,7 +6,6 @@
 //! `reflectivity`, `reflectance`, `remission`, `i`; the beam id the first of `ring`, `channel`,
 //! `laser_id`, `laser`, `line`. Other fields are read past.
 
-use std::fmt;
 use std::path::Path;
 
 use super::LidarCloud;
@@ -66,23 +65,6 @@ impl FieldType {
         })
     }
 
-    /// A declared type name (`f32`, `u16`, ...).
-    pub fn from_name(name: &str) -> Option<FieldType> {
-        Some(match name {
-            "i8" => FieldType::I8,
-            "u8" => FieldType::U8,
-            "i16" => FieldType::I16,
-            "u16" => FieldType::U16,
-            "i32" => FieldType::I32,
-            "u32" => FieldType::U32,
-            "i64" => FieldType::I64,
-            "u64" => FieldType::U64,
-            "f32" => FieldType::F32,
-            "f64" => FieldType::F64,
-            _ => return None,
-        })
-    }
-
     /// Decodes one value from the start of `b` (at least [`FieldType::size`] bytes).
     #[inline]
     pub fn read(self, b: &[u8], big_endian: bool) -> f64 {
@@ -111,22 +93,18 @@ impl FieldType {
     }
 }
 
-impl fmt::Display for FieldType {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            FieldType::I8 => "i8",
-            FieldType::U8 => "u8",
-            FieldType::I16 => "i16",
-            FieldType::U16 => "u16",
-            FieldType::I32 => "i32",
-            FieldType::U32 => "u32",
-            FieldType::I64 => "i64",
-            FieldType::U64 => "u64",
-            FieldType::F32 => "f32",
-            FieldType::F64 => "f64",
-        })
-    }
-}
+crate::named_enum!(FieldType, "field type", [
+    I8 => "i8" [] "signed 8-bit integer",
+    U8 => "u8" [] "unsigned 8-bit integer",
+    I16 => "i16" [] "signed 16-bit integer",
+    U16 => "u16" [] "unsigned 16-bit integer",
+    I32 => "i32" [] "signed 32-bit integer",
+    U32 => "u32" [] "unsigned 32-bit integer",
+    I64 => "i64" [] "signed 64-bit integer",
+    U64 => "u64" [] "unsigned 64-bit integer",
+    F32 => "f32" [] "32-bit float",
+    F64 => "f64" [] "64-bit float",
+]);
 
 /// One field of a point record.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -202,10 +180,9 @@ impl PointLayout {
             let (name, ty) = match part.split_once(':') {
                 Some((n, t)) => (
                     n.trim(),
-                    Some(FieldType::from_name(t.trim()).ok_or_else(|| {
-                        bad(format!(
-                            "unknown type {t:?} (one of i8, u8, i16, u16, i32, u32, i64, u64, f32, f64)"
-                        ))
+                    Some(t.trim().parse::<FieldType>().map_err(|_| {
+                        let names: Vec<&str> = FieldType::ALL.iter().map(|f| f.as_str()).collect();
+                        bad(format!("unknown type {t:?} (one of {})", names.join(", ")))
                     })?),
                 ),
                 None => (part, None),

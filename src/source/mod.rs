@@ -106,22 +106,22 @@ pub fn is_kitti_bin(path: &Path) -> bool {
 /// `POINTS`. `None` when the file cannot be read or is not a scan.
 pub fn points_in_file(path: &Path) -> Option<u64> {
     let name = path.file_name()?.to_str()?;
-    let len = std::fs::metadata(path).ok()?.len();
+    // Through `fs::open`: a regular file only, never a FIFO that would block the read.
+    let (file, meta) = crate::fs::open(path).ok()?;
     if name.ends_with(".pcd") {
         use std::io::Read;
         let mut head = Vec::with_capacity(4096);
-        std::fs::File::open(path)
-            .ok()?
-            .take(64 << 10)
-            .read_to_end(&mut head)
-            .ok()?;
+        file.take(64 << 10).read_to_end(&mut head).ok()?;
         return pcd::header(&head, path).ok().map(|h| h.points as u64);
     }
-    if name.ends_with(".pcd.bin") {
-        return Some(len / bin::nuscenes_layout().step as u64);
-    }
-    name.ends_with(".bin")
-        .then(|| len / bin::kitti_layout().step as u64)
+    let step = if name.ends_with(".pcd.bin") {
+        bin::nuscenes_layout().step
+    } else if name.ends_with(".bin") {
+        bin::kitti_layout().step
+    } else {
+        return None;
+    };
+    Some(meta.len() / step as u64)
 }
 
 /// Reads a point cloud file by its name: `.pcd` (PCD), `.pcd.bin` (nuScenes: x, y, z,

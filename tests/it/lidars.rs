@@ -493,3 +493,26 @@ fn an_unknown_sensor_or_a_bad_calibration_stops_before_any_work() {
     );
     assert!(!out.join("lidar_2d").exists());
 }
+
+#[test]
+fn a_pcd_beside_the_bin_of_its_frame_is_named_not_read() {
+    use kitti2pgm::kitti::Drive;
+    let t = super::util::tmp();
+    let vlp = lidars().join("velodyne/vlp16_1673400472138016708.pcd");
+    let bin = super::util::fixture("semantickitti/sequences/00/velodyne/000000.bin");
+    let seq = sequence_of(
+        t.path(),
+        &[
+            ("000000.pcd", &vlp),
+            ("000000.bin", &bin),
+            ("000001.pcd", &vlp),
+        ],
+    );
+    let drive = Drive::sequence(&seq.join("sequences/00")).unwrap();
+    let listing = drive.scan_listing().unwrap();
+    assert_eq!(listing.frames, vec![0, 1]);
+    let dir = seq.join("sequences/00/velodyne");
+    assert_eq!(listing.not_frames, vec![dir.join("000000.pcd")]);
+    assert_eq!(drive.scan_path(0), dir.join("000000.bin"));
+    assert_eq!(drive.scan_path(1), dir.join("000001.pcd"));
+}

@@ -189,7 +189,11 @@ fn project<'py>(
     let (pts, intensity) = points_arg(points, "points", true)?;
     let n = pts.len();
     let mut rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
-    let model = sensor.as_deref().map(sensor_model).transpose()?;
+    let model = sensor
+        .as_deref()
+        .map(kitti2pgm::sensor::named_or_file)
+        .transpose()
+        .map_err(py_err)?;
     let mut off_model = None;
     let beams = match (&model, beams) {
         (Some(m), Some(b)) if b != m.beams() => {
@@ -258,23 +262,6 @@ fn project<'py>(
             .set_item("off_model", off)?;
     }
     Ok(d)
-}
-
-/// A sensor model from a preset name or a calibration file path.
-fn sensor_model(name: &str) -> PyResult<kitti2pgm::sensor::SensorModel> {
-    use kitti2pgm::sensor::presets::Sensor;
-    if let Ok(s) = name.parse::<Sensor>() {
-        return Ok(s.model_table());
-    }
-    let path = std::path::Path::new(name);
-    if path.extension().is_some() {
-        return kitti2pgm::sensor::read_calibration(path).map_err(py_err);
-    }
-    let names: Vec<&str> = Sensor::ALL.iter().map(|s| s.as_str()).collect();
-    Err(PyValueError::new_err(format!(
-        "sensor {name:?} is neither a built-in sensor ({}) nor a calibration file (.yaml, .csv, .json)",
-        names.join(", ")
-    )))
 }
 
 /// Carries a map prediction back to every point of the scan it was projected from.
