@@ -21,6 +21,8 @@ use kitti2pgm::plan::DrivePlan;
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
 use kitti2pgm::project::{project, project_cloud, Augment, Cloud, PgmSpec};
+use kitti2pgm::source::bag::Bag;
+use kitti2pgm::source::pointcloud2::PointCloud2;
 
 /// The same allocator as the binary, so that stage costs match what `convert` pays.
 #[global_allocator]
@@ -204,10 +206,12 @@ fn read(c: &mut Criterion) {
         .map(|e| e.unwrap().path())
         .next()
         .unwrap();
+    let vlp16 = here.join("fixtures/lidars/velodyne/vlp16_1673400472138016708.pcd");
     let mut g = c.benchmark_group("read");
     for (name, path) in [
         ("kitti_bin", &bin),
         ("pcd_binary", &pcd),
+        ("pcd_binary_vlp16", &vlp16),
         ("nuscenes_pcd_bin", &nus),
     ] {
         let n = kitti2pgm::source::points_in_file(path).unwrap();
@@ -216,7 +220,63 @@ fn read(c: &mut Criterion) {
             b.iter(|| Scan::read_with_rings(black_box(path), None).unwrap())
         });
     }
+    // The fixture bag's /velodyne_points (the VLP-16 scan twice, one message big-endian, as
+    // rosbags serialised them) alone in an uncompressed .mcap (rosbag2's default), read and
+    // decoded as `kitti2pgm.read_bag` does.
+    let dir = tempfile::tempdir().unwrap();
+    let bag = lidar_only_bag(
+        &here.join("fixtures/own_lidar_bag"),
+        &dir.path().join("v.mcap"),
+    );
+    let n = 2 * kitti2pgm::source::points_in_file(&vlp16).unwrap();
+    g.throughput(Throughput::Elements(n));
+    g.bench_function("ros2_bag_vlp16", |b| {
+        b.iter(|| {
+            let mut points = 0;
+            for m in bag.messages(black_box("/velodyne_points")) {
+                let m = m.unwrap();
+                let what = std::path::Path::new("bag");
+                let cloud = PointCloud2::decode(&m.data, what)
+                    .unwrap()
+                    .cloud(what)
+                    .unwrap();
+                points += cloud.len();
+            }
+            points
+        })
+    });
     g.finish();
+}
+
+/// The `/velodyne_points` messages of `bag` copied into a bag of that topic alone at `out`.
+fn lidar_only_bag(bag: &Path, out: &Path) -> Bag {
+    let messages: Vec<Vec<u8>> = Bag::open(bag)
+        .unwrap()
+        .messages("/velodyne_points")
+        .map(|m| m.unwrap().data)
+        .collect();
+    let file = std::io::BufWriter::new(std::fs::File::create(out).unwrap());
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .create(file)
+        .unwrap();
+    let schema = w
+        .add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"")
+        .unwrap();
+    let ch = w
+        .add_channel(schema, "/velodyne_points", "cdr", &Default::default())
+        .unwrap();
+    for (i, m) in messages.iter().enumerate() {
+        let h = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: i as u64,
+            publish_time: i as u64,
+        };
+        w.write_to_known_channel(&h, m).unwrap();
+    }
+    w.finish().unwrap();
+    Bag::open(out).unwrap()
 }
 
 criterion_group! {

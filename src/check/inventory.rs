@@ -84,6 +84,20 @@ fn list_scans(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
     }
     for f in listing.frames {
         let path = drive.scan_path(f);
+        if !crate::source::is_kitti_bin(&path) {
+            // Another sensor's scan (a PCD): its point count from its header.
+            match crate::source::points_in_file(&path) {
+                Some(n) => {
+                    r.scans.insert(f, n as usize);
+                }
+                None => {
+                    let e = crate::source::read_cloud(&path, None).err();
+                    let why = e.map_or("cannot be read".to_string(), |e| e.to_string());
+                    c.add(C::Read, S::Error, &path, Some(f), None, why);
+                }
+            }
+            continue;
+        }
         match crate::fs::regular(&path) {
             Ok(m) if (m.len() as usize).is_multiple_of(POINT_BYTES) => {
                 r.scans.insert(f, m.len() as usize / POINT_BYTES);

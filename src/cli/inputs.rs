@@ -1,4 +1,4 @@
-//! The arguments of the commands over a dataset's inputs: `check` and `submission`.
+//! The arguments of the commands over a dataset's inputs: `check`, `submission` and `unpack`.
 
 use std::path::PathBuf;
 
@@ -82,6 +82,39 @@ pub struct SubmissionArgs {
     #[arg(long, value_name = "TEXT|FILE", requires = "zip")]
     pub description: Option<String>,
     /// Print the check as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `kitti2pgm unpack`.
+#[derive(Debug, ClapArgs)]
+pub struct UnpackArgs {
+    /// A ROS 2 bag: its directory (with metadata.yaml; MCAP storage) or one .mcap file.
+    #[arg(value_name = "BAG")]
+    pub bag: PathBuf,
+    /// The sensor_msgs/msg/PointCloud2 topic to unpack (without it, or with a wrong one, the
+    /// error lists the bag's point cloud topics).
+    #[arg(long, value_name = "TOPIC")]
+    pub topic: Option<String>,
+    /// The dataset root to write: ROOT/sequences/<NN>/velodyne/<frame6>.pcd, times.txt and
+    /// unpack.json.
+    #[arg(long, value_name = "ROOT", required_unless_present = "list")]
+    pub out: Option<PathBuf>,
+    /// The sequence number NN (one bag is one sequence).
+    #[arg(long, default_value_t = 0, value_name = "NN",
+          value_parser = clap::value_parser!(u32).range(0..=99))]
+    pub sequence: u32,
+    /// Replace the scans of an earlier unpack into the same sequence (scans past the new last
+    /// frame are removed).
+    #[arg(long)]
+    pub overwrite: bool,
+    /// List the bag's topics (type, serialisation, messages) and stop.
+    #[arg(long)]
+    pub list: bool,
+    /// Flush every file to the device before it is renamed into place.
+    #[arg(long)]
+    pub sync: bool,
+    /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
 }

@@ -8,7 +8,7 @@ mod inputs;
 mod reports;
 
 pub use convert::{ConvertArgs, FormatArg, SplitArgs};
-pub use inputs::{CheckArgs, SubmissionArgs};
+pub use inputs::{CheckArgs, SubmissionArgs, UnpackArgs};
 pub use reports::{InspectArgs, PreviewArgs, ScoreArgs, StatsArgs, UnprojectArgs};
 
 use clap::{Parser, Subcommand};
@@ -43,6 +43,7 @@ impl Args {
             Command::Submission(a) => a.json,
             Command::Check(a) => a.json,
             Command::Inspect(a) => a.json,
+            Command::Unpack(a) => a.json,
             Command::Preview(_) => false,
         }
     }
@@ -124,6 +125,17 @@ pub enum Command {
     /// Describe MCAP shards: frames, channels, sizes, compression ratio, class counts, and the
     /// conversion parameters stored in them. Fails, naming the shard and frame, on a corrupted one.
     Inspect(InspectArgs),
+    /// Unpack a ROS 2 bag's point clouds (sensor_msgs/msg/PointCloud2, CDR, MCAP storage) into
+    /// a sequence folder that every other command reads: one bag is one sequence, one message
+    /// one frame, ROOT/sequences/<NN>/velodyne/<frame6>.pcd with every field of the message,
+    /// times.txt (header stamps, seconds after the first) and unpack.json (the first stamp, the
+    /// frame ids, failures).
+    ///
+    /// The bag is streamed: memory stays flat whatever its size. Then `kitti2pgm convert ROOT
+    /// --sensor NAME` (rows from the ring field, or the beam table). A message that does not
+    /// decode fails its frame only. Exit status: 0 all unpacked, 3 some frames failed, 1 the bag
+    /// or topic cannot be read (the error lists the point cloud topics).
+    Unpack(UnpackArgs),
 }
 
 #[cfg(test)]

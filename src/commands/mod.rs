@@ -9,6 +9,7 @@ mod score;
 mod split;
 mod stats;
 pub mod submission;
+mod unpack;
 pub mod unproject;
 
 use crate::cli::{Args, Command};
@@ -30,6 +31,7 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
         Command::Inspect(a) => inspect::run(a),
         Command::Unproject(a) => unproject::run(a, &global),
         Command::Submission(a) => submission::run(a),
+        Command::Unpack(a) => unpack::run(a, &global),
     }
 }
 

@@ -8,12 +8,14 @@
 //! parameters, is written last ([`crate::format::summary`]).
 //!
 //! - [`frame`]: one frame, read to written;
-//! - [`shards`]: the shard output (frames in order, written while the next batch converts).
+//! - [`shards`]: the shard output (frames in order, written while the next batch converts);
+//! - [`unpack`]: a ROS 2 bag's point clouds -> a sequence folder of PCD scans.
 
 pub mod frame;
 pub mod labels;
 pub mod resume;
 pub mod shards;
+pub mod unpack;
 
 use std::sync::Mutex;
 

@@ -45,6 +45,18 @@ pub fn count_lines(path: &Path) -> Result<usize> {
     Ok(text.lines().filter(|l| !l.trim().is_empty()).count())
 }
 
+/// `times.txt` text for scans taken `nanos` nanoseconds after the first: seconds a line,
+/// written exactly (nine decimals, no float rounding).
+pub fn times_text(nanos: impl IntoIterator<Item = i64>) -> String {
+    let mut out = String::new();
+    for n in nanos {
+        let sign = if n < 0 { "-" } else { "" };
+        let a = n.unsigned_abs();
+        out += &format!("{sign}{}.{:09}\n", a / 1_000_000_000, a % 1_000_000_000);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -60,5 +72,13 @@ mod tests {
             "{e}"
         );
         assert!(parse("1 0 0 1 0 1 0 2 0 0 1 nan\n", p).is_err());
+    }
+
+    #[test]
+    fn times_are_exact_seconds() {
+        assert_eq!(
+            times_text([0, 100_000_001, -5, 3_600_000_000_123]),
+            "0.000000000\n0.100000001\n-0.000000005\n3600.000000123\n"
+        );
     }
 }

@@ -1,6 +1,6 @@
 //! Point layouts: the fields of one point record (name, type, count, offset), as PCD headers,
 //! PointCloud2 messages and `--fields` declarations describe them, and their decoding into a
-//! [`LidarCloud`].
+//! [`LidarCloud`](super::LidarCloud) (the `decode` module).
 //!
 //! Roles by field name: `x`, `y`, `z` (required); the intensity is the first of `intensity`,
 //! `reflectivity`, `reflectance`, `remission`, `i`; the beam id the first of `ring`, `channel`,
@@ -8,9 +8,7 @@
 
 use std::path::Path;
 
-use super::LidarCloud;
 use crate::error::{Error, Result};
-use crate::geom::Point3;
 
 /// The scalar type of a field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,6 +61,15 @@ impl FieldType {
             ("F", 8) => FieldType::F64,
             _ => return None,
         })
+    }
+
+    /// PCD's type letter (`I`, `U`, `F`); the size is [`FieldType::size`].
+    pub fn pcd_letter(self) -> char {
+        match self {
+            FieldType::I8 | FieldType::I16 | FieldType::I32 | FieldType::I64 => 'I',
+            FieldType::U8 | FieldType::U16 | FieldType::U32 | FieldType::U64 => 'U',
+            FieldType::F32 | FieldType::F64 => 'F',
+        }
     }
 
     /// Decodes one value from the start of `b` (at least [`FieldType::size`] bytes).
@@ -139,9 +146,9 @@ pub const RING_NAMES: [&str; 5] = ["ring", "channel", "laser_id", "laser", "line
 /// Where the roles sit in a record.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Roles {
-    xyz: [(usize, FieldType); 3],
-    intensity: Option<(usize, FieldType)>,
-    ring: Option<(usize, FieldType)>,
+    pub(crate) xyz: [(usize, FieldType); 3],
+    pub(crate) intensity: Option<(usize, FieldType)>,
+    pub(crate) ring: Option<(usize, FieldType)>,
 }
 
 impl PointLayout {
@@ -248,43 +255,5 @@ impl PointLayout {
             intensity: self.find(&INTENSITY_NAMES).map(scalar),
             ring: self.find(&RING_NAMES).map(scalar),
         })
-    }
-
-    /// Decodes `n` records laid end to end in `data` (record `i` at `i * step`), as a cloud of
-    /// `path`. Points with a non-finite coordinate are dropped and counted (a non-dense cloud's
-    /// NaN points).
-    pub fn decode(&self, data: &[u8], n: usize, path: &Path) -> Result<LidarCloud> {
-        let need = n.checked_mul(self.step).filter(|&b| b <= data.len());
-        if need.is_none() {
-            return Err(Error::Length {
-                path: path.into(),
-                what: format!("the data of {n} points of {} bytes", self.step),
-                found: data.len(),
-                expected: n.saturating_mul(self.step),
-                unit: "bytes",
-            });
-        }
-        let roles = self.roles(path)?;
-        let mut out = LidarCloud::with_capacity(n, roles.intensity.is_some(), roles.ring.is_some());
-        let be = self.big_endian;
-        let get = |rec: &[u8], (off, ty): (usize, FieldType)| ty.read(&rec[off..], be);
-        // The common case, little-endian float32 coordinates, read without the type dispatch.
-        let f32_xyz = !be && roles.xyz.iter().all(|&(_, t)| t == FieldType::F32);
-        let [(ox, _), (oy, _), (oz, _)] = roles.xyz;
-        let f = |rec: &[u8], o: usize| {
-            f32::from_le_bytes(rec[o..o + 4].try_into().expect("inside the record"))
-        };
-        for (i, rec) in data.chunks_exact(self.step).take(n).enumerate() {
-            let [x, y, z] = if f32_xyz {
-                [f(rec, ox), f(rec, oy), f(rec, oz)]
-            } else {
-                roles.xyz.map(|r| get(rec, r) as f32)
-            };
-            let intensity = roles.intensity.map_or(0.0, |r| get(rec, r) as f32);
-            let ring = roles.ring.map(|r| get(rec, r));
-            out.push(i, Point3::new(x, y, z), intensity, ring, path)?;
-        }
-        out.file_len = n;
-        Ok(out)
     }
 }

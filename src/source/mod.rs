@@ -1,21 +1,26 @@
 //! READ: point clouds of any spinning LiDAR, beside the KITTI family ([`crate::kitti`]).
 //!
 //! Each format has one reader module: [`pcd`] (PCD v0.7: `ascii`, `binary`,
-//! `binary_compressed`), [`bin`] (flat records of a declared layout, nuScenes' `.pcd.bin` among
-//! them); [`fields`] describes and decodes point records for all of them. Every reader gives a
+//! `binary_compressed`; it writes `binary` too), [`bin`] (flat records of a declared layout,
+//! nuScenes' `.pcd.bin` among them), [`bag`] (ROS 2 bags in MCAP, streamed) with
+//! [`pointcloud2`] (their `sensor_msgs/msg/PointCloud2` messages); [`fields`] describes and
+//! decodes point records for all of them. Every reader gives a
 //! [`LidarCloud`]: the finite points in file order, their intensity as stored, and the beam id
 //! of every point where the data has a ring / channel / laser id field. Which beam each point
 //! belongs to without such a field is the sensor model's job ([`crate::sensor`]).
 
+pub mod bag;
 pub mod bin;
+mod cdr;
+mod decode;
 pub mod fields;
 pub mod pcd;
+pub mod pointcloud2;
 
 use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::geom::Point3;
-use crate::geom::MAX_RANGE_M;
 
 pub use fields::{Field, FieldType, PointLayout};
 
@@ -23,7 +28,7 @@ pub use fields::{Field, FieldType, PointLayout};
 /// one, their beam id.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LidarCloud {
-    /// Finite points within [`MAX_RANGE_M`], in file order, sensor frame, metres.
+    /// Finite points within [`MAX_RANGE_M`](crate::geom::MAX_RANGE_M), in file order, sensor frame, metres.
     pub points: Vec<Point3>,
     /// Intensity of each point as stored (0 where the data has none).
     pub intensity: Vec<f32>,
@@ -34,9 +39,9 @@ pub struct LidarCloud {
     /// Points in the file, kept or not.
     pub file_len: usize,
     /// File indices of the dropped points (a non-finite coordinate or intensity: a non-dense
-    /// cloud's NaN points; or beyond [`MAX_RANGE_M`]), ascending.
+    /// cloud's NaN points; or beyond [`MAX_RANGE_M`](crate::geom::MAX_RANGE_M)), ascending.
     pub dropped: Vec<u32>,
-    /// How many of `dropped` were finite but beyond [`MAX_RANGE_M`].
+    /// How many of `dropped` were finite but beyond [`MAX_RANGE_M`](crate::geom::MAX_RANGE_M).
     pub dropped_out_of_range: usize,
 }
 
@@ -49,39 +54,6 @@ impl LidarCloud {
             ring: ring.then(|| Vec::with_capacity(n)),
             ..Default::default()
         }
-    }
-
-    /// Adds point `index` of the file: kept when finite and within range, else dropped and
-    /// counted. A beam id that is not a whole number in 0-65535 is an error naming `path`.
-    #[inline]
-    pub(crate) fn push(
-        &mut self,
-        index: usize,
-        p: Point3,
-        intensity: f32,
-        ring: Option<f64>,
-        path: &Path,
-    ) -> Result<()> {
-        let finite = p.x.is_finite() && p.y.is_finite() && p.z.is_finite() && intensity.is_finite();
-        let (x, y, z) = (p.x as f64, p.y as f64, p.z as f64);
-        let far = finite && x * x + y * y + z * z > (MAX_RANGE_M as f64).powi(2);
-        if !finite || far {
-            self.dropped.push(index as u32);
-            self.dropped_out_of_range += far as usize;
-            return Ok(());
-        }
-        if let (Some(rings), Some(r)) = (self.ring.as_mut(), ring) {
-            if !(r >= 0.0 && r <= u16::MAX as f64 && r.fract() == 0.0) {
-                return Err(Error::format(
-                    path,
-                    format!("point {index} has beam id (ring) {r}, not a whole number in 0-65535"),
-                ));
-            }
-            rings.push(r as u16);
-        }
-        self.points.push(p);
-        self.intensity.push(intensity);
-        Ok(())
     }
 
     /// Number of kept points.

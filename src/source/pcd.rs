@@ -42,6 +42,31 @@ pub struct PcdHeader {
     pub data_start: usize,
 }
 
+/// Encodes a `binary` PCD of `width` x `height` points: `layout` packed and little-endian
+/// (fields in record order, no padding), `records` the points end to end.
+pub fn encode(layout: &PointLayout, width: usize, height: usize, records: &[u8]) -> Vec<u8> {
+    debug_assert!(!layout.big_endian);
+    debug_assert_eq!(records.len(), width * height * layout.step);
+    let list = |f: &dyn Fn(&Field) -> String| -> String {
+        let v: Vec<String> = layout.fields.iter().map(f).collect();
+        v.join(" ")
+    };
+    let head = format!(
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE {}\n\
+         COUNT {}\nWIDTH {width}\nHEIGHT {height}\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\n\
+         DATA binary\n",
+        list(&|f| f.name.clone()),
+        list(&|f| f.ty.size().to_string()),
+        list(&|f| f.ty.pcd_letter().to_string()),
+        list(&|f| f.count.to_string()),
+        width * height,
+    );
+    let mut out = Vec::with_capacity(head.len() + records.len());
+    out.extend_from_slice(head.as_bytes());
+    out.extend_from_slice(records);
+    out
+}
+
 /// Reads a PCD file.
 pub fn read(path: &Path) -> Result<LidarCloud> {
     let bytes = fs::read(path, Limit::Data)?;

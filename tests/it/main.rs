@@ -3,6 +3,7 @@
 
 mod architecture;
 mod bad_input;
+mod bags;
 mod check;
 mod cli;
 mod cloud;

@@ -7,6 +7,7 @@
 //! unreadable files raise `OSError`, malformed ones `ValueError`, naming the file.
 
 mod arrays;
+mod bags;
 mod dataset;
 mod readers;
 
@@ -493,6 +494,7 @@ fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(readers::write_point_predictions, m)?)?;
     m.add("PRESETS", presets(m.py())?)?;
     readers::register(m)?;
+    bags::register(m)?;
     m.add_class::<dataset::Dataset>()?;
     m.add_class::<dataset::DatasetIter>()?;
     Ok(())

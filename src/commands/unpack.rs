@@ -1,0 +1,100 @@
+//! `kitti2pgm unpack`: a ROS 2 bag's point clouds -> a sequence folder
+//! ([`kitti2pgm::convert::unpack`]).
+
+use anyhow::Context;
+use kitti2pgm::convert::unpack::{unpack, UnpackOptions, UnpackSummary};
+use kitti2pgm::source::bag::{Bag, Topic};
+
+use super::Global;
+use crate::cli::UnpackArgs;
+use crate::Outcome;
+
+fn print_topics(bag: &Bag, topics: &[Topic], json: bool) -> anyhow::Result<()> {
+    if json {
+        let v: Vec<_> = topics
+            .iter()
+            .map(|t| {
+                serde_json::json!({"topic": t.name, "type": t.type_name,
+                                   "encoding": t.encoding, "messages": t.messages})
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
+    let n = bag.files.len();
+    println!(
+        "{}: {n} file{}",
+        bag.path.display(),
+        if n == 1 { "" } else { "s" }
+    );
+    let w = topics
+        .iter()
+        .map(|t| t.name.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
+    println!("{:<w$}  {:<36}  {:>8}", "topic", "type", "messages");
+    for t in topics {
+        println!("{:<w$}  {:<36}  {:>8}", t.name, t.type_name, t.messages);
+    }
+    Ok(())
+}
+
+fn print_summary(s: &UnpackSummary) {
+    println!(
+        "{} ({}) -> {}",
+        s.bag.display(),
+        s.topic,
+        s.sequence_dir.display()
+    );
+    println!("messages        {:>10}", s.messages);
+    println!("frames written  {:>10}", s.frames_written);
+    println!("points          {:>10}", s.points);
+    println!("fields          {}", s.fields.join(" "));
+    println!("frame ids       {}", s.frame_ids.join(" "));
+    if let Some(t) = &s.first_stamp {
+        println!("first stamp     {t}");
+    }
+    if s.removed_stale > 0 {
+        println!("removed stale   {:>10}", s.removed_stale);
+    }
+    for f in &s.failures {
+        println!("FAILED frame {:06}: {}", f.frame, f.error);
+    }
+}
+
+pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
+    let bag = Bag::open(&a.bag)?;
+    if a.list {
+        print_topics(&bag, &bag.topics()?, a.json)?;
+        return Ok(Outcome::Ok);
+    }
+    let out = a.out.context("--out ROOT is needed")?;
+    kitti2pgm::fs::refuse_overlap(&out, &[(kitti2pgm::fs::Role::Dataset, a.bag.as_path())])?;
+    let opts = UnpackOptions {
+        topic: a.topic,
+        out,
+        sequence: a.sequence,
+        overwrite: a.overwrite,
+        durability: super::durability(a.sync),
+    };
+    let total = bag
+        .topic(
+            opts.topic.as_deref(),
+            kitti2pgm::source::pointcloud2::TYPE_NAME,
+        )?
+        .messages;
+    let pb = super::progress::bar(total, g.progress, "unpacking");
+    let s = g.pool()?.install(|| unpack(&bag, &opts, &|_| pb.inc(1)))?;
+    pb.finish_and_clear();
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&s)?);
+    } else {
+        print_summary(&s);
+    }
+    Ok(match (s.failures.is_empty(), s.frames_written) {
+        (true, _) => Outcome::Ok,
+        (false, 0) => Outcome::Failed(format!("no frame of {} unpacked", s.topic)),
+        (false, _) => Outcome::Partial,
+    })
+}

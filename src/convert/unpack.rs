@@ -1,0 +1,265 @@
+//! A ROS 2 bag's point clouds -> a sequence folder that every command reads: one bag is one
+//! sequence, one `PointCloud2` message one frame (`sequences/NN/velodyne/<frame6>.pcd`, every
+//! field kept, repacked little-endian as PCD stores it), its header stamp kept in `times.txt`
+//! (seconds after the first frame, exact) and the first stamp in `unpack.json`.
+//!
+//! The bag is streamed: messages are read, converted and written a small batch at a time, so
+//! memory stays flat however large the bag. A message that does not decode fails its frame only
+//! (no file; named in the summary) and the rest goes on.
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::format::{atomic_write, create_dir, Durability};
+use crate::source::bag::{Bag, BagMessage};
+use crate::source::pcd;
+use crate::source::pointcloud2::{PointCloud2, Stamp, TYPE_NAME};
+
+/// What to unpack and where to.
+#[derive(Debug, Clone)]
+pub struct UnpackOptions {
+    /// The `PointCloud2` topic (`None`: the error lists the bag's point cloud topics).
+    pub topic: Option<String>,
+    /// The root the sequence folder goes under (`ROOT/sequences/NN/`).
+    pub out: PathBuf,
+    /// The sequence number (`NN`).
+    pub sequence: u32,
+    /// Replace the scans of an earlier unpack (else a non-empty sequence is refused).
+    pub overwrite: bool,
+    /// Whether each file is flushed to the device before its rename.
+    pub durability: Durability,
+}
+
+/// A frame that did not unpack.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct UnpackFailure {
+    /// The frame (the message's place on the topic).
+    pub frame: u64,
+    /// What was wrong.
+    pub error: String,
+}
+
+/// What an unpack did, written to `sequences/NN/unpack.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UnpackSummary {
+    /// kitti2pgm's version.
+    pub version: String,
+    /// The bag, as given.
+    pub bag: PathBuf,
+    /// The topic.
+    pub topic: String,
+    /// The sequence folder written.
+    pub sequence_dir: PathBuf,
+    /// Messages read on the topic.
+    pub messages: u64,
+    /// Frames written.
+    pub frames_written: u64,
+    /// Points in the frames written.
+    pub points: u64,
+    /// The first frame's header stamp (`sec.nanosec`), the zero of `times.txt`.
+    pub first_stamp: Option<String>,
+    /// The `header.frame_id`s seen (the frames the points are in).
+    pub frame_ids: Vec<String>,
+    /// The point fields of the first frame written.
+    pub fields: Vec<String>,
+    /// Frames whose `times.txt` line is the recorder's log time (their header did not decode).
+    pub log_time_frames: Vec<u64>,
+    /// Frames that failed.
+    pub failures: Vec<UnpackFailure>,
+    /// Scans of an earlier unpack past the last frame, removed (`--overwrite`).
+    pub removed_stale: u64,
+}
+
+/// One decoded frame, ready to write.
+struct Unpacked {
+    stamp: Stamp,
+    frame_id: String,
+    fields: Vec<String>,
+    points: u64,
+}
+
+/// The sequence folder and its scan folder for `opts`.
+fn sequence_dirs(opts: &UnpackOptions) -> (PathBuf, PathBuf) {
+    let seq = opts
+        .out
+        .join("sequences")
+        .join(format!("{:02}", opts.sequence));
+    let scans = seq.join("velodyne");
+    (seq, scans)
+}
+
+/// The `.pcd` scans already in `dir`.
+fn existing_scans(dir: &Path) -> Result<Vec<PathBuf>> {
+    if !dir.exists() {
+        return Ok(Vec::new());
+    }
+    Ok(crate::fs::sorted_dir(dir)?
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "pcd" || e == "bin"))
+        .collect())
+}
+
+fn scan_path(scans: &Path, frame: u64) -> PathBuf {
+    scans.join(format!("{frame:06}.pcd"))
+}
+
+/// Decodes one message and writes its scan.
+fn unpack_one(m: &BagMessage, scans: &Path, d: Durability) -> Result<Unpacked> {
+    let what = m.file.join(format!("message {}", m.index));
+    let msg = PointCloud2::decode(&m.data, &what)?;
+    let (layout, records) = msg.packed();
+    let path = scan_path(scans, m.index);
+    atomic_write(
+        &path,
+        &pcd::encode(&layout, msg.width, msg.height, &records),
+        d,
+    )?;
+    Ok(Unpacked {
+        points: msg.points() as u64,
+        stamp: msg.stamp,
+        frame_id: msg.frame_id,
+        fields: layout.fields.iter().map(|f| f.name.clone()).collect(),
+    })
+}
+
+/// Messages converted at a time (memory holds this many messages).
+const BATCH: usize = 8;
+
+/// Unpacks the bag's `PointCloud2` topic into a sequence folder. `progress` hears of every frame
+/// done (its index). Errors: no such topic / not a point cloud topic (listing the bag's point
+/// cloud topics), an unreadable bag, or a non-empty sequence without `overwrite`; a frame that
+/// fails is in the summary's `failures`, and a bag that breaks off partway keeps the frames read
+/// before (its error is the last failure).
+pub fn unpack(
+    bag: &Bag,
+    opts: &UnpackOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<UnpackSummary> {
+    let topic = bag.topic(opts.topic.as_deref(), TYPE_NAME)?;
+    let (seq, scans) = sequence_dirs(opts);
+    let before = existing_scans(&scans)?;
+    if !before.is_empty() && !opts.overwrite {
+        return Err(Error::Input {
+            path: scans,
+            message: format!(
+                "already holds {} scans; unpack into another sequence (--sequence) or replace \
+                 them (--overwrite)",
+                before.len()
+            ),
+        });
+    }
+    create_dir(&scans)?;
+    let mut s = UnpackSummary {
+        version: env!("CARGO_PKG_VERSION").into(),
+        bag: bag.path.clone(),
+        topic: topic.name.clone(),
+        sequence_dir: seq.clone(),
+        messages: 0,
+        frames_written: 0,
+        points: 0,
+        first_stamp: None,
+        frame_ids: Vec::new(),
+        fields: Vec::new(),
+        log_time_frames: Vec::new(),
+        failures: Vec::new(),
+        removed_stale: 0,
+    };
+    let mut stamps: Vec<i64> = Vec::new();
+    let mut stream = bag.messages(&topic.name);
+    loop {
+        let mut batch = Vec::with_capacity(BATCH);
+        let mut broke = None;
+        for m in stream.by_ref().take(BATCH) {
+            match m {
+                Ok(m) => batch.push(m),
+                Err(e) => broke = Some(e),
+            }
+        }
+        if batch.is_empty() && broke.is_none() {
+            break;
+        }
+        let done: Vec<Result<Unpacked>> = batch
+            .par_iter()
+            .map(|m| {
+                let r = unpack_one(m, &scans, opts.durability);
+                progress(m.index);
+                r
+            })
+            .collect();
+        for (m, r) in batch.iter().zip(done) {
+            s.messages += 1;
+            record(&mut s, &mut stamps, m, r);
+        }
+        if let Some(e) = broke {
+            s.failures.push(UnpackFailure {
+                frame: s.messages,
+                error: format!("the bag breaks off here: {e}"),
+            });
+            break;
+        }
+    }
+    finish(&mut s, &stamps, &seq, &before, opts)?;
+    Ok(s)
+}
+
+/// Adds one frame's outcome to the summary and its stamp (nanoseconds) to `stamps`.
+fn record(s: &mut UnpackSummary, stamps: &mut Vec<i64>, m: &BagMessage, r: Result<Unpacked>) {
+    match r {
+        Ok(u) => {
+            s.frames_written += 1;
+            s.points += u.points;
+            if s.first_stamp.is_none() {
+                s.first_stamp = Some(u.stamp.to_string());
+            }
+            if s.fields.is_empty() {
+                s.fields = u.fields;
+            }
+            if !s.frame_ids.contains(&u.frame_id) {
+                s.frame_ids.push(u.frame_id);
+            }
+            stamps.push(u.stamp.nanos());
+        }
+        Err(e) => {
+            s.failures.push(UnpackFailure {
+                frame: m.index,
+                error: e.to_string(),
+            });
+            s.log_time_frames.push(m.index);
+            stamps.push(i64::try_from(m.log_time).unwrap_or(i64::MAX));
+        }
+    }
+}
+
+/// Writes `times.txt` and `unpack.json`; removes the scans of an earlier unpack past the last
+/// frame.
+fn finish(
+    s: &mut UnpackSummary,
+    stamps: &[i64],
+    seq: &Path,
+    before: &[PathBuf],
+    opts: &UnpackOptions,
+) -> Result<()> {
+    let zero = stamps.first().copied().unwrap_or(0);
+    let times = crate::kitti::poses::times_text(stamps.iter().map(|t| t - zero));
+    atomic_write(&seq.join("times.txt"), times.as_bytes(), opts.durability)?;
+    let (_, scans) = sequence_dirs(opts);
+    let failed: std::collections::BTreeSet<u64> = s.failures.iter().map(|f| f.frame).collect();
+    for old in before {
+        let frame = old
+            .file_stem()
+            .and_then(|n| n.to_str())
+            .and_then(|n| n.parse().ok());
+        let keep = frame.is_some_and(|i: u64| {
+            i < s.messages && !failed.contains(&i) && scan_path(&scans, i) == *old
+        });
+        if !keep {
+            std::fs::remove_file(old).map_err(|e| Error::io(old, e))?;
+            s.removed_stale += 1;
+        }
+    }
+    let json = serde_json::to_vec_pretty(&*s).expect("a summary serialises");
+    atomic_write(&seq.join("unpack.json"), &json, opts.durability)
+}

@@ -1,0 +1,381 @@
+//! ROS 2 bags stored as MCAP: a bag directory (rosbag2's `metadata.yaml` naming its `.mcap`
+//! files, read in that order) or a bare `.mcap` file. Messages are streamed from the file (the
+//! MCAP library's linear reader, chunks decompressed one at a time), so memory holds one chunk
+//! and one message whatever the bag's size; the topic list comes from the summary section, or
+//! from one pass over the file when it has none (an unfinished recording).
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{Read, Seek};
+use std::path::{Path, PathBuf};
+
+use mcap::records::op;
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader};
+use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
+
+use crate::error::{Error, Result};
+use crate::fs::{self, Limit};
+
+/// A topic of a bag.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topic {
+    /// Its name (`/points`).
+    pub name: String,
+    /// Its message type (`sensor_msgs/msg/PointCloud2`).
+    pub type_name: String,
+    /// Its serialisation (`cdr`).
+    pub encoding: String,
+    /// Messages on it, over all the bag's files.
+    pub messages: u64,
+}
+
+/// One message as read.
+#[derive(Debug, Clone)]
+pub struct BagMessage {
+    /// Its place among the topic's messages, from 0.
+    pub index: u64,
+    /// When the recorder received it (nanoseconds).
+    pub log_time: u64,
+    /// The serialised message.
+    pub data: Vec<u8>,
+    /// The `.mcap` file it came from.
+    pub file: PathBuf,
+}
+
+/// A ROS 2 bag: its `.mcap` files in order.
+#[derive(Debug, Clone)]
+pub struct Bag {
+    /// The path given (a directory or a `.mcap` file).
+    pub path: PathBuf,
+    /// Its MCAP files, in order.
+    pub files: Vec<PathBuf>,
+}
+
+#[derive(serde::Deserialize)]
+struct Metadata {
+    rosbag2_bagfile_information: Info,
+}
+
+#[derive(serde::Deserialize)]
+struct Info {
+    storage_identifier: String,
+    relative_file_paths: Vec<String>,
+}
+
+impl Bag {
+    /// Opens a bag directory (with `metadata.yaml`) or a `.mcap` file.
+    pub fn open(path: &Path) -> Result<Bag> {
+        if !path.is_dir() {
+            fs::open(path)?;
+            return Ok(Bag {
+                path: path.into(),
+                files: vec![path.into()],
+            });
+        }
+        let meta = path.join("metadata.yaml");
+        if !meta.exists() {
+            return Err(Error::Input {
+                path: path.into(),
+                message: "a directory without metadata.yaml: not a ROS 2 bag (give the bag \
+                          directory or one of its .mcap files)"
+                    .into(),
+            });
+        }
+        let text = fs::read_text(&meta, Limit::Text)?;
+        let info = serde_norway::from_str::<Metadata>(&text)
+            .map_err(|e| Error::format(&meta, format!("not rosbag2 metadata: {e}")))?
+            .rosbag2_bagfile_information;
+        if info.storage_identifier != "mcap" {
+            return Err(Error::format(
+                &meta,
+                format!(
+                    "storage {:?}: kitti2pgm reads MCAP bags; convert this one first \
+                     (`ros2 bag convert`, or `rosbags-convert --dst-storage mcap`)",
+                    info.storage_identifier
+                ),
+            ));
+        }
+        if info.relative_file_paths.is_empty() {
+            return Err(Error::format(&meta, "relative_file_paths lists no file"));
+        }
+        Ok(Bag {
+            path: path.into(),
+            files: info
+                .relative_file_paths
+                .iter()
+                .map(|f| path.join(f))
+                .collect(),
+        })
+    }
+
+    /// The bag's topics, by name, with their message counts over all its files.
+    pub fn topics(&self) -> Result<Vec<Topic>> {
+        let mut all: BTreeMap<String, Topic> = BTreeMap::new();
+        for file in &self.files {
+            for t in file_topics(file)? {
+                match all.get_mut(&t.name) {
+                    Some(seen) => seen.messages += t.messages,
+                    None => {
+                        all.insert(t.name.clone(), t);
+                    }
+                }
+            }
+        }
+        Ok(all.into_values().collect())
+    }
+
+    /// The topic named `topic`, checked to be of `type_name`; the error lists the topics of that
+    /// type (and their message counts) when it is missing or of another type.
+    pub fn topic(&self, topic: Option<&str>, type_name: &str) -> Result<Topic> {
+        let topics = self.topics()?;
+        let of_type: Vec<String> = topics
+            .iter()
+            .filter(|t| t.type_name == type_name)
+            .map(|t| format!("{} ({} message{})", t.name, t.messages, plural(t.messages)))
+            .collect();
+        let listed = if of_type.is_empty() {
+            format!("the bag has no {type_name} topic")
+        } else {
+            format!("{type_name} topics: {}", of_type.join(", "))
+        };
+        let fail = |m: String| Error::Input {
+            path: self.path.clone(),
+            message: m,
+        };
+        let Some(name) = topic else {
+            return Err(fail(format!("no topic given (--topic); {listed}")));
+        };
+        let Some(t) = topics.iter().find(|t| t.name == name) else {
+            return Err(fail(format!("no topic {name}; {listed}")));
+        };
+        if t.type_name != type_name {
+            return Err(fail(format!(
+                "{name} is {}, not {type_name}; {listed}",
+                t.type_name
+            )));
+        }
+        if t.encoding != "cdr" {
+            return Err(fail(format!(
+                "{name} is serialised as {:?}, not cdr",
+                t.encoding
+            )));
+        }
+        Ok(t.clone())
+    }
+
+    /// The messages of `topic`, streamed in file order.
+    pub fn messages(&self, topic: &str) -> Messages {
+        Messages {
+            files: self.files.clone(),
+            topic: topic.into(),
+            next_file: 0,
+            open: None,
+            ours: HashMap::new(),
+            index: 0,
+            done: false,
+        }
+    }
+}
+
+fn plural(n: u64) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
+}
+
+/// Reads `n` bytes of `file` into `buf` as the sans-io readers ask.
+fn fill(file: &mut File, buf: &mut [u8], path: &Path) -> Result<usize> {
+    file.read(buf).map_err(|e| Error::io(path, e))
+}
+
+/// A file's topics from its summary, or from one pass over its records when it has none.
+fn file_topics(path: &Path) -> Result<Vec<Topic>> {
+    let summary = match read_summary(path)? {
+        Some(s) => s,
+        // No footer or summary: an unfinished recording (or not MCAP: the scan says).
+        None => return scanned_topics(path),
+    };
+    let Some(stats) = summary.stats.clone() else {
+        return scanned_topics(path);
+    };
+    Ok(summary
+        .channels
+        .values()
+        .map(|c| Topic {
+            name: c.topic.clone(),
+            type_name: c.schema.as_ref().map_or(String::new(), |s| s.name.clone()),
+            encoding: c.message_encoding.clone(),
+            messages: stats
+                .channel_message_counts
+                .get(&c.id)
+                .copied()
+                .unwrap_or(0),
+        })
+        .collect())
+}
+
+/// The summary section of a file: `None` when it has none or its end cannot be read.
+fn read_summary(path: &Path) -> Result<Option<mcap::Summary>> {
+    let (mut file, _) = fs::open(path)?;
+    let mut reader = SummaryReader::new();
+    while let Some(event) = reader.next_event() {
+        let Ok(event) = event else {
+            return Ok(None);
+        };
+        match event {
+            SummaryReadEvent::ReadRequest(n) => {
+                let got = fill(&mut file, reader.insert(n), path)?;
+                reader.notify_read(got);
+            }
+            SummaryReadEvent::SeekRequest(to) => {
+                let at = file.seek(to).map_err(|e| Error::io(path, e))?;
+                reader.notify_seeked(at);
+            }
+        }
+    }
+    Ok(reader.finish())
+}
+
+/// A file's topics counted in one linear pass (a file without a summary). A file that breaks
+/// off (an unfinished recording) gives the topics and messages before the break; one in which
+/// no channel can be read is an error.
+fn scanned_topics(path: &Path) -> Result<Vec<Topic>> {
+    let mut schemas: HashMap<u16, String> = HashMap::new();
+    let mut topics: HashMap<u16, Topic> = HashMap::new();
+    let read = each_record(path, |opcode, data| {
+        let record = mcap::parse_record(opcode, data);
+        match record.map_err(|e| Error::mcap(path, "a record", e))? {
+            mcap::records::Record::Schema { header, .. } => {
+                schemas.insert(header.id, header.name);
+            }
+            mcap::records::Record::Channel(c) => {
+                topics.insert(
+                    c.id,
+                    Topic {
+                        name: c.topic,
+                        type_name: schemas.get(&c.schema_id).cloned().unwrap_or_default(),
+                        encoding: c.message_encoding,
+                        messages: 0,
+                    },
+                );
+            }
+            mcap::records::Record::Message { header, .. } => {
+                if let Some(t) = topics.get_mut(&header.channel_id) {
+                    t.messages += 1;
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    });
+    match read {
+        Err(e) if topics.is_empty() => Err(e),
+        _ => Ok(topics.into_values().collect()),
+    }
+}
+
+/// Calls `each` with every record of the file, chunks opened.
+fn each_record(path: &Path, mut each: impl FnMut(u8, &[u8]) -> Result<()>) -> Result<()> {
+    let (mut file, _) = fs::open(path)?;
+    let mut reader = LinearReader::new();
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| Error::mcap(path, "reading", e))? {
+            LinearReadEvent::ReadRequest(n) => {
+                let got = fill(&mut file, reader.insert(n), path)?;
+                reader.notify_read(got);
+            }
+            LinearReadEvent::Record { opcode, data } => each(opcode, data)?,
+        }
+    }
+    Ok(())
+}
+
+/// The messages of one topic, streamed file by file (see [`Bag::messages`]). An error ends the
+/// stream after the messages read before it.
+pub struct Messages {
+    files: Vec<PathBuf>,
+    topic: String,
+    next_file: usize,
+    open: Option<(File, LinearReader, PathBuf)>,
+    /// Channel ids of the open file: whether each is on the topic.
+    ours: HashMap<u16, bool>,
+    index: u64,
+    done: bool,
+}
+
+impl Messages {
+    /// The next record of the open file (opening the next file as needed): `None` at the end.
+    fn step(&mut self) -> Result<Option<BagMessage>> {
+        let Some((file, reader, path)) = self.open.as_mut() else {
+            let Some(path) = self.files.get(self.next_file) else {
+                self.done = true;
+                return Ok(None);
+            };
+            self.next_file += 1;
+            let (file, _) = fs::open(path)?;
+            self.open = Some((file, LinearReader::new(), path.clone()));
+            self.ours.clear();
+            return self.step();
+        };
+        loop {
+            let context = || format!("reading after message {} of {}", self.index, self.topic);
+            let event = match reader.next_event() {
+                None => {
+                    self.open = None;
+                    return self.step();
+                }
+                Some(e) => e.map_err(|e| Error::mcap(&*path, context(), e))?,
+            };
+            match event {
+                LinearReadEvent::ReadRequest(n) => {
+                    let got = fill(file, reader.insert(n), path)?;
+                    reader.notify_read(got);
+                }
+                LinearReadEvent::Record { opcode, data } if opcode == op::CHANNEL => {
+                    let record = mcap::parse_record(opcode, data);
+                    if let mcap::records::Record::Channel(c) =
+                        record.map_err(|e| Error::mcap(&*path, context(), e))?
+                    {
+                        self.ours.insert(c.id, c.topic == self.topic);
+                    }
+                }
+                LinearReadEvent::Record { opcode, data } if opcode == op::MESSAGE => {
+                    let record = mcap::parse_record(opcode, data);
+                    let mcap::records::Record::Message { header, data } =
+                        record.map_err(|e| Error::mcap(&*path, context(), e))?
+                    else {
+                        continue;
+                    };
+                    if self.ours.get(&header.channel_id) == Some(&true) {
+                        let m = BagMessage {
+                            index: self.index,
+                            log_time: header.log_time,
+                            data: data.into_owned(),
+                            file: path.clone(),
+                        };
+                        self.index += 1;
+                        return Ok(Some(m));
+                    }
+                }
+                LinearReadEvent::Record { .. } => {}
+            }
+        }
+    }
+}
+
+impl Iterator for Messages {
+    type Item = Result<BagMessage>;
+
+    fn next(&mut self) -> Option<Result<BagMessage>> {
+        if self.done {
+            return None;
+        }
+        let out = self.step();
+        if out.is_err() {
+            self.done = true;
+        }
+        out.transpose()
+    }
+}

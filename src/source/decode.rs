@@ -1,0 +1,258 @@
+//! Decoding point records into a [`LidarCloud`]: column by column (a loop per scalar type and
+//! byte order), then the points to drop (non-finite, or beyond [`MAX_RANGE_M`]) found
+//! branch-free, and the kept points gathered.
+
+use std::path::Path;
+
+use super::fields::{FieldType, PointLayout};
+use super::LidarCloud;
+use crate::error::{Error, Result};
+use crate::geom::{Point3, MAX_RANGE_M};
+
+impl PointLayout {
+    /// Decodes `n` records laid end to end in `data` (record `i` at `i * step`), as a cloud of
+    /// `path`. Points with a non-finite coordinate are dropped and counted (a non-dense cloud's
+    /// NaN points).
+    pub fn decode(&self, data: &[u8], n: usize, path: &Path) -> Result<LidarCloud> {
+        let need = n.checked_mul(self.step).filter(|&b| b <= data.len());
+        if need.is_none() {
+            return Err(Error::Length {
+                path: path.into(),
+                what: format!("the data of {n} points of {} bytes", self.step),
+                found: data.len(),
+                expected: n.saturating_mul(self.step),
+                unit: "bytes",
+            });
+        }
+        let roles = self.roles(path)?;
+        let recs = &data[..n * self.step];
+        let be = self.big_endian;
+        // Column by column, each a loop of one type (vectorisable), then one pass that keeps the
+        // finite points within range.
+        let points = xyz_points(recs, self.step, roles.xyz, be);
+        let intensity = roles
+            .intensity
+            .map(|r| column(recs, self.step, r, be, |v| v as f32));
+        let mut out = LidarCloud::with_capacity(0, intensity.is_some(), false);
+        (out.dropped, out.dropped_out_of_range) = dropped(&points, intensity.as_deref());
+        let inten = intensity.unwrap_or_else(|| vec![0.0; n]);
+        if out.dropped.is_empty() {
+            (out.points, out.intensity) = (points, inten);
+        } else {
+            out.points = kept(&out.dropped, n, |i| points[i]);
+            out.intensity = kept(&out.dropped, n, |i| inten[i]);
+        }
+        if let Some(r) = roles.ring {
+            // u8 and u16 ids are beam ids as they are; other types are checked point by point.
+            out.ring = Some(if matches!(r.1, FieldType::U8 | FieldType::U16) {
+                let v: Vec<u16> = column(recs, self.step, r, be, |v| v as u16);
+                kept(&out.dropped, n, |i| v[i])
+            } else {
+                let v = column(recs, self.step, r, be, |v| v);
+                kept_rings(&v, &out.dropped, path)?
+            });
+        }
+        out.file_len = n;
+        Ok(out)
+    }
+}
+
+/// The points of the records: float32 coordinates read directly (the common case), others
+/// column by column.
+fn xyz_points(recs: &[u8], step: usize, xyz: [(usize, FieldType); 3], be: bool) -> Vec<Point3> {
+    let [(ox, tx), (oy, ty), (oz, tz)] = xyz;
+    if [tx, ty, tz] == [FieldType::F32; 3] {
+        let f = |r: &[u8], o: usize| -> f32 {
+            let b: [u8; 4] = r[o..o + 4].try_into().expect("inside the record");
+            if be {
+                f32::from_be_bytes(b)
+            } else {
+                f32::from_le_bytes(b)
+            }
+        };
+        return recs
+            .chunks_exact(step)
+            .map(|r| Point3::new(f(r, ox), f(r, oy), f(r, oz)))
+            .collect();
+    }
+    let [x, y, z] = xyz.map(|r| column(recs, step, r, be, |v| v as f32));
+    (0..x.len())
+        .map(|i| Point3::new(x[i], y[i], z[i]))
+        .collect()
+}
+
+/// The file indices of the points to drop (a non-finite coordinate or intensity, or beyond
+/// [`MAX_RANGE_M`]), ascending, and how many of them are finite but too far.
+fn dropped(points: &[Point3], intensity: Option<&[f32]>) -> (Vec<u32>, usize) {
+    let far2 = (MAX_RANGE_M as f64).powi(2);
+    let r2 = |p: &Point3| (p.x as f64).powi(2) + (p.y as f64).powi(2) + (p.z as f64).powi(2);
+    let inten_ok = |i: usize| intensity.is_none_or(|v| v[i].is_finite());
+    // Counted branch-free first (usually none is dropped): a NaN coordinate gives a NaN range,
+    // an infinite one an infinite range, neither within MAX_RANGE_M.
+    let bad = match intensity {
+        Some(v) => points
+            .iter()
+            .zip(v)
+            .map(|(p, &i)| (!((r2(p) <= far2) & i.is_finite())) as usize)
+            .sum::<usize>(),
+        None => points
+            .iter()
+            .map(|p| (r2(p) > far2 || r2(p).is_nan()) as usize)
+            .sum(),
+    };
+    let mut out = (Vec::with_capacity(bad), 0);
+    if bad == 0 {
+        return out;
+    }
+    for (i, p) in points.iter().enumerate() {
+        let finite = p.x.is_finite() && p.y.is_finite() && p.z.is_finite() && inten_ok(i);
+        let far = finite && r2(p) > far2;
+        if !finite || far {
+            out.0.push(i as u32);
+            out.1 += far as usize;
+        }
+    }
+    out
+}
+
+/// One field of `n` records as `T`: a loop per scalar type and byte order; each value goes
+/// through f64 (exact for every type but 64-bit integers, as the per-point reader does).
+fn column<T>(
+    recs: &[u8],
+    step: usize,
+    (off, ty): (usize, FieldType),
+    big_endian: bool,
+    to: impl Fn(f64) -> T,
+) -> Vec<T> {
+    macro_rules! col {
+        ($t:ty) => {{
+            const N: usize = std::mem::size_of::<$t>();
+            let get = |r: &[u8]| -> [u8; N] { r[off..off + N].try_into().expect("in the record") };
+            if big_endian {
+                recs.chunks_exact(step)
+                    .map(|r| to(<$t>::from_be_bytes(get(r)) as f64))
+                    .collect()
+            } else {
+                recs.chunks_exact(step)
+                    .map(|r| to(<$t>::from_le_bytes(get(r)) as f64))
+                    .collect()
+            }
+        }};
+    }
+    match ty {
+        FieldType::I8 => col!(i8),
+        FieldType::U8 => col!(u8),
+        FieldType::I16 => col!(i16),
+        FieldType::U16 => col!(u16),
+        FieldType::I32 => col!(i32),
+        FieldType::U32 => col!(u32),
+        FieldType::I64 => col!(i64),
+        FieldType::U64 => col!(u64),
+        FieldType::F32 => col!(f32),
+        FieldType::F64 => col!(f64),
+    }
+}
+
+/// `f(i)` for every `i` in `0..n` but the ascending `dropped`.
+fn kept<T>(dropped: &[u32], n: usize, f: impl Fn(usize) -> T) -> Vec<T> {
+    if dropped.is_empty() {
+        return (0..n).map(f).collect();
+    }
+    let mut out = Vec::with_capacity(n - dropped.len());
+    let mut skip = dropped.iter().copied().peekable();
+    for i in 0..n {
+        if skip.next_if_eq(&(i as u32)).is_none() {
+            out.push(f(i));
+        }
+    }
+    out
+}
+
+/// The beam ids of the kept points (all but the ascending file indices `dropped`); a value that
+/// is not a whole number in 0-65535 is an error naming `path` and the point.
+fn kept_rings(ring: &[f64], dropped: &[u32], path: &Path) -> Result<Vec<u16>> {
+    // A whole number in 0-65535, and only such a number, survives the (saturating) round trip
+    // through u16; checked branch-free over all points, then the first bad one is looked for.
+    let whole = |r: f64| (r as u16) as f64 == r;
+    let out = kept(dropped, ring.len(), |i| ring[i]);
+    if !out.iter().fold(true, |ok, &r| ok & whole(r)) {
+        let bad = out
+            .iter()
+            .position(|&r| !whole(r))
+            .expect("one is not whole");
+        let i = kept_index(dropped, bad);
+        return Err(Error::format(
+            path,
+            format!(
+                "point {i} has beam id (ring) {}, not a whole number in 0-65535",
+                out[bad]
+            ),
+        ));
+    }
+    Ok(out.into_iter().map(|r| r as u16).collect())
+}
+
+/// The file index of the `k`-th kept point.
+fn kept_index(dropped: &[u32], k: usize) -> usize {
+    let mut i = k;
+    for &d in dropped {
+        if d as usize <= i {
+            i += 1;
+        } else {
+            break;
+        }
+    }
+    i
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn records(points: &[[f32; 4]]) -> Vec<u8> {
+        points
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    }
+
+    #[test]
+    fn drops_bad_points_and_names_a_bad_ring_by_its_file_index() {
+        let layout = PointLayout::declared("x,y,z,ring:f32").unwrap();
+        let p = Path::new("scan.bin");
+        let data = records(&[
+            [f32::NAN, 0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0, 1.0],
+            [1e6, 0.0, 0.0, 3.0],
+            [2.0, 0.0, 0.0, 2.0],
+        ]);
+        let c = layout.decode(&data, 4, p).unwrap();
+        assert_eq!(c.dropped, [0, 2]);
+        assert_eq!(c.dropped_out_of_range, 1);
+        assert_eq!(c.ring, Some(vec![1, 2]));
+        assert_eq!(
+            c.points,
+            [Point3::new(1.0, 0.0, 0.0), Point3::new(2.0, 0.0, 0.0)]
+        );
+        let data = records(&[
+            [f32::NAN, 0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0, 1.0],
+            [2.0, 0.0, 0.0, 2.5],
+        ]);
+        let e = layout.decode(&data, 3, p).unwrap_err().to_string();
+        assert!(e.contains("point 2 has beam id (ring) 2.5"), "{e}");
+        let data = records(&[[1.0, 0.0, 0.0, -1.0]]);
+        assert!(layout.decode(&data, 1, p).is_err());
+        let data = records(&[[1.0, 0.0, 0.0, 65536.0]]);
+        assert!(layout.decode(&data, 1, p).is_err());
+    }
+
+    #[test]
+    fn kept_index_skips_the_dropped() {
+        assert_eq!(kept_index(&[], 3), 3);
+        assert_eq!(kept_index(&[0, 1, 5], 0), 2);
+        assert_eq!(kept_index(&[0, 1, 5], 3), 6);
+        assert_eq!(kept_index(&[4], 3), 3);
+    }
+}

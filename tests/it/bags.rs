@@ -1,0 +1,325 @@
+//! ROS 2 bags: `kitti2pgm unpack` and the bag reader on `fixtures/own_lidar_bag` (real VLP-16
+//! and Pandar40P scans written by rosbags, an independent official writer; one message
+//! big-endian), and on bad bags made here.
+
+use std::path::{Path, PathBuf};
+
+use kitti2pgm::source::bag::Bag;
+use kitti2pgm::source::pcd;
+use kitti2pgm::source::pointcloud2::PointCloud2;
+
+use super::util::{fixture, run_text, s, tmp};
+
+fn bag() -> PathBuf {
+    fixture("own_lidar_bag")
+}
+
+fn vlp16() -> PathBuf {
+    fixture("lidars/velodyne/vlp16_1673400472138016708.pcd")
+}
+
+fn unpack_json(args: &[&str]) -> (i32, serde_json::Value, String) {
+    let mut a = vec!["unpack"];
+    a.extend_from_slice(args);
+    a.push("--json");
+    let (code, out, err) = run_text(&a);
+    let v = serde_json::from_str(&out).unwrap_or(serde_json::Value::Null);
+    (code, v, err)
+}
+
+#[test]
+fn unpacks_real_scans_byte_for_byte_and_converts_them_like_the_pcd_folder() {
+    let t = tmp();
+    let root = t.path().join("root");
+    let (code, j, err) =
+        unpack_json(&[s(&bag()), "--topic", "/velodyne_points", "--out", s(&root)]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(j["frames_written"], 2);
+    assert_eq!(j["first_stamp"], "1673400472.138016708");
+    assert_eq!(j["frame_ids"], serde_json::json!(["velodyne"]));
+    let seq = root.join("sequences/00");
+    let original = std::fs::read(vlp16()).unwrap();
+    // The little-endian and the big-endian message both give the driver's own PCD back.
+    for f in ["000000.pcd", "000001.pcd"] {
+        assert!(
+            std::fs::read(seq.join("velodyne").join(f)).unwrap() == original,
+            "{f}"
+        );
+    }
+    let times = std::fs::read_to_string(seq.join("times.txt")).unwrap();
+    assert_eq!(times, "0.000000000\n0.100000000\n");
+    let (code, out, err) = run_text(&["check", s(&root), "--json"]);
+    assert_eq!(code, 0, "{out}{err}");
+    // convert reads the unpacked sequence as it reads the PCD folder.
+    let (a, b) = (t.path().join("a"), t.path().join("b"));
+    for (src, out) in [(root.as_path(), &a), (&fixture("own_lidar"), &b)] {
+        let (code, _, err) = run_text(&[
+            "convert",
+            s(src),
+            "--out",
+            s(out),
+            "--sensor",
+            "vlp16",
+            "--all-frames",
+            "--cols",
+            "1024",
+        ]);
+        assert_eq!(code, 0, "{err}");
+    }
+    let npy = |d: &Path, f: &str| std::fs::read(d.join("lidar_2d").join(f)).unwrap();
+    assert!(npy(&a, "00_000000.npy") == npy(&b, "00_000000.npy"));
+    assert!(npy(&a, "00_000001.npy") == npy(&b, "00_000000.npy"));
+}
+
+#[test]
+fn the_reader_gives_what_the_pcd_reader_gives() {
+    let bag = Bag::open(&bag().join("own_lidar_bag.mcap")).unwrap();
+    let expected = pcd::read(&vlp16()).unwrap();
+    let mut n = 0;
+    for m in bag.messages("/velodyne_points") {
+        let m = m.unwrap();
+        let msg = PointCloud2::decode(&m.data, Path::new("bag")).unwrap();
+        assert_eq!(msg.layout.big_endian, m.index == 1);
+        let cloud = msg.cloud(Path::new("bag")).unwrap();
+        assert_eq!(cloud, expected);
+        assert!(cloud.ring.is_some());
+        n += 1;
+    }
+    assert_eq!(n, 2);
+    let pandar = fixture("lidars/hesai/Pandar40P_1673400149711850138.pcd");
+    let m = bag.messages("/pandar_points").next().unwrap().unwrap();
+    let msg = PointCloud2::decode(&m.data, Path::new("bag")).unwrap();
+    assert_eq!(
+        msg.cloud(Path::new("bag")).unwrap(),
+        pcd::read(&pandar).unwrap()
+    );
+    assert_eq!(msg.frame_id, "hesai_lidar");
+}
+
+#[test]
+fn topics_are_listed_and_a_missing_or_wrong_topic_names_the_point_cloud_topics() {
+    let mcap = bag().join("own_lidar_bag.mcap");
+    let (code, j, err) = unpack_json(&[s(&mcap), "--list"]);
+    assert_eq!(code, 0, "{err}");
+    let names: Vec<(&str, u64)> = j
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            (
+                t["topic"].as_str().unwrap(),
+                t["messages"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        names,
+        [
+            ("/pandar_points", 1),
+            ("/rosout_text", 1),
+            ("/velodyne_points", 2)
+        ]
+    );
+    let out = tmp();
+    let o = s(out.path());
+    for (topic, says) in [
+        (None, "no topic given (--topic)"),
+        (Some("/nope"), "no topic /nope"),
+        (
+            Some("/rosout_text"),
+            "/rosout_text is std_msgs/msg/String, not sensor_msgs/msg/PointCloud2",
+        ),
+    ] {
+        let mut a = vec!["unpack", s(&mcap), "--out", o];
+        if let Some(t) = topic {
+            a.extend(["--topic", t]);
+        }
+        let (code, _, err) = run_text(&a);
+        assert_eq!(code, 1, "{err}");
+        assert!(err.contains(says), "{err}");
+        assert!(
+            err.contains("/pandar_points (1 message), /velodyne_points (2 messages)"),
+            "{err}"
+        );
+    }
+    assert!(!out.path().join("sequences").exists());
+}
+
+#[test]
+fn a_rerun_is_refused_unless_overwrite_which_removes_stale_scans() {
+    let t = tmp();
+    let root = t.path().join("root");
+    let args = |extra: &'static [&'static str]| {
+        let mut a = vec![
+            s(&bag()).to_string(),
+            "--topic".into(),
+            "/velodyne_points".into(),
+        ];
+        a.extend(["--out".into(), s(&root).to_string()]);
+        a.extend(extra.iter().map(|e| e.to_string()));
+        a
+    };
+    let call = |a: Vec<String>| {
+        let refs: Vec<&str> = a.iter().map(|x| x.as_str()).collect();
+        unpack_json(&refs)
+    };
+    assert_eq!(call(args(&[])).0, 0);
+    let (code, _, err) = call(args(&[]));
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("already holds 2 scans") && err.contains("--overwrite"),
+        "{err}"
+    );
+    let stale = root.join("sequences/00/velodyne/000007.pcd");
+    std::fs::copy(vlp16(), &stale).unwrap();
+    let (code, j, err) = call(args(&["--overwrite"]));
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(j["removed_stale"], 1);
+    assert!(!stale.exists());
+    // Another sequence of the same root is a new bag.
+    let (code, j, _) = call(args(&["--sequence", "3"]));
+    assert_eq!((code, &j["frames_written"]), (0, &serde_json::json!(2)));
+    assert!(root.join("sequences/03/velodyne/000001.pcd").exists());
+}
+
+/// A PointCloud2 of `n` points (x, y, z float32 at 0, 4, 8) serialised as little-endian CDR.
+fn cdr_cloud(n: u32, point_step: u32, stamp_sec: i32) -> Vec<u8> {
+    let mut b: Vec<u8> = vec![0, 1, 0, 0];
+    let pad = |b: &mut Vec<u8>, a: usize| {
+        while !(b.len() - 4).is_multiple_of(a) {
+            b.push(0);
+        }
+    };
+    let u32_ = |b: &mut Vec<u8>, v: u32| {
+        pad(b, 4);
+        b.extend(v.to_le_bytes());
+    };
+    let string = |b: &mut Vec<u8>, v: &str| {
+        u32_(b, v.len() as u32 + 1);
+        b.extend(v.as_bytes());
+        b.push(0);
+    };
+    u32_(&mut b, stamp_sec as u32);
+    u32_(&mut b, 5);
+    string(&mut b, "lidar");
+    u32_(&mut b, 1);
+    u32_(&mut b, n);
+    u32_(&mut b, 3);
+    for (i, name) in ["x", "y", "z"].iter().enumerate() {
+        string(&mut b, name);
+        u32_(&mut b, 4 * i as u32);
+        b.push(7);
+        u32_(&mut b, 1);
+    }
+    b.push(0);
+    u32_(&mut b, point_step);
+    u32_(&mut b, point_step * n);
+    u32_(&mut b, point_step * n);
+    for i in 0..n * point_step / 4 {
+        b.extend((1.0 + i as f32).to_le_bytes());
+    }
+    b.push(1);
+    b
+}
+
+/// A bare `.mcap` with `messages` on `/points` (PointCloud2, CDR), written by the mcap crate.
+fn write_mcap(path: &Path, messages: &[Vec<u8>]) {
+    let mut w = mcap::Writer::new(std::io::BufWriter::new(
+        std::fs::File::create(path).unwrap(),
+    ))
+    .unwrap();
+    let schema = w
+        .add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"")
+        .unwrap();
+    let ch = w
+        .add_channel(schema, "/points", "cdr", &Default::default())
+        .unwrap();
+    for (i, m) in messages.iter().enumerate() {
+        let header = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: i as u64,
+            publish_time: i as u64,
+        };
+        w.write_to_known_channel(&header, m).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn a_bad_message_fails_its_frame_and_the_others_are_written() {
+    let t = tmp();
+    let mcap = t.path().join("bad.mcap");
+    // point_step 8 is smaller than the fields (z ends at byte 12).
+    write_mcap(
+        &mcap,
+        &[cdr_cloud(3, 12, 7), cdr_cloud(3, 8, 8), cdr_cloud(2, 16, 9)],
+    );
+    let root = t.path().join("root");
+    let (code, j, err) = unpack_json(&[s(&mcap), "--topic", "/points", "--out", s(&root)]);
+    assert_eq!(code, 3, "{err}");
+    assert_eq!(j["frames_written"], 2);
+    let f = &j["failures"][0];
+    assert_eq!(f["frame"], 1);
+    let e = f["error"].as_str().unwrap();
+    assert!(
+        e.contains("bad.mcap/message 1") && e.contains("beyond the 8-byte point record"),
+        "{e}"
+    );
+    let velodyne = root.join("sequences/00/velodyne");
+    assert!(velodyne.join("000000.pcd").exists() && velodyne.join("000002.pcd").exists());
+    assert!(!velodyne.join("000001.pcd").exists());
+    assert_eq!(pcd::read(&velodyne.join("000002.pcd")).unwrap().len(), 2);
+    // The failed frame's times.txt line is its log time; the summary says so.
+    assert_eq!(j["log_time_frames"], serde_json::json!([1]));
+}
+
+#[test]
+fn a_truncated_bag_keeps_what_was_read_and_names_the_file() {
+    let t = tmp();
+    let whole = t.path().join("whole.mcap");
+    let many: Vec<Vec<u8>> = (0..40).map(|i| cdr_cloud(2000, 16, i)).collect();
+    write_mcap(&whole, &many);
+    let bytes = std::fs::read(&whole).unwrap();
+    let cut = t.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() * 3 / 4]).unwrap();
+    let root = t.path().join("root");
+    let (code, j, err) = unpack_json(&[s(&cut), "--topic", "/points", "--out", s(&root)]);
+    // Without its summary the topic list comes from a pass over the records.
+    assert_eq!(code, 3, "{err}");
+    let written = j["frames_written"].as_u64().unwrap();
+    assert!(written > 0 && written < 40, "{j}");
+    let e = j["failures"][0]["error"].as_str().unwrap();
+    assert!(e.contains("breaks off") && e.contains("cut.mcap"), "{j}");
+    let (code, out, err) = run_text(&["unpack", s(&cut), "--list"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("/points"), "{out}");
+}
+
+#[test]
+fn a_bag_of_another_storage_or_no_bag_is_named() {
+    let t = tmp();
+    let dir = t.path().join("db3bag");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(
+        dir.join("metadata.yaml"),
+        "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n  relative_file_paths: [db3bag_0.db3]\n",
+    )
+    .unwrap();
+    let (code, _, err) = run_text(&["unpack", s(&dir), "--list"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("metadata.yaml")
+            && err.contains("sqlite3")
+            && err.contains("--dst-storage mcap"),
+        "{err}"
+    );
+    let empty = t.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let (code, _, err) = run_text(&["unpack", s(&empty), "--list"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("without metadata.yaml"), "{err}");
+    let (code, _, err) = run_text(&["unpack", s(&vlp16()), "--list"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("vlp16_1673400472138016708.pcd"), "{err}");
+}

@@ -1,0 +1,145 @@
+"""ROS 2 bags from Python and the CLI: bags written by rosbags (PyPI, an official writer) from
+real scans, read back by `read_bag` and `kitti2pgm unpack` exactly as the PCD files they came
+from; padded and big-endian records; wrong topics named; memory flat as the bag grows."""
+
+import importlib.util
+import json
+import os
+import pathlib
+import subprocess
+
+import kitti2pgm as k2
+import numpy as np
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parents[3]
+LIDARS = REPO / "fixtures" / "lidars"
+VLP16 = LIDARS / "velodyne" / "vlp16_1673400472138016708.pcd"
+XT32M = LIDARS / "hesai" / "PandarXT32M_1660893203292679064.pcd"
+BAG = REPO / "fixtures" / "own_lidar_bag"
+BIN = os.environ.get("KITTI2PGM_BIN", "kitti2pgm")
+
+
+def make_bag():
+    """fixtures/make_bag.py, the fixture bag's own writer."""
+    pytest.importorskip("rosbags")
+    spec = importlib.util.spec_from_file_location("make_bag", REPO / "fixtures" / "make_bag.py")
+    assert spec and spec.loader
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def typestore():
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+PC2 = "sensor_msgs/msg/PointCloud2"
+
+
+def test_read_bag_gives_the_pcd_reader_s_clouds_with_stamps():
+    frames = k2.read_bag(BAG, "/velodyne_points")
+    assert len(frames) == 2
+    expected = k2.read_cloud(VLP16)
+    got = list(frames)
+    assert [f["index"] for f in got] == [0, 1]
+    assert [f["stamp"] for f in got] == [1673400472138016708, 1673400472238016708]
+    for f in got:  # the second message is big-endian
+        assert f["frame_id"] == "velodyne"
+        np.testing.assert_array_equal(f["points"], expected["points"])
+        np.testing.assert_array_equal(f["ring"], expected["ring"])
+    topics = {t["topic"]: (t["type"], t["messages"]) for t in k2.bag_topics(BAG)}
+    assert topics == {"/velodyne_points": (PC2, 2), "/pandar_points": (PC2, 1),
+                      "/rosout_text": ("std_msgs/msg/String", 1)}
+
+
+def test_padded_and_big_endian_records_read_as_the_pcd(tmp_path):
+    mb = make_bag()
+    ts = typestore()
+    pts = mb.read_pcd(XT32M)
+    msgs = [("/points", PC2, mb.pointcloud2(ts, pts, 10**18 + i, "hesai", big_endian=big, point_step=step),
+             i, not big)
+            for i, (big, step) in enumerate([(False, None), (True, None), (False, 48), (True, 64)])]
+    mb.write_bag(tmp_path / "bag", msgs, ts)
+    expected = k2.read_cloud(XT32M)
+    frames = list(k2.read_bag(tmp_path / "bag", topic="/points"))
+    assert len(frames) == 4
+    for f in frames:
+        np.testing.assert_array_equal(f["points"], expected["points"], err_msg=str(f["index"]))
+        assert f["ring"] is None and expected["ring"] is None
+    # The CLI's PCD of a padded big-endian message is the driver's own PCD again.
+    out = tmp_path / "root"
+    r = subprocess.run([BIN, "unpack", str(tmp_path / "bag"), "--topic", "/points", "--out", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    for i in range(4):
+        assert (out / "sequences/00/velodyne" / f"{i:06d}.pcd").read_bytes() == XT32M.read_bytes()
+    # project() on a bag frame: rows are the XT32M's 32 beams from its beam table.
+    m = k2.project(frames[3]["points"], preset="full", cols=1024, sensor="pandarxt32m")
+    assert m["map"].shape == (32, 1024, 6) and m["stats"]["off_model"] == 0
+    e = k2.project(expected["points"], preset="full", cols=1024, sensor="pandarxt32m")
+    np.testing.assert_array_equal(m["map"], e["map"])
+
+
+def test_a_wrong_topic_lists_the_point_cloud_topics():
+    with pytest.raises(ValueError, match=r"no topic /x; .*/pandar_points \(1 message\), /velodyne_points"):
+        k2.read_bag(BAG, "/x")
+    with pytest.raises(ValueError, match="no topic given"):
+        k2.read_bag(BAG)
+    with pytest.raises(ValueError, match="is std_msgs/msg/String, not sensor_msgs/msg/PointCloud2"):
+        k2.read_bag(BAG, "/rosout_text")
+    with pytest.raises(OSError):
+        k2.read_bag(BAG / "nothing.mcap", "/x")
+
+
+def test_a_bad_message_raises_at_its_frame(tmp_path):
+    mb = make_bag()
+    ts = typestore()
+    pts = mb.read_pcd(VLP16)
+    PointField = ts.types["sensor_msgs/msg/PointField"]
+    # z declared at byte 40 of a 32-byte record.
+    bad = [PointField(name="x", offset=0, datatype=7, count=1), PointField(name="y", offset=4, datatype=7, count=1),
+           PointField(name="z", offset=40, datatype=7, count=1)]
+    mb.write_bag(tmp_path / "bag", [("/p", PC2, mb.pointcloud2(ts, pts, 1, "v"), 1, True),
+                                    ("/p", PC2, mb.pointcloud2(ts, pts, 2, "v", fields=bad), 2, True)], ts)
+    it = iter(k2.read_bag(tmp_path / "bag", "/p"))
+    assert next(it)["index"] == 0
+    with pytest.raises(ValueError, match=r"message 1 of /p.*field z ends at byte 44, beyond the 32-byte"):
+        next(it)
+
+
+# Peak memory of one command, measured by a small fresh Python process: a child started by
+# this (large) test process would inherit its peak at the exec (Linux keeps the high-water mark
+# of the memory it replaced).
+MEASURE = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:], capture_output=True, text=True); "
+           "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
+           "sys.stderr.write(r.stderr); print(r.stdout)")
+
+
+def peak_rss_mib(args):
+    """Runs the CLI and returns its peak resident memory (MiB) and its JSON output."""
+    r = subprocess.run(["python3", "-c", MEASURE, *args], capture_output=True, text=True)
+    head, _, out = r.stdout.partition("\n")
+    code, kib = head.split()
+    assert code == "0", r.stderr
+    return int(kib) / 1024, json.loads(out)
+
+
+def test_unpack_memory_stays_flat_as_the_bag_grows(tmp_path):
+    mb = make_bag()
+    ts = typestore()
+    pts = mb.read_pcd(VLP16)
+    peaks = []
+    for n in (8, 96):
+        bag = tmp_path / f"bag{n}"
+        mb.write_bag(bag, [("/v", PC2, mb.pointcloud2(ts, pts, i, "v"), i, True) for i in range(n)], ts)
+        peak, j = peak_rss_mib([BIN, "unpack", str(bag), "--topic", "/v", "--out", str(tmp_path / f"o{n}"),
+                                "--json", "--threads", "2"])
+        assert j["frames_written"] == n
+        peaks.append(peak)
+    size = sum(f.stat().st_size for f in (tmp_path / "bag96").iterdir()) / 2**20
+    # A bag of 96 scans (about 44 MiB) costs no more than a few scans more than one of 8.
+    assert size > 40
+    assert peaks[1] < peaks[0] + 12, (peaks, size)
