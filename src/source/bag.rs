@@ -60,6 +60,11 @@ struct Metadata {
 struct Info {
     storage_identifier: String,
     relative_file_paths: Vec<String>,
+    /// `""`, `FILE` (each file compressed whole) or `MESSAGE` (each message compressed).
+    #[serde(default)]
+    compression_mode: String,
+    #[serde(default)]
+    compression_format: String,
 }
 
 impl Bag {
@@ -92,6 +97,17 @@ impl Bag {
                     "storage {:?}: kitti2pgm reads MCAP bags; convert this one first \
                      (`ros2 bag convert`, or `rosbags-convert --dst-storage mcap`)",
                     info.storage_identifier
+                ),
+            ));
+        }
+        if !info.compression_mode.is_empty() && !info.compression_mode.eq_ignore_ascii_case("none") {
+            return Err(Error::format(
+                &meta,
+                format!(
+                    "compressed by rosbag2 ({} mode, {}): decompress it first (`ros2 bag \
+                     decompress`, or `rosbags-convert --src BAG --dst OUT --dst-storage mcap`); \
+                     MCAP's own chunk compression (zstd, lz4) is read as it is",
+                    info.compression_mode, info.compression_format
                 ),
             ));
         }

@@ -143,3 +143,37 @@ def test_unpack_memory_stays_flat_as_the_bag_grows(tmp_path):
     # A bag of 96 scans (about 44 MiB) costs no more than a few scans more than one of 8.
     assert size > 40
     assert peaks[1] < peaks[0] + 12, (peaks, size)
+
+
+def convert_bag(*args):
+    r = subprocess.run(["rosbags-convert", *map(str, args)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
+def test_a_ros1_bag_through_rosbags_convert_and_mcap_chunk_compression(tmp_path):
+    """docs/sources.md's path for ROS 1 bags: rosbags-convert into an MCAP bag (zstd chunks
+    here), then read as any ROS 2 bag."""
+    mb = make_bag()
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    pts = mb.read_pcd(VLP16)
+    msg = mb.pointcloud2(ts, pts, 1673400472138016708, "velodyne")
+    with Writer(tmp_path / "run.bag") as w:
+        c = w.add_connection("/velodyne_points", PC2, typestore=ts)
+        for i in range(3):
+            w.write(c, 1673400472138016708 + i, ts.serialize_ros1(msg, PC2))
+    convert_bag("--src", tmp_path / "run.bag", "--dst", tmp_path / "ros2", "--dst-storage", "mcap",
+                "--compress", "zstd", "--compress-mode", "storage")
+    frames = list(k2.read_bag(tmp_path / "ros2", "/velodyne_points"))
+    assert len(frames) == 3
+    expected = k2.read_cloud(VLP16)
+    for f in frames:
+        np.testing.assert_array_equal(f["points"], expected["points"])
+        np.testing.assert_array_equal(f["ring"], expected["ring"])
+    # rosbag2's own FILE compression (a .mcap.zstd) is named, with how to undo it.
+    convert_bag("--src", tmp_path / "run.bag", "--dst", tmp_path / "filez", "--dst-storage", "mcap",
+                "--compress", "zstd", "--compress-mode", "file")
+    with pytest.raises(ValueError, match=r"compressed by rosbag2 \(file mode, zstd\).*decompress"):
+        k2.read_bag(tmp_path / "filez", "/velodyne_points")
