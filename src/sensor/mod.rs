@@ -56,6 +56,40 @@ pub struct BeamTable {
     elevations: Vec<f64>,
     /// Half the smallest gap around each beam, radians.
     tolerance: Vec<f64>,
+    /// The slopes (tangents) of the boundaries between rows k and k + 1, descending, and of
+    /// each beam's tolerance band: `nearest` without an arc tangent per point.
+    slopes: Slopes,
+}
+
+/// A table's angles as slopes z / horizontal distance (tangents: monotonic in the elevation).
+#[derive(Debug, Clone, PartialEq, Default)]
+struct Slopes {
+    mid: Vec<f64>,
+    low: Vec<f64>,
+    high: Vec<f64>,
+}
+
+impl Slopes {
+    fn new(elevations: &[f64], tolerance: &[f64]) -> Slopes {
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let tan = |a: f64| match a {
+            a if a >= half_pi => f64::INFINITY,
+            a if a <= -half_pi => f64::NEG_INFINITY,
+            a => a.tan(),
+        };
+        Slopes {
+            mid: elevations
+                .windows(2)
+                .map(|w| tan((w[0] + w[1]) / 2.0))
+                .collect(),
+            low: (0..elevations.len())
+                .map(|i| tan(elevations[i] - tolerance[i]))
+                .collect(),
+            high: (0..elevations.len())
+                .map(|i| tan(elevations[i] + tolerance[i]))
+                .collect(),
+        }
+    }
 }
 
 impl BeamTable {
@@ -106,7 +140,7 @@ impl BeamTable {
         }
         let elevations: Vec<f64> = beams.iter().map(|b| b.elevation.to_radians()).collect();
         let n = elevations.len();
-        let tolerance = (0..n)
+        let tolerance: Vec<f64> = (0..n)
             .map(|i| {
                 let up = (i > 0).then(|| elevations[i - 1] - elevations[i]);
                 let down = (i + 1 < n).then(|| elevations[i] - elevations[i + 1]);
@@ -119,10 +153,12 @@ impl BeamTable {
                 gap / 2.0
             })
             .collect();
+        let slopes = Slopes::new(&elevations, &tolerance);
         Ok(BeamTable {
             beams,
             elevations,
             tolerance,
+            slopes,
         })
     }
 
@@ -165,6 +201,21 @@ impl BeamTable {
         };
         let fits = (self.elevations[row] - e).abs() <= self.tolerance[row];
         (row as u8, fits)
+    }
+
+    /// [`BeamTable::nearest`] for the elevation `z.atan2(horizontal)`, compared as a slope
+    /// (the same row but where rounding decides a point exactly on a boundary; 4x faster).
+    #[inline]
+    pub fn nearest_slope(&self, z: f64, horizontal: f64) -> (u8, bool) {
+        let t = z / horizontal;
+        if !(horizontal > 0.0 && t.is_finite()) {
+            return self.nearest(z.atan2(horizontal));
+        }
+        let s = &self.slopes;
+        // Rows descend: the row is the number of boundaries above the point (a point on a
+        // boundary takes the upper row, as `nearest` does).
+        let row = s.mid.partition_point(|&m| m > t);
+        (row as u8, s.low[row] <= t && t <= s.high[row])
     }
 }
 
@@ -211,9 +262,18 @@ impl SensorModel {
     /// The elevation of `p` seen from its beam's origin, radians.
     #[inline]
     pub fn elevation(&self, p: &Point3, points_to_lidar: &na::Isometry3<f64>) -> f64 {
+        let (z, horizontal) = self.seen_from_beams(p, points_to_lidar);
+        z.atan2(horizontal)
+    }
+
+    /// `p`'s height and horizontal distance from its beam's origin, metres.
+    #[inline]
+    fn seen_from_beams(&self, p: &Point3, points_to_lidar: &na::Isometry3<f64>) -> (f64, f64) {
         let q = points_to_lidar * na::Point3::new(p.x as f64, p.y as f64, p.z as f64);
-        let horizontal = q.x.hypot(q.y) - self.beam_origin_offset;
-        q.z.atan2(horizontal)
+        (
+            q.z,
+            (q.x * q.x + q.y * q.y).sqrt() - self.beam_origin_offset,
+        )
     }
 
     /// The beam row of every point (nearest elevation), and how many fit no beam.
@@ -224,12 +284,13 @@ impl SensorModel {
         let rows = points
             .iter()
             .map(|p| {
-                let e = if plain {
-                    (p.z as f64).atan2((p.x as f64).hypot(p.y as f64))
+                let (z, horizontal) = if plain {
+                    let (x, y) = (p.x as f64, p.y as f64);
+                    (p.z as f64, (x * x + y * y).sqrt())
                 } else {
-                    self.elevation(p, &inverse)
+                    self.seen_from_beams(p, &inverse)
                 };
-                let (row, fits) = self.table.nearest(e);
+                let (row, fits) = self.table.nearest_slope(z, horizontal);
                 off_model += u64::from(!fits);
                 row
             })
@@ -337,6 +398,37 @@ mod tests {
             elevation: Degrees(e),
             azimuth: Degrees(0.0),
         }
+    }
+
+    #[test]
+    fn slopes_give_the_rows_and_fits_of_the_elevations() {
+        // Every preset, elevations every 0.0007 degrees over [-40, 25] at three distances: the
+        // slope comparison agrees with the arc tangent but within 1e-9 rad of a boundary.
+        for sensor in presets::Sensor::ALL {
+            let t = sensor.model_table().table;
+            let e = &t.elevations;
+            let mut edges: Vec<f64> = e.windows(2).map(|w| (w[0] + w[1]) / 2.0).collect();
+            edges.extend((0..e.len()).flat_map(|i| [e[i] - t.tolerance[i], e[i] + t.tolerance[i]]));
+            let mut checked = 0;
+            for k in 0..(65.0f64 / 0.0007) as i64 {
+                let deg = -40.0 + k as f64 * 0.0007;
+                for h in [0.5, 7.3, 80.0] {
+                    let z = h * deg.to_radians().tan();
+                    let a = z.atan2(h);
+                    if edges.iter().any(|b| (a - b).abs() < 1e-9) {
+                        continue;
+                    }
+                    assert_eq!(t.nearest_slope(z, h), t.nearest(a), "{sensor:?} {deg} deg");
+                    checked += 1;
+                }
+            }
+            assert!(checked > 270_000);
+        }
+        let t = presets::Sensor::Vlp16.model_table().table;
+        // On the axis, and behind it (negative horizontal distance), the arc tangent decides.
+        assert_eq!(t.nearest_slope(1.0, 0.0), t.nearest(1f64.atan2(0.0)));
+        assert_eq!(t.nearest_slope(0.0, 0.0), t.nearest(0.0));
+        assert_eq!(t.nearest_slope(0.1, -2.0), t.nearest(0.1f64.atan2(-2.0)));
     }
 
     #[test]

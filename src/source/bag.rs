@@ -100,7 +100,8 @@ impl Bag {
                 ),
             ));
         }
-        if !info.compression_mode.is_empty() && !info.compression_mode.eq_ignore_ascii_case("none") {
+        if !info.compression_mode.is_empty() && !info.compression_mode.eq_ignore_ascii_case("none")
+        {
             return Err(Error::format(
                 &meta,
                 format!(
