@@ -25,19 +25,21 @@ mkdir -p "$seq"
 for i in $(seq 0 $((copies - 1))); do ln -s "$scan" "$seq/$(printf %06d "$i").pcd"; done
 build
 echo "sensor: $sensor, scans: $copies, workers/threads: $workers, cpu: $(nproc) cores"
-t() { local s e; s=$(date +%s.%N); "$@" >/dev/null; e=$(date +%s.%N); echo "$e - $s" | bc; }
+# Wall and CPU (user + system, children included) seconds of one command: "WALL CPU".
+t() { local TIMEFORMAT='%R %U %S' r; r=$( { time "$@" >/dev/null 2>&1; } 2>&1 ); echo "$r" | awk '{print $1, $2 + $3}'; }
 min() { echo "if ($1 < $2) $1 else $2" | bc; }
 floor() { cat "$seq"/*.pcd > /dev/null; }
-pb=999999; ob=999999; fb=999999
+pb=999999; ob=999999; fb=999999; pc=999999; oc=999999
 for rep in 1 2 3; do
   rm -rf "$work/peer" "$work/ours"
-  p=$(t python3 "$here/benches/pcd_numpy_peer.py" "$work/pcd" "$work/peer" --rows "$rows" --fov-up "$up" --fov-down "$down" --workers "$workers")
-  o=$(t "$bin" --threads "$workers" --no-progress convert "$work/pcd" --out "$work/ours" --sensor "$sensor" --all-frames --cols 1024 --no-point-labels)
-  f=$(t floor)
-  pb=$(min "$p" "$pb"); ob=$(min "$o" "$ob"); fb=$(min "$f" "$fb")
-  echo "run $rep: peer ${p}s  kitti2pgm ${o}s  floor ${f}s"
+  read -r p pcpu < <(t python3 "$here/benches/pcd_numpy_peer.py" "$work/pcd" "$work/peer" --rows "$rows" --fov-up "$up" --fov-down "$down" --workers "$workers")
+  read -r o ocpu < <(t "$bin" --threads "$workers" --no-progress convert "$work/pcd" --out "$work/ours" --sensor "$sensor" --all-frames --cols 1024 --no-point-labels)
+  read -r f _ < <(t floor)
+  pb=$(min "$p" "$pb"); ob=$(min "$o" "$ob"); fb=$(min "$f" "$fb"); pc=$(min "$pcpu" "$pc"); oc=$(min "$ocpu" "$oc")
+  echo "run $rep: peer ${p}s (cpu ${pcpu}s)  kitti2pgm ${o}s (cpu ${ocpu}s)  floor ${f}s"
 done
 sps() { echo "scale=1; $copies / $1" | bc; }
 echo "peer (numpy, elevation bins, $workers workers): $(sps "$pb") scans/s (wall, process start included)"
 echo "kitti2pgm (beam rows, same layout):          $(sps "$ob") scans/s  ratio $(echo "scale=2; $pb / $ob" | bc)x"
+echo "CPU seconds (best): peer $pc, kitti2pgm $oc  ratio $(echo "scale=2; $pc / $oc" | bc)x"
 echo "floor (read the .pcd files, 1 process):      $(sps "$fb") scans/s"
