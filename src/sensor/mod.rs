@@ -372,12 +372,17 @@ pub fn named_or_file(name: &str) -> Result<SensorModel> {
     if path.extension().is_some() {
         return read_calibration(path);
     }
+    Err(unknown_sensor(name))
+}
+
+/// The error for a sensor name that is neither built in nor a calibration file.
+pub(crate) fn unknown_sensor(name: &str) -> Error {
     let names: Vec<&str> = presets::Sensor::ALL.iter().map(|s| s.as_str()).collect();
-    Err(Error::Config(format!(
+    Error::Config(format!(
         "sensor {name:?} is neither a built-in sensor ({}) nor a calibration file (.yaml, .csv, \
          .json)",
         names.join(", ")
-    )))
+    ))
 }
 
 /// The sensor name of a calibration file: its stem.

@@ -62,6 +62,18 @@ impl SensorParams {
         }
     }
 
+    /// A built-in sensor by name (`vlp16`, `pandar40p`, ... ) or a calibration file by path
+    /// (`.yaml`, `.csv`, `.json`), as Python's `sensor=` takes it.
+    pub fn named_or_file(name: &str, ring_order: RingOrder) -> Result<SensorParams> {
+        match name.parse::<Sensor>() {
+            Ok(s) => Ok(SensorParams::preset(s, ring_order)),
+            Err(_) if Path::new(name).extension().is_some() => {
+                SensorParams::file(Path::new(name), ring_order)
+            }
+            Err(_) => Err(super::unknown_sensor(name)),
+        }
+    }
+
     /// A calibration file (read now, once; the digest of the bytes read recorded).
     pub fn file(path: &Path, ring_order: RingOrder) -> Result<SensorParams> {
         let (model, digest) = read_with_digest(path)?;

@@ -115,6 +115,8 @@ class Dataset:
         rgb_camera: Optional[int] = None,
         sampling: str = "nearest",
         all_frames: bool = False,
+        sensor: Optional[str] = None,
+        ring_order: str = "bottom-up",
     ) -> None: ...
     @property
     def frames(self) -> List[str]: ...

@@ -16,6 +16,8 @@ use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Cloud};
+use kitti2pgm::sensor::params::SensorParams;
+use kitti2pgm::sensor::RingOrder;
 
 use crate::readers::{box_dict, class_map_of, scan_array, to_py};
 use crate::{py_err, spec_of, MapArgs};
@@ -31,6 +33,10 @@ use crate::{py_err, spec_of, MapArgs};
 /// `len(ds)`, `ds[i]` / `ds["<frame id>"]` and `for frame in ds` give the frames as `load` does.
 /// rgb_camera: 2 or 3 to sample each point's colour from that camera's image.
 /// all_frames: every scan, not only those with a tracklet pose (KITTI raw).
+/// sensor: another sensor's scans (a sequence of `.pcd` files, an unpacked ROS 2 bag): a
+/// built-in sensor ("vlp16", ... `SENSORS`) or its calibration file; rows are its beams, from
+/// the scans' ring field (counted as ring_order says: "bottom-up" or "top-down") or its table,
+/// and `project` makes one row per beam unless rows= says otherwise (as `convert --sensor`).
 #[pyclass(frozen, module = "kitti2pgm")]
 pub struct Dataset {
     plan: Plan,
@@ -42,7 +48,9 @@ pub struct Dataset {
 #[pymethods]
 impl Dataset {
     #[new]
-    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false))]
+    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up"))]
+    // One Rust argument per Python keyword: the signature is the Python API.
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         root: PathBuf,
@@ -51,7 +59,14 @@ impl Dataset {
         rgb_camera: Option<u8>,
         sampling: &str,
         all_frames: bool,
+        sensor: Option<&str>,
+        ring_order: &str,
     ) -> PyResult<Dataset> {
+        let ring_order = crate::named::<RingOrder>("ring_order", ring_order)?;
+        let sensor = sensor
+            .map(|s| SensorParams::named_or_file(s, ring_order))
+            .transpose()
+            .map_err(py_err)?;
         let source = source
             .map(|s| crate::named::<Layout>("source", s))
             .transpose()?;
@@ -73,6 +88,7 @@ impl Dataset {
             rgb: rgb_camera.map(|camera| RgbOptions { camera, sampling }),
             selection,
             class_map,
+            sensor,
             ..Default::default()
         };
         map.validate().map_err(py_err)?;
@@ -160,7 +176,7 @@ impl Dataset {
     }
 
     /// One frame, read and labelled: a dict with id, file_len (points in the .bin, dropped ones
-    /// included), points (N, 4) float32 (finite, in range, file order), file_index (N,) uint32, ring (N,) uint8 or None (no 64 rings), label (N,)
+    /// included), points (N, 4) float32 (finite, in range, file order), file_index (N,) uint32, ring (N,) uint8 or None (the beam rows with a sensor, row 0 the highest; else KITTI rings from the scan order, None without 64), label (N,)
     /// uint8, instance (N,) uint16, annotated (bool), boxes (list of dicts, as label_points
     /// takes them), rgb (N, 3) float32 and rgb_valid (N,) bool with rgb_camera, else None (the
     /// point shards' names, and `project`'s keywords).
@@ -176,7 +192,12 @@ impl Dataset {
         let l = py
             .detach(|| load(dp, f, &self.map, Viz::Off))
             .map_err(py_err)?;
-        let (ring, _) = py.detach(|| rings(&l.scan.points));
+        // The beam rows of the sensor (row 0 the highest beam), else KITTI's rings from the
+        // scan order.
+        let ring = match &l.beams {
+            Some(b) => Some(b.rows.clone()),
+            None => py.detach(|| rings(&l.scan.points)).0,
+        };
         let colours = py.detach(|| l.point_colours());
         let n = l.scan.len();
         let out = PyDict::new(py);
@@ -243,6 +264,11 @@ impl Dataset {
             fov_up_deg,
             fov_down_deg,
             row_mode,
+        };
+        // One row per beam of the sensor unless rows= says otherwise (as `convert --sensor`).
+        let args = MapArgs {
+            rows: args.rows.or(self.map.sensor.as_ref().map(|s| s.beams)),
+            ..args
         };
         let spec = spec_of(&args, Some(self.plan.layout()))?;
         let k = self.index_of(frame)?;

@@ -177,3 +177,28 @@ def test_a_ros1_bag_through_rosbags_convert_and_mcap_chunk_compression(tmp_path)
                 "--compress", "zstd", "--compress-mode", "file")
     with pytest.raises(ValueError, match=r"compressed by rosbag2 \(file mode, zstd\).*decompress"):
         k2.read_bag(tmp_path / "filez", "/velodyne_points")
+
+
+def test_dataset_on_an_unpacked_bag_gives_convert_s_maps(tmp_path):
+    """A training loader on a user's own recording: unpack the bag, then Dataset(sensor=...)
+    loads each frame with its beam rows and projects it to the map convert writes."""
+    root, out = tmp_path / "root", tmp_path / "out"
+    r = subprocess.run([BIN, "unpack", str(BAG), "--topic", "/velodyne_points", "--out", str(root)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([BIN, "convert", str(root), "--out", str(out), "--sensor", "vlp16", "--all-frames",
+                        "--cols", "1024"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    ds = k2.Dataset(root, sensor="vlp16", all_frames=True)
+    assert ds.frames == ["00_000000", "00_000001"]
+    expected = k2.read_cloud(VLP16)
+    for i, frame in enumerate(ds):
+        np.testing.assert_array_equal(frame["ring"], 15 - expected["ring"])  # row 0 is the highest beam
+        m = ds.project(i, cols=1024)
+        assert m["map"].shape == (16, 1024, 6)
+        np.testing.assert_array_equal(m["map"], np.load(out / "lidar_2d" / f"{frame['id']}.npy"))
+    # The calibration file gives the same rows; a bad sensor name is a ValueError naming the presets.
+    cal = k2.Dataset(root, sensor=str(LIDARS / "velodyne" / "VLP16.yaml"), all_frames=True)
+    np.testing.assert_array_equal(cal[0]["ring"], ds[0]["ring"])
+    with pytest.raises(ValueError, match="neither a built-in sensor"):
+        k2.Dataset(root, sensor="vlp17", all_frames=True)
