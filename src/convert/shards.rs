@@ -232,7 +232,11 @@ fn shard_frame(
         }
         ShardKind::Points => {
             let l = load(dp, f, map, viz)?;
-            let (ring, _) = rings(&l.scan.points);
+            // Another sensor's beam rows; KITTI's rings from the scan order.
+            let ring = match &l.beams {
+                Some(b) => Some(b.rows.clone()),
+                None => rings(&l.scan.points).0,
+            };
             let colours = l.point_colours();
             let msg = PointsMsg::build(
                 PointsOf {

@@ -15,7 +15,8 @@ pub struct PointsOf<'a> {
     pub points: &'a [Point3],
     /// Reflectance of each point.
     pub intensity: &'a [f32],
-    /// Ring of each point, when the scan shows all rings.
+    /// Row of each point (0 = the highest beam): the sensor's beam rows where a sensor was
+    /// given (`params.map.sensor`), else KITTI's rings when the scan shows all 64.
     pub rings: Option<&'a [u8]>,
     /// Class id of each point.
     pub class: &'a [u8],

@@ -82,10 +82,14 @@ class PointFrameSet:
         self.ds = ShardDataset(paths)
         self.groups = INPUTS[inputs]
         self.norm, self.augment, self.seed = norm, augment, seed
-        spec = read_metadata(paths[0])["params"]["map"]["spec"]
+        map_params = read_metadata(paths[0])["params"]["map"]
+        spec = map_params["spec"]
         self.map_args = map_args or {
             "rows": spec["rows"], "cols": spec["cols"], "fov_deg": spec["fov"], "fov_up_deg": spec["fov_up"],
             "fov_down_deg": spec["fov_down"], "row_mode": spec["row_mode"]}
+        if map_args is None and map_params.get("sensor"):
+            # Another sensor's shards: each point's ring is its beam row, of this many beams.
+            self.map_args["beams"] = map_params["sensor"]["beams"]
         first = self.sample(0)
         self.channels = [c for c in first["channels"] if c != "label"]
         missing = sorted({c for g in self.groups for c in g} - set(self.channels))

@@ -95,3 +95,17 @@ def test_train_and_resume_on_point_shards(with_points, tmp_path):
     import json
     cfg = json.loads((straight / "config.json").read_text())
     assert cfg["on_the_fly"] and cfg["augmentation"]["rotate_deg"] == 180.0
+
+
+def test_another_sensor_s_point_shards_project_to_its_maps(tmp_path, kitti2pgm):
+    """Point shards of a VLP-16 sequence carry each point's beam row; projected on the fly with
+    the shards' sensor they are the maps convert wrote (16 rows)."""
+    repo = __import__("pathlib").Path(__file__).resolve().parents[3]
+    out = tmp_path / "own"
+    kitti2pgm("convert", str(repo / "fixtures" / "own_lidar"), "--out", str(out), "--sensor", "vlp16",
+              "--all-frames", "--cols", "512", "--format", "mcap,points", "--class-map", "semantic-kitti")
+    maps = FrameSet(sorted((out / "shards").glob("*.mcap")), "xyzdi", NORM)
+    points = open_frames(sorted((out / "points").glob("*.mcap")), "xyzdi", NORM)
+    assert (points.height, points.width) == (16, 512)
+    assert points.map_args["beams"] == 16
+    same(maps.item(0), points.item(0))
