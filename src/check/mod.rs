@@ -139,6 +139,9 @@ pub struct CheckOptions {
     /// The class map whose yaml the per-point label ids are checked against (SemanticKITTI's
     /// own when `None`).
     pub class_map: Option<crate::label::ClassMap>,
+    /// The sensor whose beam model the points of scans without a ring field are checked
+    /// against (`beam-model`); `None`: not checked.
+    pub sensor: Option<crate::sensor::SensorParams>,
 }
 
 impl Default for CheckOptions {
@@ -150,6 +153,7 @@ impl Default for CheckOptions {
             imageset: None,
             thresholds: Thresholds::default(),
             class_map: None,
+            sensor: None,
         }
     }
 }

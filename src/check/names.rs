@@ -50,6 +50,7 @@ checks! {
     Coverage "coverage" false "Annotated frames without a scan; scans past the last annotated frame.";
     LabelCount "label-count" false "A per-point label file whose count differs from its scan's points.";
     Calibration "calibration" false "Rotations orthonormal (det +1); rectified projections of the form [f 0 cx; 0 f cy; 0 0 1].";
+    BeamModel "beam-model" true "Points whose elevation fits no beam of the sensor model (--sensor): a cloud not in the sensor's frame, or another sensor's.";
     CameraOverlap "camera-overlap" true "Share of the front points that land inside the camera image.";
     CameraAlignment "camera-alignment" true "Depth edges of projected points against image edges: does the calibrated position stand out?";
     BoxSize "box-size" false "Box sizes implausible for the object type.";

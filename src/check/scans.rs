@@ -12,6 +12,7 @@ use super::{
     frame_ranges, semantic, CheckName as C, Collector, ObjectRef, Severity as S, Thresholds,
 };
 use crate::geom::{Matrix3x4, Point3, Real};
+use crate::sensor::{ring_rows, RingOrder, SensorModel};
 
 use crate::kitti::velodyne::Scan;
 use crate::kitti::Layout;
@@ -41,6 +42,8 @@ struct FrameSeen {
     boxes: Vec<BoxSeen>,
     overlap: Option<(usize, usize)>,
     edges: Option<(Vec<f64>, usize)>,
+    /// Points off the sensor's beam model, and points (scans without a ring field).
+    off_model: Option<(u64, usize)>,
 }
 
 /// Runs the scan checks of a drive; returns the number of scans read.
@@ -52,6 +55,16 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
         boxes: runs(C::EmptyBox) || runs(C::BoxGround) || runs(C::AnnotationEnds),
         overlap: runs(C::CameraOverlap),
     };
+    let model = match (&c.opts.sensor, runs(C::BeamModel)) {
+        (Some(p), true) => match p.model() {
+            Ok(m) => Some((m, p.ring_order)),
+            Err(e) => {
+                c.add(C::Read, S::Error, &r.drive.dir, None, None, e.to_string());
+                None
+            }
+        },
+        _ => None,
+    };
     let sampled = if runs(C::CameraAlignment) {
         sample(r, &frames, &t)
     } else {
@@ -60,7 +73,8 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     let seen: Vec<FrameSeen> = frames
         .par_iter()
         .map(|&f| {
-            let s = frame(r, f, sampled.contains(&f), work, &t);
+            let model = model.as_ref().map(|(m, o)| (&**m, *o));
+            let s = frame(r, f, sampled.contains(&f), work, &t, model);
             progress(1);
             s
         })
@@ -78,6 +92,9 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     }
     boxes(r, &seen, c);
     camera(r, &seen, c);
+    if let Some((m, _)) = &model {
+        beam_model(r, &seen, c, m);
+    }
     if r.drive.layout == Layout::Sequence {
         semantic::moving_static(r, c);
     }
@@ -118,12 +135,31 @@ struct Work {
     overlap: bool,
 }
 
-fn frame(r: &DriveRead, f: u32, sampled: bool, work: Work, t: &Thresholds) -> FrameSeen {
+fn frame(
+    r: &DriveRead,
+    f: u32,
+    sampled: bool,
+    work: Work,
+    t: &Thresholds,
+    model: Option<(&SensorModel, RingOrder)>,
+) -> FrameSeen {
     let mut out = FrameSeen {
         frame: f,
         ..Default::default()
     };
-    let scan = match Scan::read(&r.drive.scan_path(f)) {
+    let path = r.drive.scan_path(f);
+    let scan = match Scan::read_with_rings(&path, None).and_then(|(scan, rings)| {
+        match (model, rings) {
+            // A ring field decides the rows: its ids must be the sensor's beams.
+            (Some((m, order)), Some(rings)) => ring_rows(&rings, m.beams(), order, &path).map(drop),
+            (Some((m, _)), None) => {
+                out.off_model = Some((m.assign(&scan.points).off_model, scan.len()));
+                Ok(())
+            }
+            (None, _) => Ok(()),
+        }
+        .map(|()| scan)
+    }) {
         Ok(s) => s,
         Err(e) => {
             out.error = Some(e.to_string());
@@ -330,6 +366,34 @@ fn boxes(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector) {
             }
         }
     }
+}
+
+/// The share of a drive's points that fit no beam of the sensor model, with its worst frame.
+fn beam_model(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector, m: &SensorModel) {
+    let t = c.t().clone();
+    let (mut off, mut total, mut worst) = (0u64, 0usize, None::<(f64, u32)>);
+    for s in seen {
+        if let Some((o, n)) = s.off_model.filter(|&(_, n)| n > 0) {
+            off += o;
+            total += n;
+            let share = o as f64 / n as f64;
+            if worst.is_none_or(|(w, _)| share > w) {
+                worst = Some((share, s.frame));
+            }
+        }
+    }
+    let Some((w, f)) = worst else {
+        return;
+    };
+    let share = off as f64 / total as f64;
+    let sev = match share {
+        s if s > t.beam_model_error => S::Error,
+        s if s > t.beam_model_warn => S::Warning,
+        _ => return,
+    };
+    c.add(C::BeamModel, sev, &r.drive.scan_path(f), Some(f), None,
+        format!("{:.1}% of the points fit no beam of {} (warning above {:.0}%, error above {:.0}%; worst frame {f}: {:.1}%): the points are not in the sensor's frame (a cloud transformed to base_link?), or the scans are another sensor's",
+            share * 100.0, m.name, t.beam_model_warn * 100.0, t.beam_model_error * 100.0, w * 100.0));
 }
 
 /// Camera findings: the share of front points in the image, the alignment score.

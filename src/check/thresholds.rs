@@ -93,6 +93,8 @@ macro_rules! thresholds {
 thresholds! {
     max_rect_angle_deg Degrees180 "calibration.max-rect-angle-deg" 5.0 "Warning: a rectifying rotation (R_rect, R0_rect) turns by more than this many degrees (KITTI's: under 1).";
     max_focal_ratio Factor "calibration.max-focal-ratio" 1.05 "Warning: fx / fy of a rectified projection differs from 1 by more than this factor.";
+    beam_model_warn Share "beam-model.warn-share" 0.01 "Warning: more than this share of a drive's points fit no beam of the sensor model (--sensor, --sensor-calibration).";
+    beam_model_error Share "beam-model.error-share" 0.5 "Error: more than this share: the points are not in the sensor's frame, or the scans are another sensor's.";
     overlap_warn Share "camera-overlap.warn-share" 0.6 "Warning: fewer of the points ahead (velodyne x > 8 m, within 35 degrees left or right and 10 degrees up or down) land inside camera 2's image than this share.";
     overlap_error Share "camera-overlap.error-share" 0.2 "Error: fewer than this share land inside the image.";
     alignment_frames Count "camera-alignment.frames" 3.0 "Frames per drive (evenly spaced) whose images are read to judge the alignment.";

@@ -8,7 +8,7 @@ use kitti2pgm::params::ShardCompression;
 use kitti2pgm::project::camera::Sampling;
 use kitti2pgm::project::{MapPreset, RowMode};
 use kitti2pgm::sensor::presets::Sensor;
-use kitti2pgm::sensor::RingOrder;
+use kitti2pgm::sensor::{RingOrder, SensorParams};
 
 /// `kitti2pgm split`.
 #[derive(Debug, ClapArgs)]
@@ -90,23 +90,9 @@ pub struct ConvertArgs {
     /// How rows are assigned (preset: rings; elevation for rangenet).
     #[arg(long, value_enum)]
     pub row_mode: Option<RowMode>,
-    /// Another sensor's scans (a sequence of .pcd files, or of KITTI-layout .bin): the rows are
-    /// this sensor's beams, by its built-in nominal beam table. The map gets one row per beam
-    /// unless --rows says otherwise; a ring / channel field in the scans decides first.
-    #[arg(
-        long,
-        value_name = "NAME",
-        value_enum,
-        conflicts_with = "sensor_calibration"
-    )]
-    pub sensor: Option<Sensor>,
-    /// Like --sensor, with a unit's own calibration file: velodyne_pointcloud .yaml, Hesai
-    /// angle-correction .csv, or Ouster metadata .json (beam origin and sensor frame included).
-    #[arg(long, value_name = "FILE")]
-    pub sensor_calibration: Option<std::path::PathBuf>,
-    /// How a ring / channel field counts the beams (with --sensor or --sensor-calibration).
-    #[arg(long, value_enum, default_value_t = RingOrder::BottomUp)]
-    pub ring_order: RingOrder,
+    /// The sensor (another LiDAR than KITTI's).
+    #[command(flatten)]
+    pub sensor: SensorArgs,
     /// Do not write the per-point .label files.
     #[arg(long)]
     pub no_point_labels: bool,
@@ -203,5 +189,38 @@ impl SplitRuleArgs {
             return Ok(Some(SplitRule::Frames(ids.into_iter().collect())));
         }
         Ok(None)
+    }
+}
+
+/// The sensor options of `convert` and `check`: another sensor's scans get one row per beam.
+#[derive(Debug, Clone, ClapArgs)]
+pub struct SensorArgs {
+    /// Another sensor's scans (a sequence of .pcd files, or of KITTI-layout .bin): the rows are
+    /// this sensor's beams, by its built-in nominal beam table. The map gets one row per beam
+    /// unless --rows says otherwise; a ring / channel field in the scans decides first.
+    #[arg(
+        long,
+        value_name = "NAME",
+        value_enum,
+        conflicts_with = "sensor_calibration"
+    )]
+    pub sensor: Option<Sensor>,
+    /// Like --sensor, with a unit's own calibration file: velodyne_pointcloud .yaml, Hesai
+    /// angle-correction .csv, or Ouster metadata .json (beam origin and sensor frame included).
+    #[arg(long, value_name = "FILE")]
+    pub sensor_calibration: Option<std::path::PathBuf>,
+    /// How a ring / channel field counts the beams (with --sensor or --sensor-calibration).
+    #[arg(long, value_enum, default_value_t = RingOrder::BottomUp)]
+    pub ring_order: RingOrder,
+}
+
+impl SensorArgs {
+    /// The sensor parameters asked for (a calibration file is read now), if any.
+    pub fn params(&self) -> kitti2pgm::Result<Option<SensorParams>> {
+        Ok(match (&self.sensor, &self.sensor_calibration) {
+            (Some(s), _) => Some(SensorParams::preset(*s, self.ring_order)),
+            (None, Some(path)) => Some(SensorParams::file(path, self.ring_order)?),
+            (None, None) => None,
+        })
     }
 }

@@ -32,6 +32,10 @@ pub struct CheckArgs {
     /// Annotations, calibration and file lists only: skip the checks that read the scans.
     #[arg(long)]
     pub no_scans: bool,
+    /// Another sensor's scans: check their points against its beam model (`beam-model`: points
+    /// that fit no beam), and their ring field against its beams.
+    #[command(flatten)]
+    pub sensor: super::convert::SensorArgs,
     /// Check this ImageSet folder's train.txt and val.txt (leaks, balance) instead of the
     /// layout's default split.
     #[arg(long, value_name = "DIR")]

@@ -17,6 +17,7 @@ impl CheckArgs {
             layout: self.source,
             scans: !self.no_scans,
             imageset: self.imageset.clone(),
+            sensor: self.sensor.params()?,
             ..Default::default()
         };
         o.skip = if self.only.is_empty() {

@@ -11,7 +11,6 @@ use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::{MapChoice, RowMode};
-use kitti2pgm::sensor::SensorParams;
 
 use super::{progress, Global};
 use crate::cli::{ConvertArgs, FormatArg};
@@ -29,7 +28,7 @@ impl ConvertArgs {
                 .rule()?
                 .unwrap_or_else(|| SplitRule::default_for(layout)),
         };
-        let sensor = self.sensor_params()?;
+        let sensor = self.sensor.params()?;
         let mut choice = self.map_choice();
         // One row per beam unless --rows says otherwise.
         choice.rows = choice.rows.or(sensor.as_ref().map(|s| s.beams));
@@ -68,14 +67,6 @@ impl ConvertArgs {
 
 impl ConvertArgs {
     /// The sensor model asked for: `--sensor` or `--sensor-calibration`.
-    fn sensor_params(&self) -> kitti2pgm::Result<Option<SensorParams>> {
-        Ok(match (&self.sensor, &self.sensor_calibration) {
-            (Some(s), _) => Some(SensorParams::preset(*s, self.ring_order)),
-            (None, Some(path)) => Some(SensorParams::file(path, self.ring_order)?),
-            (None, None) => None,
-        })
-    }
-
     /// The map asked for: `--preset` and the single values.
     fn map_choice(&self) -> MapChoice {
         MapChoice {

@@ -323,3 +323,85 @@ fn a_bag_of_another_storage_or_no_bag_is_named() {
     assert_eq!(code, 1);
     assert!(err.contains("vlp16_1673400472138016708.pcd"), "{err}");
 }
+
+/// A sequence of one x, y, z PCD: the VLP-16 scan's points raised by `lift` metres.
+fn xyz_sequence(dir: &Path, lift: f32) -> PathBuf {
+    let cloud = pcd::read(&vlp16()).unwrap();
+    let layout = kitti2pgm::source::PointLayout::packed(&[
+        ("x", kitti2pgm::source::FieldType::F32),
+        ("y", kitti2pgm::source::FieldType::F32),
+        ("z", kitti2pgm::source::FieldType::F32),
+    ]);
+    let records: Vec<u8> = cloud
+        .points
+        .iter()
+        .flat_map(|p| [p.x, p.y, p.z + lift])
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let seq = dir.join("sequences/00/velodyne");
+    std::fs::create_dir_all(&seq).unwrap();
+    let bytes = pcd::encode(&layout, cloud.len(), 1, &records);
+    std::fs::write(seq.join("000000.pcd"), bytes).unwrap();
+    dir.to_path_buf()
+}
+
+#[test]
+fn check_warns_when_the_points_are_not_in_the_sensor_s_frame() {
+    let t = tmp();
+    let beam_model = |root: &Path, extra: &[&str]| {
+        let mut a = vec!["check", s(root), "--json"];
+        a.extend_from_slice(extra);
+        let (code, out, err) = run_text(&a);
+        let j: serde_json::Value =
+            serde_json::from_str(&out).unwrap_or_else(|_| panic!("{out}{err}"));
+        let f: Vec<serde_json::Value> = j["findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| f["check"] == "beam-model")
+            .cloned()
+            .collect();
+        (code, f)
+    };
+    // The driver's cloud, without its ring field: every point on a beam.
+    let level = xyz_sequence(&t.path().join("level"), 0.0);
+    assert_eq!(beam_model(&level, &["--sensor", "vlp16"]).1.len(), 0);
+    // The same points 1.8 m up (a cloud in base_link): most fit no beam.
+    let lifted = xyz_sequence(&t.path().join("lifted"), 1.8);
+    let (code, f) = beam_model(&lifted, &["--sensor", "vlp16"]);
+    assert_eq!(code, 3);
+    assert_eq!(f.len(), 1);
+    assert_eq!(f[0]["severity"], "error");
+    let m = f[0]["message"].as_str().unwrap();
+    assert!(
+        m.contains("fit no beam of VLP-16") && m.contains("not in the sensor's frame"),
+        "{m}"
+    );
+    // Without a sensor nothing is said; the threshold is the user's.
+    assert_eq!(beam_model(&lifted, &[]).1.len(), 0);
+    let (_, f) = beam_model(
+        &lifted,
+        &["--sensor", "vlp16", "--set", "beam-model.error-share=0.99"],
+    );
+    assert_eq!(f[0]["severity"], "warning");
+    // A ring field is checked against the sensor's beams: the VLP-16's 16 channels against an
+    // 8-beam table are a read error naming the scan.
+    let csv = t.path().join("eight.csv");
+    let rows: Vec<String> = (1..=8).map(|i| format!("{i},{},0.0", 15 - 4 * i)).collect();
+    std::fs::write(
+        &csv,
+        format!("Laser id,Elevation,Azimuth\n{}\n", rows.join("\n")),
+    )
+    .unwrap();
+    let (code, out, _) = run_text(&[
+        "check",
+        s(&fixture("own_lidar")),
+        "--sensor-calibration",
+        s(&csv),
+    ]);
+    assert_eq!(code, 3, "{out}");
+    assert!(
+        out.contains("000000.pcd") && out.contains("but the sensor has 8 beams"),
+        "{out}"
+    );
+}
