@@ -12,7 +12,7 @@ use super::{
     frame_ranges, semantic, CheckName as C, Collector, ObjectRef, Severity as S, Thresholds,
 };
 use crate::geom::{Matrix3x4, Point3, Real};
-use crate::sensor::{ring_rows, RingOrder, SensorModel};
+use crate::sensor::{ring_rows, RingOrder, SensorModel, SensorPose};
 
 use crate::kitti::velodyne::Scan;
 use crate::kitti::Layout;
@@ -57,7 +57,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     };
     let model = match (&c.opts.sensor, runs(C::BeamModel)) {
         (Some(p), true) => match p.model() {
-            Ok(m) => Some((m, p.ring_order)),
+            Ok(m) => Some((m, p.ring_order, p.pose)),
             Err(e) => {
                 c.add(C::Read, S::Error, &r.drive.dir, None, None, e.to_string());
                 None
@@ -73,7 +73,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     let seen: Vec<FrameSeen> = frames
         .par_iter()
         .map(|&f| {
-            let model = model.as_ref().map(|(m, o)| (&**m, *o));
+            let model = model.as_ref().map(|(m, o, pose)| (&**m, *o, *pose));
             let s = frame(r, f, sampled.contains(&f), work, &t, model);
             progress(1);
             s
@@ -92,7 +92,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     }
     boxes(r, &seen, c);
     camera(r, &seen, c);
-    if let Some((m, _)) = &model {
+    if let Some((m, _, _)) = &model {
         beam_model(r, &seen, c, m);
     }
     if r.drive.layout == Layout::Sequence {
@@ -141,18 +141,23 @@ fn frame(
     sampled: bool,
     work: Work,
     t: &Thresholds,
-    model: Option<(&SensorModel, RingOrder)>,
+    model: Option<(&SensorModel, RingOrder, Option<SensorPose>)>,
 ) -> FrameSeen {
     let mut out = FrameSeen {
         frame: f,
         ..Default::default()
     };
     let path = r.drive.scan_path(f);
-    let scan = match Scan::read_with_rings(&path, None).and_then(|(scan, rings)| {
+    let scan = match Scan::read_with_rings(&path, None).and_then(|(mut scan, rings)| {
+        if let Some(pose) = model.and_then(|m| m.2) {
+            pose.to_sensor_frame(&mut scan.points);
+        }
         match (model, rings) {
             // A ring field decides the rows: its ids must be the sensor's beams.
-            (Some((m, order)), Some(rings)) => ring_rows(&rings, m.beams(), order, &path).map(drop),
-            (Some((m, _)), None) => {
+            (Some((m, order, _)), Some(rings)) => {
+                ring_rows(&rings, m.beams(), order, &path).map(drop)
+            }
+            (Some((m, _, _)), None) => {
                 out.off_model = Some((m.assign(&scan.points).off_model, scan.len()));
                 Ok(())
             }

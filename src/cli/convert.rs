@@ -8,7 +8,7 @@ use kitti2pgm::params::ShardCompression;
 use kitti2pgm::project::camera::Sampling;
 use kitti2pgm::project::{MapPreset, RowMode};
 use kitti2pgm::sensor::presets::Sensor;
-use kitti2pgm::sensor::{RingOrder, SensorParams};
+use kitti2pgm::sensor::{RingOrder, SensorParams, SensorPose};
 
 /// `kitti2pgm split`.
 #[derive(Debug, ClapArgs)]
@@ -212,15 +212,32 @@ pub struct SensorArgs {
     /// How a ring / channel field counts the beams (with --sensor or --sensor-calibration).
     #[arg(long, value_enum, default_value_t = RingOrder::BottomUp)]
     pub ring_order: RingOrder,
+    /// Where the sensor sits in the frame the points are written in, X,Y,Z[,ROLL,PITCH,YAW]
+    /// (metres, degrees; ROS's roll-pitch-yaw): for clouds moved to a vehicle frame (a ROS
+    /// bag's base_link). The points are moved into the sensor's frame when read, so rows,
+    /// columns and the x, y, z channels are the sensor's.
+    #[arg(long, value_name = "X,Y,Z[,R,P,Y]", allow_hyphen_values = true)]
+    pub sensor_pose: Option<String>,
 }
 
 impl SensorArgs {
     /// The sensor parameters asked for (a calibration file is read now), if any.
     pub fn params(&self) -> kitti2pgm::Result<Option<SensorParams>> {
-        Ok(match (&self.sensor, &self.sensor_calibration) {
-            (Some(s), _) => Some(SensorParams::preset(*s, self.ring_order)),
-            (None, Some(path)) => Some(SensorParams::file(path, self.ring_order)?),
-            (None, None) => None,
-        })
+        let mut p = match (&self.sensor, &self.sensor_calibration) {
+            (Some(s), _) => SensorParams::preset(*s, self.ring_order),
+            (None, Some(path)) => SensorParams::file(path, self.ring_order)?,
+            (None, None) if self.sensor_pose.is_some() => {
+                return Err(kitti2pgm::Error::Config(
+                    "--sensor-pose needs the sensor: --sensor or --sensor-calibration".into(),
+                ))
+            }
+            (None, None) => return Ok(None),
+        };
+        p.pose = self
+            .sensor_pose
+            .as_deref()
+            .map(SensorPose::parse)
+            .transpose()?;
+        Ok(Some(p))
     }
 }

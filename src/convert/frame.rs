@@ -252,7 +252,10 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
 fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
     let scan_path = dp.drive.scan_path(frame);
-    let (scan, rings) = Scan::read_with_rings(&scan_path, None)?;
+    let (mut scan, rings) = Scan::read_with_rings(&scan_path, None)?;
+    if let Some(pose) = map.sensor.as_ref().and_then(|s| s.pose) {
+        pose.to_sensor_frame(&mut scan.points);
+    }
     let beams = beam_rows(map, &scan, rings.as_deref(), &scan_path)?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
     let mut png = None;

@@ -17,6 +17,7 @@
 pub mod hesai;
 pub mod ouster;
 pub mod params;
+pub mod pose;
 pub mod presets;
 pub mod velodyne;
 
@@ -25,6 +26,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 pub use params::{SensorParams, SensorSource};
+pub use pose::SensorPose;
 
 use crate::error::{Error, Result};
 use crate::geom::{na, Degrees, Point3};

@@ -37,6 +37,10 @@ pub struct SensorParams {
     pub beams: usize,
     /// How a ring / channel field in the scans counts the beams.
     pub ring_order: RingOrder,
+    /// Where the sensor sits in the points' frame (`--sensor-pose`): the points are moved into
+    /// the sensor's frame when read. `None`: they are in it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose: Option<super::SensorPose>,
     /// The model, resolved (not serialised: `source` says what it is).
     #[serde(skip)]
     pub model: Option<Arc<SensorModel>>,
@@ -44,8 +48,13 @@ pub struct SensorParams {
 
 impl PartialEq for SensorParams {
     fn eq(&self, o: &SensorParams) -> bool {
-        (&self.source, &self.name, self.beams, self.ring_order)
-            == (&o.source, &o.name, o.beams, o.ring_order)
+        (
+            &self.source,
+            &self.name,
+            self.beams,
+            self.ring_order,
+            self.pose,
+        ) == (&o.source, &o.name, o.beams, o.ring_order, o.pose)
     }
 }
 
@@ -58,6 +67,7 @@ impl SensorParams {
             name: model.name.clone(),
             beams: model.beams(),
             ring_order,
+            pose: None,
             model: Some(Arc::new(model)),
         }
     }
@@ -85,6 +95,7 @@ impl SensorParams {
             name: model.name.clone(),
             beams: model.beams(),
             ring_order,
+            pose: None,
             model: Some(Arc::new(model)),
         })
     }

@@ -377,6 +377,47 @@ fn check_warns_when_the_points_are_not_in_the_sensor_s_frame() {
         m.contains("fit no beam of VLP-16") && m.contains("not in the sensor's frame"),
         "{m}"
     );
+    // Its pose given, the points are back in the sensor's frame: nothing to say, and convert
+    // puts every point on a beam.
+    let pose = ["--sensor", "vlp16", "--sensor-pose", "0,0,1.8"];
+    assert_eq!(beam_model(&lifted, &pose).1.len(), 0);
+    let out = t.path().join("out");
+    let mut a = vec![
+        "convert",
+        s(&lifted),
+        "--out",
+        s(&out),
+        "--all-frames",
+        "--json",
+    ];
+    a.extend_from_slice(&pose);
+    let (code, j, err) = {
+        let (code, o, e) = run_text(&a);
+        (
+            code,
+            serde_json::from_str::<serde_json::Value>(&o).unwrap_or_default(),
+            e,
+        )
+    };
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(
+        (&j["off_model"], &j["beam_table_frames"]),
+        (&serde_json::json!(0), &serde_json::json!(1))
+    );
+    assert_eq!(
+        j["params"]["map"]["sensor"]["pose"]["xyz"],
+        serde_json::json!([0.0, 0.0, 1.8])
+    );
+    let (code, _, err) = run_text(&[
+        "convert",
+        s(&lifted),
+        "--out",
+        s(&out),
+        "--sensor-pose",
+        "0,0,1",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--sensor-pose needs the sensor"), "{err}");
     // Without a sensor nothing is said; the threshold is the user's.
     assert_eq!(beam_model(&lifted, &[]).1.len(), 0);
     let (_, f) = beam_model(

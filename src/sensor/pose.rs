@@ -1,0 +1,80 @@
+//! Where the sensor sits in the frame its points are written in: a cloud already moved to a
+//! vehicle frame (a ROS bag's `base_link`) is brought back to the sensor's own frame before rows
+//! are decided, so that elevations are seen from the beams again.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::geom::{na, Point3};
+
+/// The sensor's pose in the points' frame: translation in metres, then roll, pitch and yaw in
+/// degrees (rotations about the fixed x, y, z axes in that order: ROS's RPY convention).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SensorPose {
+    /// Position of the sensor's origin, metres.
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw, degrees.
+    pub rpy_deg: [f64; 3],
+}
+
+impl SensorPose {
+    /// Parses `x,y,z` or `x,y,z,roll,pitch,yaw` (metres, degrees).
+    pub fn parse(text: &str) -> Result<SensorPose> {
+        let bad = |m: &str| Error::Config(format!("--sensor-pose {text:?}: {m}"));
+        let v: Vec<f64> = text
+            .split(',')
+            .map(|s| s.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect::<Option<_>>()
+            .ok_or_else(|| bad("not a list of finite numbers"))?;
+        match v[..] {
+            [x, y, z] => Ok(SensorPose {
+                xyz: [x, y, z],
+                rpy_deg: [0.0; 3],
+            }),
+            [x, y, z, r, p, w] => Ok(SensorPose {
+                xyz: [x, y, z],
+                rpy_deg: [r, p, w],
+            }),
+            _ => Err(bad("expected x,y,z or x,y,z,roll,pitch,yaw")),
+        }
+    }
+
+    /// The sensor frame -> the points' frame.
+    pub fn isometry(&self) -> na::Isometry3<f64> {
+        let [r, p, y] = self.rpy_deg.map(f64::to_radians);
+        na::Isometry3::from_parts(
+            na::Translation3::new(self.xyz[0], self.xyz[1], self.xyz[2]),
+            na::UnitQuaternion::from_euler_angles(r, p, y),
+        )
+    }
+
+    /// Moves `points` from their frame into the sensor's (computed in f64).
+    pub fn to_sensor_frame(&self, points: &mut [Point3]) {
+        let inverse = self.isometry().inverse();
+        for p in points {
+            let q = inverse * na::Point3::new(p.x as f64, p.y as f64, p.z as f64);
+            *p = Point3::new(q.x as f32, q.y as f32, q.z as f32);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_and_moves_points_into_the_sensor_frame() {
+        let p = SensorPose::parse("1, 0, 1.8").unwrap();
+        let mut pts = [Point3::new(11.0, 0.0, 1.8)];
+        p.to_sensor_frame(&mut pts);
+        assert!((pts[0] - Point3::new(10.0, 0.0, 0.0)).norm() < 1e-6);
+        // Yawed 90 degrees: the sensor's x axis is the points' y axis.
+        let p = SensorPose::parse("0,0,0,0,0,90").unwrap();
+        let mut pts = [Point3::new(0.0, 5.0, 0.0)];
+        p.to_sensor_frame(&mut pts);
+        assert!((pts[0] - Point3::new(5.0, 0.0, 0.0)).norm() < 1e-6);
+        for bad in ["1,2", "1,2,3,4", "1,x,3", "1,2,inf"] {
+            assert!(SensorPose::parse(bad).is_err(), "{bad}");
+        }
+    }
+}
