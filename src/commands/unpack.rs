@@ -93,6 +93,7 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
         print_summary(&s);
     }
     Ok(match (s.failures.is_empty(), s.frames_written) {
+        (true, 0) => Outcome::Failed(format!("{} has no message to unpack", s.topic)),
         (true, _) => Outcome::Ok,
         (false, 0) => Outcome::Failed(format!("no frame of {} unpacked", s.topic)),
         (false, _) => Outcome::Partial,

@@ -71,6 +71,14 @@ impl Bag {
     /// Opens a bag directory (with `metadata.yaml`) or a `.mcap` file.
     pub fn open(path: &Path) -> Result<Bag> {
         if !path.is_dir() {
+            if path.extension().is_some_and(|e| e == "db3") {
+                return Err(Error::format(
+                    path,
+                    "a rosbag2 sqlite3 file: kitti2pgm reads MCAP bags; convert it first \
+                     (`ros2 bag convert`, or `rosbags-convert --src BAG --dst OUT --dst-storage \
+                     mcap`)",
+                ));
+            }
             fs::open(path)?;
             return Ok(Bag {
                 path: path.into(),

@@ -314,6 +314,27 @@ fn a_bag_of_another_storage_or_no_bag_is_named() {
             && err.contains("--dst-storage mcap"),
         "{err}"
     );
+    let db3 = t.path().join("run_0.db3");
+    std::fs::write(&db3, b"SQLite format 3\0").unwrap();
+    let (code, _, err) = run_text(&["unpack", s(&db3), "--list"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("run_0.db3") && err.contains("sqlite3"),
+        "{err}"
+    );
+    // A topic without messages unpacks nothing: exit 1, said.
+    let none = t.path().join("none.mcap");
+    write_mcap(&none, &[]);
+    let (code, _, err) = run_text(&[
+        "unpack",
+        s(&none),
+        "--topic",
+        "/points",
+        "--out",
+        s(&t.path().join("o")),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("/points has no message to unpack"), "{err}");
     let empty = t.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
     let (code, _, err) = run_text(&["unpack", s(&empty), "--list"]);
