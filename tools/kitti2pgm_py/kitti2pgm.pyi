@@ -117,6 +117,7 @@ class Dataset:
         all_frames: bool = False,
         sensor: Optional[str] = None,
         ring_order: str = "bottom-up",
+        sensor_pose: Optional[str] = None,
     ) -> None: ...
     @property
     def frames(self) -> List[str]: ...

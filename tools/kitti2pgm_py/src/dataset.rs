@@ -17,7 +17,7 @@ use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Cloud};
 use kitti2pgm::sensor::params::SensorParams;
-use kitti2pgm::sensor::RingOrder;
+use kitti2pgm::sensor::{RingOrder, SensorPose};
 
 use crate::readers::{box_dict, class_map_of, scan_array, to_py};
 use crate::{py_err, spec_of, MapArgs};
@@ -37,6 +37,8 @@ use crate::{py_err, spec_of, MapArgs};
 /// built-in sensor ("vlp16", ... `SENSORS`) or its calibration file; rows are its beams, from
 /// the scans' ring field (counted as ring_order says: "bottom-up" or "top-down") or its table,
 /// and `project` makes one row per beam unless rows= says otherwise (as `convert --sensor`).
+/// sensor_pose: "x,y,z[,roll,pitch,yaw]" (metres, degrees), the sensor's pose in the points'
+/// frame (a base_link cloud): the points are moved into the sensor's frame (`--sensor-pose`).
 #[pyclass(frozen, module = "kitti2pgm")]
 pub struct Dataset {
     plan: Plan,
@@ -48,7 +50,7 @@ pub struct Dataset {
 #[pymethods]
 impl Dataset {
     #[new]
-    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up"))]
+    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up", sensor_pose=None))]
     // One Rust argument per Python keyword: the signature is the Python API.
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -61,12 +63,21 @@ impl Dataset {
         all_frames: bool,
         sensor: Option<&str>,
         ring_order: &str,
+        sensor_pose: Option<&str>,
     ) -> PyResult<Dataset> {
         let ring_order = crate::named::<RingOrder>("ring_order", ring_order)?;
-        let sensor = sensor
+        let mut sensor = sensor
             .map(|s| SensorParams::named_or_file(s, ring_order))
             .transpose()
             .map_err(py_err)?;
+        if let Some(pose) = sensor_pose {
+            let Some(s) = sensor.as_mut() else {
+                return Err(PyValueError::new_err(
+                    "sensor_pose needs the sensor (sensor=)",
+                ));
+            };
+            s.pose = Some(SensorPose::parse(pose).map_err(py_err)?);
+        }
         let source = source
             .map(|s| crate::named::<Layout>("source", s))
             .transpose()?;
@@ -306,10 +317,19 @@ impl Dataset {
                     colours: flat.as_deref(),
                     colour_valid: valid.as_deref(),
                 };
-                project_cloud(&cloud, &spec, None)
+                let off_model = l.beams.as_ref().map(|b| b.off_model);
+                project_cloud(&cloud, &spec, None).map(|p| (p, off_model))
             })
             .map_err(py_err)?;
-        crate::map_dict(py, projected, true)
+        let (projected, off_model) = projected;
+        let d = crate::map_dict(py, projected, true)?;
+        if let Some(off) = off_model {
+            // As `project(sensor=...)`: the points that fit no beam of the sensor's table.
+            d.get_item("stats")?
+                .expect("map_dict has stats")
+                .set_item("off_model", off)?;
+        }
+        Ok(d)
     }
 }
 

@@ -202,3 +202,27 @@ def test_dataset_on_an_unpacked_bag_gives_convert_s_maps(tmp_path):
     np.testing.assert_array_equal(cal[0]["ring"], ds[0]["ring"])
     with pytest.raises(ValueError, match="neither a built-in sensor"):
         k2.Dataset(root, sensor="vlp17", all_frames=True)
+
+
+def test_dataset_sensor_pose_brings_a_vehicle_frame_cloud_back(tmp_path):
+    """The VLP-16 scan raised 1.8 m (a base_link cloud, x, y, z only): off the beam model until
+    its pose is given, then every point on a beam."""
+    mb = make_bag()
+    pts = mb.read_pcd(VLP16)
+    xyz = np.zeros(len(pts), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4")])
+    xyz["x"], xyz["y"], xyz["z"] = pts["x"], pts["y"], pts["z"] + np.float32(1.8)
+    seq = tmp_path / "sequences" / "00" / "velodyne"
+    seq.mkdir(parents=True)
+    head = (f"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {len(xyz)}\nHEIGHT 1\n"
+            f"VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {len(xyz)}\nDATA binary\n")
+    (seq / "000000.pcd").write_bytes(head.encode() + xyz.tobytes())
+    raised = k2.Dataset(tmp_path, sensor="vlp16", all_frames=True)
+    assert raised.project(0, cols=1024)["stats"]["off_model"] > len(xyz) // 2
+    back = k2.Dataset(tmp_path, sensor="vlp16", all_frames=True, sensor_pose="0,0,1.8")
+    m = back.project(0, cols=1024)
+    assert m["stats"]["off_model"] == 0
+    np.testing.assert_array_equal(back[0]["ring"], 15 - k2.read_cloud(VLP16)["ring"])
+    with pytest.raises(ValueError, match="sensor_pose needs the sensor"):
+        k2.Dataset(tmp_path, all_frames=True, sensor_pose="0,0,1.8")
+    with pytest.raises(ValueError, match="expected x,y,z or x,y,z,roll,pitch,yaw"):
+        k2.Dataset(tmp_path, sensor="vlp16", all_frames=True, sensor_pose="0,1.8")
