@@ -12,7 +12,8 @@ use super::{
     frame_ranges, semantic, CheckName as C, Collector, ObjectRef, Severity as S, Thresholds,
 };
 use crate::geom::{Matrix3x4, Point3, Real};
-use crate::sensor::{ring_rows, RingOrder, SensorModel, SensorPose};
+use crate::sensor::params::RowsFrom;
+use crate::sensor::SensorParams;
 
 use crate::kitti::velodyne::Scan;
 use crate::kitti::Layout;
@@ -55,9 +56,10 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
         boxes: runs(C::EmptyBox) || runs(C::BoxGround) || runs(C::AnnotationEnds),
         overlap: runs(C::CameraOverlap),
     };
-    let model = match (&c.opts.sensor, runs(C::BeamModel)) {
+    // The sensor's model resolved once (a calibration file changed since is said here).
+    let sensor = match (&c.opts.sensor, runs(C::BeamModel)) {
         (Some(p), true) => match p.model() {
-            Ok(m) => Some((m, p.ring_order, p.pose)),
+            Ok(_) => Some(p.clone()),
             Err(e) => {
                 c.add(C::Read, S::Error, &r.drive.dir, None, None, e.to_string());
                 None
@@ -73,8 +75,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     let seen: Vec<FrameSeen> = frames
         .par_iter()
         .map(|&f| {
-            let model = model.as_ref().map(|(m, o, pose)| (&**m, *o, *pose));
-            let s = frame(r, f, sampled.contains(&f), work, &t, model);
+            let s = frame(r, f, sampled.contains(&f), work, &t, sensor.as_ref());
             progress(1);
             s
         })
@@ -92,8 +93,8 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     }
     boxes(r, &seen, c);
     camera(r, &seen, c);
-    if let Some((m, _, _)) = &model {
-        beam_model(r, &seen, c, m);
+    if let Some(p) = &sensor {
+        beam_model(r, &seen, c, &p.name);
     }
     if r.drive.layout == Layout::Sequence {
         semantic::moving_static(r, c);
@@ -141,7 +142,7 @@ fn frame(
     sampled: bool,
     work: Work,
     t: &Thresholds,
-    model: Option<(&SensorModel, RingOrder, Option<SensorPose>)>,
+    sensor: Option<&SensorParams>,
 ) -> FrameSeen {
     let mut out = FrameSeen {
         frame: f,
@@ -149,21 +150,15 @@ fn frame(
     };
     let path = r.drive.scan_path(f);
     let scan = match Scan::read_with_rings(&path, None).and_then(|(mut scan, rings)| {
-        if let Some(pose) = model.and_then(|m| m.2) {
-            pose.to_sensor_frame(&mut scan.points);
-        }
-        match (model, rings) {
-            // A ring field decides the rows: its ids must be the sensor's beams.
-            (Some((m, order, _)), Some(rings)) => {
-                ring_rows(&rings, m.beams(), order, &path).map(drop)
+        // The rows as convert decides them: a ring field's ids must be the sensor's beams,
+        // points placed by the table may fit none.
+        if let Some(p) = sensor {
+            let b = p.beam_rows(&mut scan.points, rings.as_deref(), &path)?;
+            if b.from == RowsFrom::BeamTable {
+                out.off_model = Some((b.off_model, scan.len()));
             }
-            (Some((m, _, _)), None) => {
-                out.off_model = Some((m.assign(&scan.points).off_model, scan.len()));
-                Ok(())
-            }
-            (None, _) => Ok(()),
         }
-        .map(|()| scan)
+        Ok(scan)
     }) {
         Ok(s) => s,
         Err(e) => {
@@ -374,7 +369,7 @@ fn boxes(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector) {
 }
 
 /// The share of a drive's points that fit no beam of the sensor model, with its worst frame.
-fn beam_model(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector, m: &SensorModel) {
+fn beam_model(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector, sensor: &str) {
     let t = c.t().clone();
     let (mut off, mut total, mut worst) = (0u64, 0usize, None::<(f64, u32)>);
     for s in seen {
@@ -398,7 +393,7 @@ fn beam_model(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector, m: &SensorMo
     };
     c.add(C::BeamModel, sev, &r.drive.scan_path(f), Some(f), None,
         format!("{:.1}% of the points fit no beam of {} (warning above {:.0}%, error above {:.0}%; worst frame {f}: {:.1}%): the points are not in the sensor's frame (a cloud transformed to base_link?), or the scans are another sensor's",
-            share * 100.0, m.name, t.beam_model_warn * 100.0, t.beam_model_error * 100.0, w * 100.0));
+            share * 100.0, sensor, t.beam_model_warn * 100.0, t.beam_model_error * 100.0, w * 100.0));
 }
 
 /// Camera findings: the share of front points in the image, the alignment score.

@@ -71,21 +71,20 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
     }
     let out = a.out.context("--out ROOT is needed")?;
     kitti2pgm::fs::refuse_overlap(&out, &[(kitti2pgm::fs::Role::Dataset, a.bag.as_path())])?;
+    let topic = bag.topic(
+        a.topic.as_deref(),
+        kitti2pgm::source::pointcloud2::TYPE_NAME,
+    )?;
     let opts = UnpackOptions {
-        topic: a.topic,
         out,
         sequence: a.sequence,
         overwrite: a.overwrite,
         durability: super::durability(a.sync),
     };
-    let total = bag
-        .topic(
-            opts.topic.as_deref(),
-            kitti2pgm::source::pointcloud2::TYPE_NAME,
-        )?
-        .messages;
-    let pb = super::progress::bar(total, g.progress, "unpacking");
-    let s = g.pool()?.install(|| unpack(&bag, &opts, &|_| pb.inc(1)))?;
+    let pb = super::progress::bar(topic.messages, g.progress, "unpacking");
+    let s = g
+        .pool()?
+        .install(|| unpack(&bag, &topic, &opts, &|_| pb.inc(1)))?;
     pb.finish_and_clear();
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);

@@ -93,58 +93,7 @@ pub struct Converted {
     pub inputs: Inputs,
 }
 
-/// The rows of a frame of another sensor, from its sensor model ([`crate::sensor`]).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct BeamRowsOf {
-    /// The beam row of every point of the scan (0 = the highest beam).
-    pub rows: Vec<u8>,
-    /// The sensor's beams.
-    pub beams: usize,
-    /// Where they came from.
-    pub from: RowsFrom,
-    /// Points that fit no beam of the table (0 for a ring field).
-    pub off_model: u64,
-}
-
-/// Where a frame's beam rows came from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RowsFrom {
-    /// A ring / channel / laser id field of the scan.
-    RingField,
-    /// The sensor's beam table (nearest beam by elevation).
-    BeamTable,
-}
-
-/// The beam rows of `scan` (read with `rings`) by the sensor of `map`, if any: its ring field
-/// where the scan has one, else the nearest beam of the table.
-pub fn beam_rows(
-    map: &MapParams,
-    scan: &Scan,
-    rings: Option<&[u16]>,
-    path: &std::path::Path,
-) -> Result<Option<BeamRowsOf>> {
-    let Some(sensor) = &map.sensor else {
-        return Ok(None);
-    };
-    let model = sensor.model()?;
-    Ok(Some(match rings {
-        Some(r) => BeamRowsOf {
-            rows: crate::sensor::ring_rows(r, model.beams(), sensor.ring_order, path)?,
-            beams: model.beams(),
-            from: RowsFrom::RingField,
-            off_model: 0,
-        },
-        None => {
-            let b = model.assign(&scan.points);
-            BeamRowsOf {
-                rows: b.rows,
-                beams: model.beams(),
-                from: RowsFrom::BeamTable,
-                off_model: b.off_model,
-            }
-        }
-    }))
-}
+pub use crate::sensor::params::{BeamRowsOf, RowsFrom};
 
 /// Projects one labelled scan (no file access but the image, already decoded, if any); with
 /// `beams`, rows are the sensor's beams.
@@ -253,10 +202,9 @@ fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<L
     let id = dp.drive.frame_id(frame);
     let scan_path = dp.drive.scan_path(frame);
     let (mut scan, rings) = Scan::read_with_rings(&scan_path, None)?;
-    if let Some(pose) = map.sensor.as_ref().and_then(|s| s.pose) {
-        pose.to_sensor_frame(&mut scan.points);
-    }
-    let beams = beam_rows(map, &scan, rings.as_deref(), &scan_path)?;
+    let beams = (map.sensor.as_ref())
+        .map(|s| s.beam_rows(&mut scan.points, rings.as_deref(), &scan_path))
+        .transpose()?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
     let mut png = None;
     let camera = match &map.rgb {

@@ -14,15 +14,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::format::{atomic_write, create_dir, Durability};
-use crate::source::bag::{Bag, BagMessage};
+use crate::source::bag::{Bag, BagMessage, Topic};
 use crate::source::pcd;
-use crate::source::pointcloud2::{PointCloud2, Stamp, TYPE_NAME};
+use crate::source::pointcloud2::{PointCloud2, Stamp};
 
 /// What to unpack and where to.
 #[derive(Debug, Clone)]
 pub struct UnpackOptions {
-    /// The `PointCloud2` topic (`None`: the error lists the bag's point cloud topics).
-    pub topic: Option<String>,
     /// The root the sequence folder goes under (`ROOT/sequences/NN/`).
     pub out: PathBuf,
     /// The sequence number (`NN`).
@@ -128,17 +126,17 @@ fn unpack_one(m: &BagMessage, scans: &Path, d: Durability) -> Result<Unpacked> {
 /// Messages converted at a time (memory holds this many messages).
 const BATCH: usize = 8;
 
-/// Unpacks the bag's `PointCloud2` topic into a sequence folder. `progress` hears of every frame
-/// done (its index). Errors: no such topic / not a point cloud topic (listing the bag's point
-/// cloud topics), an unreadable bag, or a non-empty sequence without `overwrite`; a frame that
-/// fails is in the summary's `failures`, and a bag that breaks off partway keeps the frames read
-/// before (its error is the last failure).
+/// Unpacks the bag's `PointCloud2` topic (as [`Bag::topic`] found it, `TYPE_NAME`) into a
+/// sequence folder. `progress` hears of every frame done (its index). Errors: an unreadable bag,
+/// or a non-empty sequence without `overwrite`; a frame that fails is in the summary's
+/// `failures`, and a bag that breaks off partway keeps the frames read before (its error is the
+/// last failure).
 pub fn unpack(
     bag: &Bag,
+    topic: &Topic,
     opts: &UnpackOptions,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<UnpackSummary> {
-    let topic = bag.topic(opts.topic.as_deref(), TYPE_NAME)?;
     let (seq, scans) = sequence_dirs(opts);
     let before = existing_scans(&scans)?;
     if !before.is_empty() && !opts.overwrite {
@@ -201,7 +199,7 @@ pub fn unpack(
             break;
         }
     }
-    finish(&mut s, &stamps, &seq, &before, opts)?;
+    finish(&mut s, &stamps, (&seq, &scans), &before, opts.durability)?;
     Ok(s)
 }
 
@@ -238,14 +236,13 @@ fn record(s: &mut UnpackSummary, stamps: &mut Vec<i64>, m: &BagMessage, r: Resul
 fn finish(
     s: &mut UnpackSummary,
     stamps: &[i64],
-    seq: &Path,
+    (seq, scans): (&Path, &Path),
     before: &[PathBuf],
-    opts: &UnpackOptions,
+    durability: Durability,
 ) -> Result<()> {
     let zero = stamps.first().copied().unwrap_or(0);
     let times = crate::kitti::poses::times_text(stamps.iter().map(|t| t - zero));
-    atomic_write(&seq.join("times.txt"), times.as_bytes(), opts.durability)?;
-    let (_, scans) = sequence_dirs(opts);
+    atomic_write(&seq.join("times.txt"), times.as_bytes(), durability)?;
     let failed: std::collections::BTreeSet<u64> = s.failures.iter().map(|f| f.frame).collect();
     for old in before {
         let frame = old
@@ -253,7 +250,7 @@ fn finish(
             .and_then(|n| n.to_str())
             .and_then(|n| n.parse().ok());
         let keep = frame.is_some_and(|i: u64| {
-            i < s.messages && !failed.contains(&i) && scan_path(&scans, i) == *old
+            i < s.messages && !failed.contains(&i) && scan_path(scans, i) == *old
         });
         if !keep {
             std::fs::remove_file(old).map_err(|e| Error::io(old, e))?;
@@ -261,5 +258,5 @@ fn finish(
         }
     }
     let json = serde_json::to_vec_pretty(&*s).expect("a summary serialises");
-    atomic_write(&seq.join("unpack.json"), &json, opts.durability)
+    atomic_write(&seq.join("unpack.json"), &json, durability)
 }

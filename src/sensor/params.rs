@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::presets::Sensor;
 use super::{read_calibration, RingOrder, SensorModel};
 use crate::error::{Error, Result};
+use crate::geom::Point3;
 
 /// Where the beam table comes from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -24,6 +25,28 @@ pub enum SensorSource {
         /// Its content digest (hex).
         digest: String,
     },
+}
+
+/// The rows of a frame of another sensor, from its sensor model.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BeamRowsOf {
+    /// The beam row of every point of the scan (0 = the highest beam).
+    pub rows: Vec<u8>,
+    /// The sensor's beams.
+    pub beams: usize,
+    /// Where they came from.
+    pub from: RowsFrom,
+    /// Points that fit no beam of the table (0 for a ring field).
+    pub off_model: u64,
+}
+
+/// Where a frame's beam rows came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowsFrom {
+    /// A ring / channel / laser id field of the scan.
+    RingField,
+    /// The sensor's beam table (nearest beam by elevation).
+    BeamTable,
 }
 
 /// The sensor model of a conversion.
@@ -97,6 +120,39 @@ impl SensorParams {
             ring_order,
             pose: None,
             model: Some(Arc::new(model)),
+        })
+    }
+
+    /// A scan of this sensor in its terms: `points` moved into the sensor's frame (with a
+    /// pose), then every point's beam row, from the scan's ring field where it has one (its ids
+    /// must be the sensor's beams; `path` names the scan), else the table's nearest beam.
+    pub fn beam_rows(
+        &self,
+        points: &mut [Point3],
+        rings: Option<&[u16]>,
+        path: &Path,
+    ) -> Result<BeamRowsOf> {
+        if let Some(pose) = self.pose {
+            pose.to_sensor_frame(points);
+        }
+        let model = self.model()?;
+        let beams = model.beams();
+        Ok(match rings {
+            Some(r) => BeamRowsOf {
+                rows: super::ring_rows(r, beams, self.ring_order, path)?,
+                beams,
+                from: RowsFrom::RingField,
+                off_model: 0,
+            },
+            None => {
+                let b = model.assign(points);
+                BeamRowsOf {
+                    rows: b.rows,
+                    beams,
+                    from: RowsFrom::BeamTable,
+                    off_model: b.off_model,
+                }
+            }
         })
     }
 
