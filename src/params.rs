@@ -55,6 +55,9 @@ impl MapParams {
     pub fn validate(&self) -> Result<()> {
         self.spec.validate()?;
         self.class_map.validate()?;
+        if let Some(sensor) = &self.sensor {
+            sensor.check_map(self.spec.cols, self.spec.fov)?;
+        }
         if let Some(rgb) = &self.rgb {
             if !(rgb.camera == 2 || rgb.camera == 3) {
                 return Err(Error::Config(format!(
@@ -187,6 +190,14 @@ impl ConvertParams {
         if zero(&self.shards) || zero(&self.point_shards) {
             return Err(Error::Config(
                 "shards need at least 1 frame each (frames per shard: 0)".into(),
+            ));
+        }
+        if self.point_shards.is_some() && self.map.sensor.as_ref().is_some_and(|s| s.ouster_columns)
+        {
+            return Err(Error::Config(
+                "point shards carry each point's beam row, not Ouster's columns: the trainer \
+                 projects them by azimuth; use --format npy or mcap with Ouster columns"
+                    .into(),
             ));
         }
         Ok(())

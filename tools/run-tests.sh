@@ -12,6 +12,11 @@ tools/install.sh
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 python3 -m pip install --quiet --disable-pip-version-check \
   -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
+# ouster-sdk, the Ouster tests' reference decoder, in an environment of its own: it pins
+# rosbags, flask and click to versions the test environment does not share.
+[ -x target/ouster-sdk-venv/bin/python ] || python3 -m venv target/ouster-sdk-venv
+target/ouster-sdk-venv/bin/python -m pip install --quiet --disable-pip-version-check "ouster-sdk==1.0.1"
+export OUSTER_PYTHON="$PWD/target/ouster-sdk-venv/bin/python"
 echo "run-tests.sh: installed in $((SECONDS - t0)) s"
 # The code's own checks, Rust and Python: formatting, lints (warnings are errors), types.
 cargo fmt --all --check

@@ -93,6 +93,12 @@ pub struct ConvertArgs {
     /// The sensor (another LiDAR than KITTI's).
     #[command(flatten)]
     pub sensor: SensorArgs,
+    /// Ouster's own columns (measurement id, destaggered) instead of azimuth bins: the map is
+    /// the image Ouster's tools show (the SDK's destaggered fields), pixel for pixel. Needs
+    /// --sensor-calibration with the unit's metadata .json; the map is then its columns per
+    /// frame over 360 degrees.
+    #[arg(long)]
+    pub ouster_columns: bool,
     /// Do not write the per-point .label files.
     #[arg(long)]
     pub no_point_labels: bool,

@@ -28,10 +28,24 @@ impl ConvertArgs {
                 .rule()?
                 .unwrap_or_else(|| SplitRule::default_for(layout)),
         };
-        let sensor = self.sensor.params()?;
+        let mut sensor = self.sensor.params()?;
+        if self.ouster_columns {
+            let s = sensor.ok_or_else(|| {
+                kitti2pgm::Error::Config(
+                    "--ouster-columns needs the unit's metadata: --sensor-calibration FILE.json"
+                        .into(),
+                )
+            })?;
+            sensor = Some(s.with_ouster_columns()?);
+        }
         let mut choice = self.map_choice();
         // One row per beam unless --rows says otherwise.
         choice.rows = choice.rows.or(sensor.as_ref().map(|s| s.beams));
+        // Ouster's columns: its columns per frame, a full turn.
+        if let Some(w) = sensor.as_ref().and_then(|s| s.own_columns()) {
+            choice.cols = choice.cols.or(Some(w));
+            choice.fov_deg = choice.fov_deg.or(Some(360.0));
+        }
         Ok(ConvertParams {
             map: MapParams {
                 spec: choice.spec(Some(layout)),
@@ -177,7 +191,13 @@ fn table(s: &ConvertSummary) -> String {
         .map
         .sensor
         .as_ref()
-        .map(|m| format!("the beams of {}", m.name));
+        .map(|m| match m.ouster_columns {
+            true => format!(
+                "the beams of {}, columns Ouster's own (measurement ids, destaggered)",
+                m.name
+            ),
+            false => format!("the beams of {}", m.name),
+        });
     let rows = match (spec.row_mode, beams) {
         (RowMode::Rings, Some(b)) => b,
         (RowMode::Rings, None) => "from the laser rings".into(),

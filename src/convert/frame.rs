@@ -108,7 +108,7 @@ pub fn process(
     let (spec, classes) = (&map.spec, &map.class_map);
     let labels = &frame_labels.points;
     let mut proj = match beams {
-        Some(b) => project_beams(&scan.points, spec, &b.rows, b.beams),
+        Some(b) => project_beams(&scan.points, spec, &b.rows, b.beams, b.columns.as_deref()),
         None => project(&scan.points, spec),
     };
     if let Some(b) = beams {

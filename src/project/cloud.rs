@@ -31,6 +31,10 @@ pub struct Cloud<'a> {
     pub rings: Option<&'a [u8]>,
     /// The beams `rings` counts ([`LASERS`] for KITTI's HDL-64E; a sensor model's beams).
     pub beams: usize,
+    /// Column of each point, given (the sensor's own: Ouster's destaggered measurement ids),
+    /// below the map's columns; `None`: by azimuth. Rotations and flips move points off such
+    /// columns and are refused with them.
+    pub columns: Option<&'a [u16]>,
     /// What the intensities are, and so which values are valid.
     pub intensity_kind: IntensityKind,
     /// Class id of each point; `None`: 0 everywhere.
@@ -78,6 +82,7 @@ impl Cloud<'_> {
             intensity,
             rings: None,
             beams: LASERS,
+            columns: None,
             intensity_kind: IntensityKind::Reflectance,
             labels: None,
             instance: None,
@@ -97,6 +102,7 @@ impl Cloud<'_> {
         };
         len("intensity", Some(self.intensity.len()))?;
         len("rings", self.rings.map(<[u8]>::len))?;
+        len("columns", self.columns.map(<[u16]>::len))?;
         len("labels", self.labels.map(<[ClassId]>::len))?;
         len("instance", self.instance.map(<[u16]>::len))?;
         len("colours", self.colours.map(<[[f32; 3]]>::len))?;
@@ -176,6 +182,7 @@ pub fn project_cloud(
 ) -> Result<CloudProjection> {
     spec.validate()?;
     cloud.validate()?;
+    check_columns(cloud, spec, augment)?;
     let n = cloud.points.len();
     let zeros_class;
     let zeros_instance;
@@ -215,13 +222,11 @@ pub fn project_cloud(
         let rows = cloud
             .rings
             .map_or(Rows::FromSpec, |r| Rows::Beams(r, cloud.beams));
-        let proj = project_impl(
-            cloud.points,
-            spec,
-            PointCells::Keep,
-            rows,
-            Geometry::plain(cloud.points),
-        );
+        let geometry = Geometry {
+            columns: cloud.columns,
+            ..Geometry::plain(cloud.points)
+        };
+        let proj = project_impl(cloud.points, spec, PointCells::Keep, rows, geometry);
         let values = PointValues {
             points: cloud.points,
             intensity: cloud.intensity,
@@ -241,6 +246,28 @@ pub fn project_cloud(
         });
     };
     augmented(cloud, spec, aug, (class, instance), &colour_of, Cull::Early)
+}
+
+/// Given columns: each below the map's columns, and no augmentation that turns or mirrors the
+/// cloud (its points would leave their columns).
+fn check_columns(cloud: &Cloud<'_>, spec: &PgmSpec, augment: Option<&Augment>) -> Result<()> {
+    let Some(c) = cloud.columns else {
+        return Ok(());
+    };
+    if let Some(i) = c.iter().position(|&c| c as usize >= spec.cols) {
+        return Err(Error::Config(format!(
+            "column {} of point {i} is not below the map's {} columns",
+            c[i], spec.cols
+        )));
+    }
+    if augment.is_some_and(|a| a.rotate != 0.0 || a.flip) {
+        return Err(Error::Config(
+            "a rotation or flip moves points off the sensor's own columns: turn the map \
+             instead (a shift along its columns)"
+                .into(),
+        ));
+    }
+    Ok(())
 }
 
 /// Whether the points that cannot reach a view narrower than 180 degrees are left out early
@@ -270,27 +297,27 @@ fn augmented(
     };
     // For a view narrower than 180 degrees, points that cannot reach its wedge (the one the
     // projection rejects by) are left out early: the same map, a quarter of the work at 90.
-    let view = spec.front_wedge().filter(|_| cull == Cull::Early);
+    let view = spec
+        .front_wedge()
+        .filter(|_| cull == Cull::Early && cloud.columns.is_none());
     let a = aug.apply_in_view(cloud.points, view);
     let all_rings = cloud.rings.or(recovered.as_deref());
     let kept_rings = all_rings.map(|r| pick(&a.kept, r));
+    let beams = if cloud.rings.is_some() {
+        cloud.beams
+    } else {
+        LASERS
+    };
     let rows = match &kept_rings {
-        Some(r) => Rows::Beams(
-            r,
-            if cloud.rings.is_some() {
-                cloud.beams
-            } else {
-                LASERS
-            },
-        ),
+        Some(r) => Rows::Beams(r, beams),
         None if spec.row_mode == RowMode::Rings => Rows::Fallback,
         None => Rows::FromSpec,
     };
     let (rotate, scale) = (a.rotate, a.scale);
+    let kept_columns = cloud.columns.map(|c| pick(&a.kept, c));
     let geometry = Geometry {
-        base: &a.base,
-        rotate,
-        scale,
+        columns: kept_columns.as_deref(),
+        ..Geometry::moved(&a.base, rotate, scale)
     };
     let proj = project_impl(&a.points, spec, PointCells::Keep, rows, geometry);
     let (k_int, k_class, k_inst) = (

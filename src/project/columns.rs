@@ -68,6 +68,50 @@ impl PgmSpec {
     }
 }
 
+/// Where the columns and ranges of a projection come from: the points as the map stores them,
+/// or (augmentation) points before a rotation about z and a scale.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Geometry<'a> {
+    /// The points whose azimuth (plus `rotate`) gives the column and whose range (times
+    /// `scale`) is stored, one per projected point.
+    pub base: &'a [Point3],
+    /// Rotation about z, radians, in [-pi, pi].
+    pub rotate: f64,
+    /// Range scale.
+    pub scale: f32,
+    /// The column of every point, given (the sensor's own: Ouster's), instead of by azimuth.
+    pub columns: Option<&'a [u16]>,
+}
+
+impl<'a> Geometry<'a> {
+    /// The points themselves: no rotation, unit scale.
+    pub fn plain(points: &'a [Point3]) -> Geometry<'a> {
+        Geometry::moved(points, 0.0, 1.0)
+    }
+
+    /// Points before a rotation about z by `rotate` and a scale of their range by `scale`.
+    pub fn moved(base: &'a [Point3], rotate: f64, scale: f32) -> Geometry<'a> {
+        Geometry {
+            base,
+            rotate,
+            scale,
+            columns: None,
+        }
+    }
+
+    /// The column of point `i`, whose column code ([`Columns::code`]) is `code`: the given one
+    /// where columns are given, else by azimuth; `None` outside the map.
+    #[inline(always)]
+    pub fn column(&self, i: usize, code: i32, spec: &PgmSpec) -> Option<usize> {
+        match (self.columns, code) {
+            (Some(given), _) => Some(given[i] as usize).filter(|&c| c < spec.cols),
+            (None, OUTSIDE) => None,
+            (None, BORDER) => spec.column_rotated(&self.base[i], self.rotate),
+            (None, c) => Some(c as usize),
+        }
+    }
+}
+
 /// [`PgmSpec`]'s column rule with its constants computed once.
 #[derive(Debug, Clone, Copy)]
 pub struct Columns<'a> {

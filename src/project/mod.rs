@@ -30,6 +30,7 @@ pub mod unproject;
 pub use augment::Augment;
 pub use channels::{Channel, Channels};
 pub use cloud::{project_cloud, Cloud, CloudProjection, IntensityKind};
+pub(crate) use columns::Geometry;
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
 pub use preset::{MapChoice, MapOrigin, MapPreset, MapValue};
@@ -162,30 +163,6 @@ impl PgmSpec {
     }
 }
 
-/// Where the columns and ranges of a projection come from: the points as the map stores them,
-/// or (augmentation) points before a rotation about z and a scale.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Geometry<'a> {
-    /// The points whose azimuth (plus `rotate`) gives the column and whose range (times
-    /// `scale`) is stored, one per projected point.
-    pub base: &'a [Point3],
-    /// Rotation about z, radians, in [-pi, pi].
-    pub rotate: f64,
-    /// Range scale.
-    pub scale: f32,
-}
-
-impl<'a> Geometry<'a> {
-    /// The points themselves: no rotation, unit scale.
-    pub fn plain(points: &'a [Point3]) -> Geometry<'a> {
-        Geometry {
-            base: points,
-            rotate: 0.0,
-            scale: 1.0,
-        }
-    }
-}
-
 /// What projecting scans found; added up over frames for the conversion summary.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ProjectionStats {
@@ -275,14 +252,26 @@ pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
 }
 
 /// Projects a scan's points with the rows of a sensor model ([`crate::sensor`]): `rows` holds
-/// the beam row of every point (0 = the highest beam) of a sensor of `beams` beams.
-pub fn project_beams(points: &[Point3], spec: &PgmSpec, rows: &[u8], beams: usize) -> Projection {
+/// the beam row of every point (0 = the highest beam) of a sensor of `beams` beams; `columns`,
+/// where given, the column of every point (the sensor's own, below `spec.cols`), else columns
+/// are azimuth bins.
+pub fn project_beams(
+    points: &[Point3],
+    spec: &PgmSpec,
+    rows: &[u8],
+    beams: usize,
+    columns: Option<&[u16]>,
+) -> Projection {
+    debug_assert!(columns.is_none_or(|c| c.len() == points.len()));
     project_impl(
         points,
         spec,
         PointCells::Drop,
         Rows::Beams(rows, beams),
-        Geometry::plain(points),
+        Geometry {
+            columns,
+            ..Geometry::plain(points)
+        },
     )
 }
 
@@ -344,7 +333,7 @@ pub(crate) fn project_impl(
     };
     let mut in_fov = 0u64;
     // Cheap reject for maps narrower than 180 degrees: a point outside the front wedge.
-    let wedge = spec.front_wedge();
+    let wedge = spec.front_wedge().filter(|_| geometry.columns.is_none());
     let columns = spec.columns();
     let (rotate, scale) = (geometry.rotate, geometry.scale);
     let mut code = [0i32; BLOCK];
@@ -363,13 +352,8 @@ pub(crate) fn project_impl(
                     continue;
                 }
             }
-            let col = match code[k] {
-                OUTSIDE => continue,
-                BORDER => match spec.column_rotated(&base[k], rotate) {
-                    Some(c) => c,
-                    None => continue,
-                },
-                c => c as usize,
+            let Some(col) = geometry.column(i, code[k], spec) else {
+                continue;
             };
             let range = range[k];
             let row = match ring_ids {

@@ -234,6 +234,8 @@ pub struct SensorModel {
     /// The lidar frame (beams) to the frame the points are written in (Ouster's
     /// `lidar_to_sensor_transform`; identity otherwise), metres.
     pub lidar_to_points: na::Isometry3<f64>,
+    /// Ouster's frame layout (measurement ids, pixel shifts): the sensor's own columns.
+    pub ouster: Option<ouster::OusterFormat>,
 }
 
 /// The beam of every point of a cloud.
@@ -253,6 +255,7 @@ impl SensorModel {
             table,
             beam_origin_offset: 0.0,
             lidar_to_points: na::Isometry3::identity(),
+            ouster: None,
         }
     }
 

@@ -14,7 +14,7 @@ use serde_json::Value;
 use super::{file_stem, Beam, BeamTable, SensorModel};
 use crate::error::{Error, Result};
 use crate::fs::{self, Limit};
-use crate::geom::{check_rotation, na, Degrees};
+use crate::geom::{check_rotation, na, Degrees, Point3};
 
 /// Ouster's frame layout: the image the vendor's tools show (rows = beams in metadata order,
 /// columns = measurement ids, destaggered by each row's pixel shift).
@@ -186,7 +186,66 @@ pub fn parse(text: &str, path: &Path) -> Result<(SensorModel, OusterFormat)> {
             table,
             beam_origin_offset: offset_mm / 1000.0,
             lidar_to_points,
+            ouster: Some(format.clone()),
         },
         format,
     ))
+}
+
+impl OusterFormat {
+    /// Checks that a map of `cols` columns over `fov` can hold Ouster's columns: a full turn of
+    /// exactly the columns per frame.
+    pub fn check_map(&self, cols: usize, fov: Degrees) -> Result<()> {
+        let w = self.columns_per_frame;
+        if cols != w || fov.0 != 360.0 {
+            return Err(Error::Config(format!(
+                "Ouster columns: the map must be {w} columns over 360 degrees (the sensor's \
+                 columns per frame), not {cols} over {} degrees",
+                fov.0
+            )));
+        }
+        Ok(())
+    }
+
+    /// The destaggered column of every point (Ouster's own image: the SDK's `destagger` of its
+    /// measurement ids) of a cloud of `model` whose beam rows are `rows`.
+    ///
+    /// Ouster's `XYZLut` puts the pixel of beam `u`, measurement id `m` at
+    /// `T * ((r - n) d + n (cos e, sin e, 0))`: encoder angle `e = 2 pi (1 - m / W)`, direction
+    /// `d` at `e - azimuth[u]` and `altitude[u]`, `n` the beam origin offset, `T` the lidar to
+    /// sensor transform. Undone here in closed form: with `a` the horizontal reach from the beam
+    /// origin, the point's horizontal distance `rho` from the axis is
+    /// `|a u(e + t) + n u(e)|` (`t` the beam's azimuth), so `a = -n cos t + sqrt(rho^2 - n^2
+    /// sin^2 t)` and `e = atan2(y, x) - atan2(a sin t, a cos t + n)`; `m` is `e` rounded to the
+    /// nearest measurement, then shifted by the row's pixel shift.
+    pub fn columns(&self, model: &SensorModel, points: &[Point3], rows: &[u8]) -> Vec<u16> {
+        use std::f64::consts::TAU;
+        let to_lidar = model.lidar_to_points.inverse();
+        let n = model.beam_origin_offset;
+        let w = self.columns_per_frame as f64;
+        let width = self.columns_per_frame as i64;
+        // Per row: the beam's azimuth (as the LUT turns it) and pixel shift.
+        let per_row: Vec<(f64, f64, i64)> = model
+            .table
+            .beams()
+            .iter()
+            .map(|b| {
+                let t = -b.azimuth.to_radians();
+                (t.sin(), t.cos(), self.pixel_shift_by_row[b.id as usize])
+            })
+            .collect();
+        points
+            .iter()
+            .zip(rows)
+            .map(|(p, &row)| {
+                let q = to_lidar * na::Point3::new(p.x as f64, p.y as f64, p.z as f64);
+                let (sin_t, cos_t, shift) = per_row[row as usize];
+                let rho2 = q.x * q.x + q.y * q.y;
+                let a = -n * cos_t + (rho2 - n * n * sin_t * sin_t).max(0.0).sqrt();
+                let e = q.y.atan2(q.x) - (a * sin_t).atan2(a * cos_t + n);
+                let m = (w * (1.0 - e / TAU)).round() as i64;
+                (m + shift).rem_euclid(width) as u16
+            })
+            .collect()
+    }
 }

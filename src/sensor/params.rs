@@ -38,6 +38,9 @@ pub struct BeamRowsOf {
     pub from: RowsFrom,
     /// Points that fit no beam of the table (0 for a ring field).
     pub off_model: u64,
+    /// The sensor's own column of every point (Ouster's destaggered measurement id), when asked
+    /// for ([`SensorParams::ouster_columns`]); `None`: columns by azimuth.
+    pub columns: Option<Vec<u16>>,
 }
 
 /// Where a frame's beam rows came from.
@@ -64,6 +67,10 @@ pub struct SensorParams {
     /// the sensor's frame when read. `None`: they are in it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pose: Option<super::SensorPose>,
+    /// Columns are Ouster's own (measurement ids, destaggered: the image the vendor's tools
+    /// show) instead of azimuth bins; needs an Ouster metadata file ([`SensorParams::check_map`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub ouster_columns: bool,
     /// The model, resolved (not serialised: `source` says what it is).
     #[serde(skip)]
     pub model: Option<Arc<SensorModel>>,
@@ -77,7 +84,15 @@ impl PartialEq for SensorParams {
             self.beams,
             self.ring_order,
             self.pose,
-        ) == (&o.source, &o.name, o.beams, o.ring_order, o.pose)
+            self.ouster_columns,
+        ) == (
+            &o.source,
+            &o.name,
+            o.beams,
+            o.ring_order,
+            o.pose,
+            o.ouster_columns,
+        )
     }
 }
 
@@ -91,6 +106,7 @@ impl SensorParams {
             beams: model.beams(),
             ring_order,
             pose: None,
+            ouster_columns: false,
             model: Some(Arc::new(model)),
         }
     }
@@ -119,6 +135,7 @@ impl SensorParams {
             beams: model.beams(),
             ring_order,
             pose: None,
+            ouster_columns: false,
             model: Some(Arc::new(model)),
         })
     }
@@ -137,12 +154,13 @@ impl SensorParams {
         }
         let model = self.model()?;
         let beams = model.beams();
-        Ok(match rings {
+        let mut of = match rings {
             Some(r) => BeamRowsOf {
                 rows: super::ring_rows(r, beams, self.ring_order, path)?,
                 beams,
                 from: RowsFrom::RingField,
                 off_model: 0,
+                columns: None,
             },
             None => {
                 let b = model.assign(points);
@@ -151,9 +169,51 @@ impl SensorParams {
                     beams,
                     from: RowsFrom::BeamTable,
                     off_model: b.off_model,
+                    columns: None,
                 }
             }
+        };
+        if self.ouster_columns {
+            let format = self.ouster_format(&model)?;
+            of.columns = Some(format.columns(&model, points, &of.rows));
+        }
+        Ok(of)
+    }
+
+    /// Asks for Ouster's own columns ([`SensorParams::ouster_columns`]): an error unless the
+    /// model is an Ouster metadata file's.
+    pub fn with_ouster_columns(mut self) -> Result<SensorParams> {
+        self.ouster_columns = true;
+        self.ouster_format(&*self.model()?)?;
+        Ok(self)
+    }
+
+    fn ouster_format<'m>(&self, model: &'m SensorModel) -> Result<&'m super::ouster::OusterFormat> {
+        model.ouster.as_ref().ok_or_else(|| {
+            Error::Config(format!(
+                "Ouster columns need an Ouster metadata file (.json) as the sensor calibration; \
+                 {} has no Ouster frame layout",
+                self.name
+            ))
         })
+    }
+
+    /// Checks that a map of `cols` columns over `fov` can hold this sensor's maps: with Ouster
+    /// columns, a full turn of exactly the sensor's columns per frame.
+    pub fn check_map(&self, cols: usize, fov: crate::geom::Degrees) -> Result<()> {
+        if !self.ouster_columns {
+            return Ok(());
+        }
+        let model = self.model()?;
+        self.ouster_format(&model)?.check_map(cols, fov)
+    }
+
+    /// With Ouster columns, the sensor's columns per frame.
+    pub fn own_columns(&self) -> Option<usize> {
+        let model = self.model.as_ref()?;
+        self.ouster_columns
+            .then(|| model.ouster.as_ref().map(|f| f.columns_per_frame))
+            .flatten()
     }
 
     /// The resolved model (rebuilt where the params were read back: a built-in one from its

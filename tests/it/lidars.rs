@@ -180,6 +180,47 @@ fn ouster_metadata_gives_the_beams_the_origin_offset_and_the_sensor_frame() {
     assert_eq!((rows.rows[0], rows.off_model), (0, 0));
 }
 
+/// Ouster's own columns, on points placed as the SDK's `XYZLut` places each pixel (beam `u`,
+/// measurement id `m`; checked against the SDK itself, on the real captures, by the Python tests):
+/// every pixel comes back at its beam's row and its destaggered column, `(m + shift[u]) mod W`.
+#[test]
+fn ouster_columns_undo_the_sdk_s_lookup_table() {
+    use kitti2pgm::geom::{na, Point3};
+    let path =
+        super::util::fixture("lidars/ouster/OS-1-128_767798045_1024x10_20230712_120049.json");
+    let (model, format) = sensor::ouster::read_with_format(&path).unwrap();
+    let w = format.columns_per_frame;
+    let n = model.beam_origin_offset;
+    let (mut points, mut expected) = (Vec::new(), Vec::new());
+    for (u, beam) in model.table.beams().iter().enumerate() {
+        let (alt, az) = (beam.elevation.to_radians(), -beam.azimuth.to_radians());
+        for m in (0..w).step_by(3) {
+            let e = std::f64::consts::TAU * (1.0 - m as f64 / w as f64);
+            let d = na::Vector3::new(
+                alt.cos() * (e + az).cos(),
+                alt.cos() * (e + az).sin(),
+                alt.sin(),
+            );
+            // Ranges from 0.5 m to 80 m.
+            let r = 0.5 + ((u * 7 + m * 13) % 800) as f64 / 10.0;
+            let q = na::Point3::from(d * (r - n) + na::Vector3::new(e.cos(), e.sin(), 0.0) * n);
+            let p = model.lidar_to_points * q;
+            points.push(Point3::new(p.x as f32, p.y as f32, p.z as f32));
+            let shift = format.pixel_shift_by_row[beam.id as usize];
+            expected.push((u as u8, (m as i64 + shift).rem_euclid(w as i64) as u16));
+        }
+    }
+    let rows = model.assign(&points);
+    assert_eq!(rows.off_model, 0);
+    let cols = format.columns(&model, &points, &rows.rows);
+    let got: Vec<(u8, u16)> = rows.rows.into_iter().zip(cols).collect();
+    assert_eq!(got, expected);
+    assert!(
+        format.pixel_shift_by_row.iter().any(|&s| s < 0),
+        "negative shifts tested too"
+    );
+}
+
 /// A PCD of `body` after a header for `fields` (name, size, type) and `n` points.
 fn pcd_file(fields: &[(&str, usize, char)], n: usize, data: &str, body: &[u8]) -> Vec<u8> {
     let names: Vec<&str> = fields.iter().map(|f| f.0).collect();

@@ -27,7 +27,8 @@ _Path = Union[str, "PathLike[str]"]
 _Array = npt.NDArray[Any]
 Frame = Dict[str, Any]
 """A loaded frame: id, file_len, points (N, 4) float32, file_index (N,) uint32, ring (N,) uint8 or None,
-label (N,) uint8, instance (N,) uint16, annotated, boxes, rgb (N, 3) float32 or None,
+column (N,) uint16 or None (Ouster's own columns, with ouster_columns), label (N,) uint8, instance (N,) uint16,
+annotated, boxes, rgb (N, 3) float32 or None,
 rgb_valid (N,) bool or None."""
 MapDict = Dict[str, Any]
 """A projected map: map (H, W, C) float32, channels, mask (H, W) bool, label (H, W) uint8,
@@ -47,6 +48,7 @@ def project(
     rings: Optional[_Array] = None,
     beams: Optional[int] = None,
     sensor: Optional[str] = None,
+    ouster_columns: bool = False,
     labels: Optional[_Array] = None,
     instance: Optional[_Array] = None,
     rgb: Optional[_Array] = None,
@@ -118,6 +120,7 @@ class Dataset:
         sensor: Optional[str] = None,
         ring_order: str = "bottom-up",
         sensor_pose: Optional[str] = None,
+        ouster_columns: bool = False,
     ) -> None: ...
     @property
     def frames(self) -> List[str]: ...

@@ -10,12 +10,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use kitti2pgm::convert::frame::{load, Viz};
+use kitti2pgm::geom::Degrees;
 use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
-use kitti2pgm::project::{project_cloud, rings, Cloud};
+use kitti2pgm::project::{project_cloud, rings, Cloud, PgmSpec};
 use kitti2pgm::sensor::params::SensorParams;
 use kitti2pgm::sensor::{RingOrder, SensorPose};
 
@@ -39,6 +40,9 @@ use crate::{py_err, spec_of, MapArgs};
 /// and `project` makes one row per beam unless rows= says otherwise (as `convert --sensor`).
 /// sensor_pose: "x,y,z[,roll,pitch,yaw]" (metres, degrees), the sensor's pose in the points'
 /// frame (a base_link cloud): the points are moved into the sensor's frame (`--sensor-pose`).
+/// ouster_columns: with an Ouster metadata file as sensor, Ouster's own columns (measurement
+/// ids, destaggered: `load` gives each point's as "column", `project` makes the SDK's image,
+/// its columns per frame over 360 degrees), as `convert --ouster-columns`.
 #[pyclass(frozen, module = "kitti2pgm")]
 pub struct Dataset {
     plan: Plan,
@@ -50,7 +54,7 @@ pub struct Dataset {
 #[pymethods]
 impl Dataset {
     #[new]
-    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up", sensor_pose=None))]
+    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up", sensor_pose=None, ouster_columns=false))]
     // One Rust argument per Python keyword: the signature is the Python API.
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -64,6 +68,7 @@ impl Dataset {
         sensor: Option<&str>,
         ring_order: &str,
         sensor_pose: Option<&str>,
+        ouster_columns: bool,
     ) -> PyResult<Dataset> {
         let ring_order = crate::named::<RingOrder>("ring_order", ring_order)?;
         let mut sensor = sensor
@@ -78,6 +83,15 @@ impl Dataset {
             };
             s.pose = Some(SensorPose::parse(pose).map_err(py_err)?);
         }
+        if ouster_columns {
+            let Some(s) = sensor.take() else {
+                return Err(PyValueError::new_err(
+                    "ouster_columns needs the sensor: sensor=\"<unit's metadata>.json\"",
+                ));
+            };
+            sensor = Some(s.with_ouster_columns().map_err(py_err)?);
+        }
+        let own_columns = sensor.as_ref().and_then(SensorParams::own_columns);
         let source = source
             .map(|s| crate::named::<Layout>("source", s))
             .transpose()?;
@@ -96,11 +110,15 @@ impl Dataset {
         };
         plan.check_class_map(&class_map).map_err(py_err)?;
         let map = MapParams {
+            spec: own_columns.map_or_else(PgmSpec::default, |w| PgmSpec {
+                cols: w,
+                fov: Degrees(360.0),
+                ..PgmSpec::default()
+            }),
             rgb: rgb_camera.map(|camera| RgbOptions { camera, sampling }),
             selection,
             class_map,
             sensor,
-            ..Default::default()
         };
         map.validate().map_err(py_err)?;
         let ids: Vec<String> = plan.frame_ids().map(|f| f.to_string()).collect();
@@ -220,6 +238,10 @@ impl Dataset {
             Some(r) => out.set_item("ring", PyArray1::from_vec(py, r))?,
             None => out.set_item("ring", py.None())?,
         }
+        match l.beams.as_ref().and_then(|b| b.columns.clone()) {
+            Some(c) => out.set_item("column", PyArray1::from_vec(py, c))?,
+            None => out.set_item("column", py.None())?,
+        }
         out.set_item("label", PyArray1::from_vec(py, l.labels.points.class))?;
         out.set_item("instance", PyArray1::from_vec(py, l.labels.points.instance))?;
         out.set_item("annotated", l.labels.annotated)?;
@@ -276,12 +298,19 @@ impl Dataset {
             fov_down_deg,
             row_mode,
         };
-        // One row per beam of the sensor unless rows= says otherwise (as `convert --sensor`).
+        // One row per beam of the sensor unless rows= says otherwise (as `convert --sensor`);
+        // Ouster's columns per frame over a full turn with its columns.
+        let own = self.map.sensor.as_ref().and_then(SensorParams::own_columns);
         let args = MapArgs {
             rows: args.rows.or(self.map.sensor.as_ref().map(|s| s.beams)),
+            cols: args.cols.or(own),
+            fov_deg: args.fov_deg.or(own.map(|_| 360.0)),
             ..args
         };
         let spec = spec_of(&args, Some(self.plan.layout()))?;
+        if let Some(s) = &self.map.sensor {
+            s.check_map(spec.cols, spec.fov).map_err(py_err)?;
+        }
         let k = self.index_of(frame)?;
         let (d, f) = self.plan.jobs[k];
         let dp = &self.plan.drives[d];
@@ -307,6 +336,7 @@ impl Dataset {
                         .beams
                         .as_ref()
                         .map_or(kitti2pgm::project::LASERS, |b| b.beams),
+                    columns: l.beams.as_ref().and_then(|b| b.columns.as_deref()),
                     intensity_kind: if l.beams.is_some() {
                         kitti2pgm::project::IntensityKind::AsStored
                     } else {

@@ -134,6 +134,9 @@ fn rings<'py>(
 /// calibration file (velodyne .yaml, Hesai .csv, Ouster .json): each point's row is its nearest
 /// beam (stats["off_model"] counts the points that fit none), `beams` the table's; with `rings`
 /// the table gives only the beam count.
+/// ouster_columns: with an Ouster metadata file as `sensor`, the columns are Ouster's own
+/// (measurement ids, destaggered: the SDK's image), the map its columns per frame over 360
+/// degrees (`convert --ouster-columns`); rotate_deg and flip are refused with them.
 /// labels: optional (N,) uint8 class ids; instance: optional (N,) uint16.
 /// rgb: optional (N, 3) float32 in [0, 1] (adds r, g, b channels); rgb_valid: (N,) bool.
 /// rotate_deg, scale, flip, jitter (metres), drop (probability), seed: 3D augmentation applied
@@ -147,10 +150,10 @@ fn rings<'py>(
 /// point_cells=False, row, col and point_index are None (a little faster, for training).
 #[pyfunction]
 #[pyo3(signature = (points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None,
-    fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, labels=None,
-    instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0,
+    fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, ouster_columns=false,
+    labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0,
     drop=0.0, seed=0, point_cells=true),
-    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
+    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, ouster_columns=False, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
 // One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
@@ -166,6 +169,7 @@ fn project<'py>(
     rings: Option<&Bound<'py, PyAny>>,
     beams: Option<usize>,
     sensor: Option<String>,
+    ouster_columns: bool,
     labels: Option<&Bound<'py, PyAny>>,
     instance: Option<&Bound<'py, PyAny>>,
     rgb: Option<&Bound<'py, PyAny>>,
@@ -207,9 +211,27 @@ fn project<'py>(
         (Some(m), _) => Some(m.beams()),
         (None, b) => b,
     };
-    // One row per beam unless rows says otherwise (as `convert --sensor`).
+    let own = match (&model, ouster_columns) {
+        (_, false) => None,
+        (Some(m), true) => Some(m.ouster.as_ref().ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "ouster_columns needs an Ouster metadata file as sensor; {} has no Ouster frame \
+                 layout",
+                m.name
+            ))
+        })?),
+        (None, true) => {
+            return Err(PyValueError::new_err(
+                "ouster_columns needs the sensor: sensor=\"<unit's metadata>.json\"",
+            ))
+        }
+    };
+    // One row per beam unless rows says otherwise (as `convert --sensor`); Ouster's columns
+    // per frame over a full turn (as `convert --ouster-columns`).
     let map = MapArgs {
         rows: map.rows.or(beams),
+        cols: map.cols.or(own.map(|f| f.columns_per_frame)),
+        fov_deg: map.fov_deg.or(own.map(|_| 360.0)),
         ..map
     };
     let spec = spec_of(&map, None)?;
@@ -218,6 +240,13 @@ fn project<'py>(
         off_model = Some(assigned.off_model);
         rings = Some(assigned.rows);
     }
+    let columns = match (own, &model, &rings) {
+        (Some(f), Some(m), Some(r)) => {
+            f.check_map(spec.cols, spec.fov).map_err(py_err)?;
+            Some(py.detach(|| f.columns(m, &pts, r)))
+        }
+        _ => None,
+    };
     let labels = labels.map(|a| vec_arg::<u8>(a, "labels", n)).transpose()?;
     let instance = instance
         .map(|a| vec_arg::<u16>(a, "instance", n))
@@ -242,6 +271,7 @@ fn project<'py>(
                 intensity: &intensity,
                 rings: rings.as_deref(),
                 beams: beams.unwrap_or(kitti2pgm::project::LASERS),
+                columns: columns.as_deref(),
                 intensity_kind: match beams {
                     Some(b) if b != kitti2pgm::project::LASERS || model.is_some() => {
                         IntensityKind::AsStored
