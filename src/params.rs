@@ -46,6 +46,31 @@ impl Default for MapParams {
 }
 
 impl MapParams {
+    /// Reads the scan at `path` and projects it as a conversion with these parameters does
+    /// (another sensor's pose, beam rows and columns), keeping the cell of every point: what
+    /// carries map predictions back to points (`unproject`, `score` per point). The scan's
+    /// points are in the sensor's frame, as the map's.
+    pub fn project_scan(
+        &self,
+        path: &std::path::Path,
+    ) -> Result<(crate::kitti::velodyne::Scan, crate::project::Projection)> {
+        let (mut scan, rings) = crate::kitti::velodyne::Scan::read_with_rings(path, None)?;
+        let proj = match &self.sensor {
+            Some(s) => {
+                let b = s.beam_rows(&mut scan.points, rings.as_deref(), path)?;
+                crate::project::project_beams_with_point_cells(
+                    &scan.points,
+                    &self.spec,
+                    &b.rows,
+                    b.beams,
+                    b.columns.as_deref(),
+                )
+            }
+            None => crate::project::project_with_point_cells(&scan.points, &self.spec),
+        };
+        Ok((scan, proj))
+    }
+
     /// The channels of the `.npy` maps these parameters make.
     pub fn channels(&self) -> Channels {
         Channels::npy(self.rgb.is_some())

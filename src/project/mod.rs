@@ -275,6 +275,27 @@ pub fn project_beams(
     )
 }
 
+/// Like [`project_beams`], and also records the cell of every point.
+pub fn project_beams_with_point_cells(
+    points: &[Point3],
+    spec: &PgmSpec,
+    rows: &[u8],
+    beams: usize,
+    columns: Option<&[u16]>,
+) -> Projection {
+    let geometry = Geometry {
+        columns,
+        ..Geometry::plain(points)
+    };
+    project_impl(
+        points,
+        spec,
+        PointCells::Keep,
+        Rows::Beams(rows, beams),
+        geometry,
+    )
+}
+
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
 /// for scoring per point.
 pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection {

@@ -14,7 +14,6 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::format::label_file;
-use crate::kitti::velodyne::POINT_BYTES;
 use crate::kitti::{discover_as, Drive, Layout};
 use crate::label::ClassMap;
 
@@ -179,9 +178,9 @@ fn check_file(file: &Path, scan: &Path, map: &ClassMap) -> std::result::Result<u
             ))
         }
     };
-    let points = std::fs::metadata(scan)
-        .map(|m| m.len() / POINT_BYTES as u64)
-        .map_err(|e| format!("its scan {}: {e}", scan.display()))?;
+    // A KITTI .bin by its size, a PCD by its header.
+    let points = crate::source::points_in_file(scan)
+        .ok_or_else(|| format!("its scan {} cannot be read as a scan", scan.display()))?;
     if meta.len() % 4 != 0 || meta.len() / 4 != points {
         return Err(format!(
             "{} bytes: {} labels for the {points} points of {}",

@@ -13,6 +13,7 @@ mod fuzz;
 mod label;
 mod lidars;
 mod outputs;
+mod own_sensor;
 mod pinned;
 mod points;
 mod project;

@@ -73,10 +73,17 @@ fn score_one(
     // The truth is checked against its scan first, so that a truncated truth file is blamed,
     // not the prediction.
     let scan_path = drive.scan_path(id.frame);
-    let scan_points = std::fs::metadata(&scan_path)
-        .map_err(|e| Error::io(&scan_path, e))?
-        .len()
-        / crate::kitti::velodyne::POINT_BYTES as u64;
+    // A KITTI .bin by its size, a PCD (another sensor's scans) by its header.
+    let scan_points = match crate::source::points_in_file(&scan_path) {
+        Some(n) => n,
+        None => {
+            std::fs::metadata(&scan_path).map_err(|e| Error::io(&scan_path, e))?;
+            return Err(Error::format(
+                &scan_path,
+                "not a readable scan (.bin, .pcd)",
+            ));
+        }
+    };
     if truth.len() as u64 != scan_points {
         return Err(Error::LabelCount {
             path: truth_path,

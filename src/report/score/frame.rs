@@ -7,10 +7,9 @@ use super::predictions::{read_cell_prediction, PredictionKind, Predictions};
 use super::{FrameMaps, FrameScore, Protocol, ScoreOptions};
 use crate::error::{Error, Result};
 use crate::format::label_file;
-use crate::kitti::velodyne::Scan;
 use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::project::unproject::{unproject, Method, PointsInMap};
-use crate::project::{project_with_point_cells, EMPTY};
+use crate::project::EMPTY;
 use crate::report::truth::GroundTruth;
 
 /// Where a scan's points fall in the map, for the point protocol and per-point predictions.
@@ -42,8 +41,7 @@ fn scan_cells(gt: &GroundTruth, id: &FrameId, opts: &ScoreOptions) -> Result<Sca
     })?;
     let drive = raw_drive(raw, id)?;
     let path = drive.scan_path(id.frame);
-    let scan = Scan::read(&path)?;
-    let proj = project_with_point_cells(&scan.points, &gt.params.spec);
+    let (scan, proj) = gt.params.project_scan(&path)?;
     let file_idx = scan.file_indices();
     let cell_winner_file = proj
         .cell_point

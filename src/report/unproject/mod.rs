@@ -33,8 +33,8 @@ use crate::format::{label_file, Durability};
 use crate::kitti::velodyne::Scan;
 use crate::kitti::{FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
+use crate::project::norm;
 use crate::project::unproject::{unproject, Method, MethodKind, PointsInMap};
-use crate::project::{norm, project_with_point_cells};
 
 pub use crate::format::label_file::NOT_PREDICTED;
 
@@ -136,7 +136,7 @@ fn one(
         })?;
     let drive = raw_drive(&opts.raw, id)?;
     let scan_path = drive.scan_path(id.frame);
-    let scan = Scan::read(&scan_path)?;
+    let (scan, proj) = gt.params.project_scan(&scan_path)?;
     if let Some(dir) = &gt.dir {
         let recorded = dir.label_path(id);
         if let Ok(meta) = std::fs::metadata(&recorded) {
@@ -152,7 +152,6 @@ fn one(
             }
         }
     }
-    let proj = project_with_point_cells(&scan.points, spec);
     let point_range: Vec<f32> = scan.points.iter().map(norm).collect();
     let m = PointsInMap::of(&proj, &point_range);
     let classes = unproject(&m, &pred, &opts.method, map)?;

@@ -1,0 +1,234 @@
+//! Everything after `convert` works on another sensor's data as on KITTI's: a labelled VLP-16
+//! root in point_labeler's layout (the real scan, labels by region) through `split`, `stats`,
+//! `check`, `score` (cells and points), `unproject` (cell and kNN) and `preview`. Carrying map
+//! predictions back to points must project each scan as its conversion did (the sensor's beam
+//! rows and pose): with KITTI's scan-order rows instead, only 82% of the points got their own
+//! label back.
+
+use std::path::{Path, PathBuf};
+
+use super::util::{convert_json, run_text, s, tmp};
+
+/// Raw SemanticKITTI ids by region (azimuth, elevation), so that neighbouring points mostly
+/// share a class: building, road, car, person.
+fn label_of(x: f32, y: f32, z: f32) -> u32 {
+    let az = (y as f64).atan2(x as f64).to_degrees();
+    let el = (z as f64).atan2((x as f64).hypot(y as f64)).to_degrees();
+    match () {
+        _ if el < -6.0 && az < -100.0 => 30,
+        _ if el > 0.0 && az < -30.0 => 10,
+        _ if az > 60.0 => 40,
+        _ => 50,
+    }
+}
+
+/// A root of sequences `seqs`, each holding the VLP-16 scan (moved up by `lift` metres, then
+/// written as x, y, z, intensity without its ring field; as the driver wrote it when 0) and its
+/// labels by region of the unmoved points.
+fn labelled_root(dir: &Path, seqs: &[&str], lift: f32) -> PathBuf {
+    let vlp = super::util::fixture("own_lidar/sequences/00/velodyne/000000.pcd");
+    let cloud = kitti2pgm::source::read_cloud(&vlp, None).unwrap();
+    let root = dir.join("root");
+    for seq in seqs {
+        let d = root.join("sequences").join(seq);
+        std::fs::create_dir_all(d.join("velodyne")).unwrap();
+        std::fs::create_dir_all(d.join("labels")).unwrap();
+        let scan = d.join("velodyne/000000.pcd");
+        if lift == 0.0 {
+            std::fs::copy(&vlp, &scan).unwrap();
+        } else {
+            let n = cloud.points.len();
+            let mut body = format!(
+                "VERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n\
+                 WIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
+            )
+            .into_bytes();
+            for (p, i) in cloud.points.iter().zip(&cloud.intensity) {
+                for v in [p.x, p.y, p.z + lift, *i] {
+                    body.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+            std::fs::write(&scan, body).unwrap();
+        }
+        let labels: Vec<u8> = cloud
+            .points
+            .iter()
+            .flat_map(|p| label_of(p.x, p.y, p.z).to_le_bytes())
+            .collect();
+        std::fs::write(d.join("labels/000000.label"), labels).unwrap();
+    }
+    root
+}
+
+/// Runs the binary (with --no-progress), which must succeed; its stdout.
+fn ok(args: &[&str]) -> String {
+    let mut a = args.to_vec();
+    a.push("--no-progress");
+    let (code, out, err) = run_text(&a);
+    assert_eq!(code, 0, "{a:?}: {err}");
+    out
+}
+
+/// Each converted map's label channel as an H x W uint8 prediction under `dir`.
+fn predictions_from_maps(conv: &Path, dir: &Path) {
+    std::fs::create_dir_all(dir).unwrap();
+    for e in std::fs::read_dir(conv.join("lidar_2d")).unwrap() {
+        let path = e.unwrap().path();
+        let (shape, data) = kitti2pgm::format::npy::read_f32(&path).unwrap();
+        let labels: Vec<u8> = data
+            .chunks_exact(shape[2] as usize)
+            .map(|v| v[5] as u8)
+            .collect();
+        let header = format!(
+            "{{'descr': '|u1', 'fortran_order': False, 'shape': ({}, {}), }}",
+            shape[0], shape[1]
+        );
+        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+        let pad = (64 - (10 + header.len() + 1) % 64) % 64;
+        let header = format!("{header}{}\n", " ".repeat(pad));
+        bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        bytes.extend_from_slice(header.as_bytes());
+        bytes.extend_from_slice(&labels);
+        std::fs::write(dir.join(path.file_name().unwrap()), bytes).unwrap();
+    }
+}
+
+/// `score --json ARGS`: (accuracy, elements scored).
+fn score(args: &[&str]) -> (f64, u64) {
+    let mut a = vec!["score", "--json"];
+    a.extend_from_slice(args);
+    let j: serde_json::Value = serde_json::from_str(&ok(&a)).unwrap();
+    (
+        j["accuracy"].as_f64().unwrap(),
+        j["elements"].as_u64().unwrap(),
+    )
+}
+
+#[test]
+fn split_stats_check_score_unproject_and_preview_work_on_another_sensor_s_root() {
+    let t = tmp();
+    let root = labelled_root(t.path(), &["00", "01"], 0.0);
+    let conv = t.path().join("conv");
+    let (code, j, err) = convert_json(
+        &root,
+        &conv,
+        &["--sensor", "vlp16", "--all-frames", "--cols", "1024"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(
+        (j["frames_converted"].as_u64(), j["off_model"].as_u64()),
+        (Some(2), Some(0))
+    );
+    let split = t.path().join("split");
+    ok(&[
+        "split",
+        s(&root),
+        "--out",
+        s(&split),
+        "--all-frames",
+        "--val-sequences",
+        "01",
+    ]);
+    let val = std::fs::read_to_string(split.join("ImageSet/val.txt")).unwrap();
+    assert_eq!(val.trim(), "01_000000");
+    let stats: serde_json::Value =
+        serde_json::from_str(&ok(&["stats", s(&conv), "--json"])).unwrap();
+    assert_eq!(
+        (stats["rows"].as_u64(), stats["cols"].as_u64()),
+        (Some(16), Some(1024))
+    );
+    let check: serde_json::Value =
+        serde_json::from_str(&ok(&["check", s(&root), "--sensor", "vlp16", "--json"])).unwrap();
+    let errors = check["findings"].as_array().unwrap().iter();
+    assert_eq!(
+        errors.filter(|f| f["severity"] == "error").count(),
+        0,
+        "{check}"
+    );
+    // The maps' own labels as predictions: every cell right.
+    let pred = t.path().join("pred");
+    predictions_from_maps(&conv, &pred);
+    assert_eq!(score(&["--gt", s(&conv), "--pred", s(&pred)]).0, 1.0);
+    // Per point: a point takes its cell's label; only the points that lost their cell to a
+    // nearer one of another class can be wrong.
+    let (acc, n) = score(&[
+        "--gt",
+        s(&conv),
+        "--pred",
+        s(&pred),
+        "--points",
+        "--raw",
+        s(&root),
+    ]);
+    assert_eq!(n, 2 * 14_831);
+    assert!(acc > 0.999, "{acc}");
+    for (method, least) in [("cell", 0.999), ("knn", 0.97)] {
+        let up = t.path().join(method);
+        ok(&[
+            "unproject",
+            "--gt",
+            s(&conv),
+            "--pred",
+            s(&pred),
+            "--raw",
+            s(&root),
+            "--out",
+            s(&up),
+            "--method",
+            method,
+        ]);
+        let (acc, n) = score(&["--gt", s(&root), "--pred", s(&up)]);
+        assert_eq!(n, 2 * 14_831);
+        assert!(acc > least, "{method}: {acc}");
+    }
+    let png = t.path().join("p.png");
+    ok(&[
+        "preview",
+        s(&conv.join("lidar_2d/00_000000.npy")),
+        "--out",
+        s(&png),
+    ]);
+    let img = image::open(&png).unwrap();
+    assert!(img.width() >= 1024);
+}
+
+#[test]
+fn unproject_moves_the_points_by_the_sensor_pose_as_convert_did() {
+    let t = tmp();
+    let root = labelled_root(t.path(), &["00"], 1.8);
+    let conv = t.path().join("conv");
+    let args = [
+        "--sensor",
+        "vlp16",
+        "--sensor-pose",
+        "0,0,1.8",
+        "--all-frames",
+        "--cols",
+        "1024",
+    ];
+    let (code, j, err) = convert_json(&root, &conv, &args);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(
+        (j["beam_table_frames"].as_u64(), j["off_model"].as_u64()),
+        (Some(1), Some(0))
+    );
+    let pred = t.path().join("pred");
+    predictions_from_maps(&conv, &pred);
+    let up = t.path().join("up");
+    ok(&[
+        "unproject",
+        "--gt",
+        s(&conv),
+        "--pred",
+        s(&pred),
+        "--raw",
+        s(&root),
+        "--out",
+        s(&up),
+        "--method",
+        "cell",
+    ]);
+    let (acc, n) = score(&["--gt", s(&root), "--pred", s(&up)]);
+    assert_eq!(n, 14_831);
+    assert!(acc > 0.999, "{acc}");
+}
