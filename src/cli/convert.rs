@@ -46,7 +46,8 @@ pub struct ConvertArgs {
     #[arg(long, value_enum)]
     pub source: Option<Layout>,
     /// Class map: a built-in one by the name outputs record (kitti-paper-4: background, car,
-    /// pedestrian, cyclist; semantic-kitti: SemanticKITTI's 20 classes), or a
+    /// pedestrian, cyclist; semantic-kitti: SemanticKITTI's 20 classes; nuscenes: the
+    /// nuScenes-lidarseg benchmark's 16 classes and ignore), or a
     /// semantic-kitti.yaml-style file (labels, color_map, learning_map, learning_map_inv,
     /// learning_ignore). Default: semantic-kitti for sequences, kitti-paper-4 for boxes.
     #[arg(long, value_name = "NAME|FILE")]

@@ -93,8 +93,11 @@ pub struct SubmissionArgs {
 /// `kitti2pgm unpack`.
 #[derive(Debug, ClapArgs)]
 pub struct UnpackArgs {
-    /// A ROS 2 bag: its directory (with metadata.yaml; MCAP storage) or one .mcap file.
-    #[arg(value_name = "BAG")]
+    /// A ROS 2 bag: its directory (with metadata.yaml; MCAP storage) or one .mcap file. Or a
+    /// nuScenes root (DATAROOT with v1.0-*/ tables and samples/LIDAR_TOP): one scene becomes one
+    /// sequence (scene-0061 -> sequences/61), each LIDAR_TOP keyframe a frame, with its
+    /// nuScenes-lidarseg labels (convert with --class-map nuscenes --sensor hdl32e).
+    #[arg(value_name = "BAG|NUSCENES_ROOT")]
     pub bag: PathBuf,
     /// The sensor_msgs/msg/PointCloud2 topic to unpack (without it, or with a wrong one, the
     /// error lists the bag's point cloud topics).
@@ -112,9 +115,17 @@ pub struct UnpackArgs {
     /// frame are removed).
     #[arg(long)]
     pub overwrite: bool,
-    /// List the bag's topics (type, serialisation, messages) and stop.
+    /// List the bag's topics (type, serialisation, messages), or a nuScenes root's scenes
+    /// (keyframes, labelled keyframes), and stop.
     #[arg(long)]
     pub list: bool,
+    /// nuScenes: the version to read (the folder of its tables: v1.0-mini, v1.0-trainval...);
+    /// without it, the one the root holds.
+    #[arg(long, value_name = "VERSION")]
+    pub nuscenes_version: Option<String>,
+    /// nuScenes: only these scenes (scene-0061,scene-0103,...); all without it.
+    #[arg(long, value_name = "SCENES", value_delimiter = ',')]
+    pub scenes: Vec<String>,
     /// Flush every file to the device before it is renamed into place.
     #[arg(long)]
     pub sync: bool,

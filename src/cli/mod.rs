@@ -135,6 +135,13 @@ pub enum Command {
     /// --sensor NAME` (rows from the ring field, or the beam table). A message that does not
     /// decode fails its frame only. Exit status: 0 all unpacked, 3 some frames failed, 1 the bag
     /// or topic cannot be read (the error lists the point cloud topics).
+    ///
+    /// A nuScenes root (its devkit's layout) unpacks the same way: one scene is one sequence
+    /// (scene-0061 -> sequences/61), one LIDAR_TOP keyframe one frame (time order), the scan
+    /// hard-linked (else copied) as <frame6>.pcd.bin, its nuScenes-lidarseg labels as
+    /// labels/<frame6>.label (the 32 general classes as raw ids), times.txt and nuscenes.json
+    /// (the scene, each frame's sample_data token). Then `kitti2pgm convert ROOT --sensor hdl32e
+    /// --class-map nuscenes` (the benchmark's 16 classes). The tables are streamed.
     Unpack(UnpackArgs),
 }
 

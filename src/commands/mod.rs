@@ -10,6 +10,7 @@ mod split;
 mod stats;
 pub mod submission;
 mod unpack;
+mod unpack_nuscenes;
 pub mod unproject;
 
 use crate::cli::{Args, Command};

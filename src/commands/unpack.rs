@@ -64,6 +64,16 @@ fn print_summary(s: &UnpackSummary) {
 }
 
 pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
+    if super::unpack_nuscenes::is_root(&a.bag) {
+        return super::unpack_nuscenes::run(a, g);
+    }
+    if a.nuscenes_version.is_some() || !a.scenes.is_empty() {
+        anyhow::bail!(
+            "{}: --nuscenes-version and --scenes are for a nuScenes root (a folder with \
+             v1.0-*/sample_data.json)",
+            a.bag.display()
+        );
+    }
     let bag = Bag::open(&a.bag)?;
     if a.list {
         print_topics(&bag, &bag.topics()?, a.json)?;

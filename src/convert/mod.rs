@@ -16,6 +16,7 @@ pub mod labels;
 pub mod resume;
 pub mod shards;
 pub mod unpack;
+pub mod unpack_nuscenes;
 
 use std::sync::Mutex;
 

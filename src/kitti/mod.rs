@@ -179,13 +179,15 @@ impl std::str::FromStr for FrameId {
                 ..Default::default()
             });
         }
-        if s.len() == 9 && digits(&s[..2], 2) && &s[2..3] == "_" && digits(&s[3..], 6) {
-            return Ok(FrameId {
-                layout: Layout::Sequence,
-                date: String::new(),
-                drive: number(&s[..2])?,
-                frame: number(&s[3..])?,
-            });
+        if let Some((seq, frame)) = s.split_once('_') {
+            if sequence_number(seq).is_some() && digits(frame, 6) {
+                return Ok(FrameId {
+                    layout: Layout::Sequence,
+                    date: String::new(),
+                    drive: number(seq)?,
+                    frame: number(frame)?,
+                });
+            }
         }
         let (date, rest) = s.split_at_checked(10).ok_or_else(bad)?;
         let rest = rest.strip_prefix('_').ok_or_else(bad)?;
@@ -195,6 +197,14 @@ impl std::str::FromStr for FrameId {
         }
         Ok(FrameId::raw(date, number(drive)?, number(frame)?))
     }
+}
+
+/// The number of a sequence folder: two digits as SemanticKITTI writes them (`00`-`99`), or up
+/// to four without a leading zero (`100`-`9999`: one sequence a nuScenes scene, `scene-1077`).
+pub fn sequence_number(name: &str) -> Option<u32> {
+    let n: u32 = name.parse().ok()?;
+    let digits = (2..=4).contains(&name.len()) && name.bytes().all(|c| c.is_ascii_digit());
+    (digits && format!("{n:02}") == name).then_some(n)
 }
 
 fn is_date(s: &str) -> bool {
@@ -235,14 +245,12 @@ impl Drive {
         })
     }
 
-    /// The odometry sequence in folder `dir` (named by its two-digit number).
+    /// The odometry sequence in folder `dir` (named by its number: [`sequence_number`]).
     pub fn sequence(dir: &Path) -> Option<Drive> {
-        let name = file_name(dir);
-        let ok = name.len() == 2 && name.bytes().all(|c| c.is_ascii_digit());
-        ok.then(|| Drive {
+        sequence_number(file_name(dir)).map(|number| Drive {
             layout: Layout::Sequence,
             date: String::new(),
-            number: name.parse().expect("two digits"),
+            number,
             dir: dir.to_path_buf(),
         })
     }
@@ -286,14 +294,17 @@ impl Drive {
     }
 
     /// Path of a velodyne scan: `<frame>.bin`; in a sequence of another sensor's scans
-    /// (point_labeler's layout) the `<frame6>.pcd` where there is no `.bin`.
+    /// (point_labeler's layout) the `<frame6>.pcd`, else nuScenes' `<frame6>.pcd.bin`, where
+    /// there is no `.bin`.
     pub fn scan_path(&self, frame: u32) -> PathBuf {
         let name = self.frame_id(frame).frame_name();
         let bin = self.scan_dir().join(format!("{name}.bin"));
         if self.layout == Layout::Sequence && !bin.exists() {
-            let pcd = self.scan_dir().join(format!("{name}.pcd"));
-            if pcd.exists() {
-                return pcd;
+            for ext in ["pcd", "pcd.bin"] {
+                let other = self.scan_dir().join(format!("{name}.{ext}"));
+                if other.exists() {
+                    return other;
+                }
             }
         }
         bin
@@ -394,18 +405,22 @@ impl Drive {
         if !dir.exists() {
             return Ok(out);
         }
-        // A sequence of another sensor may hold PCD files (one per frame); a `.pcd` beside the
-        // `.bin` of its frame is not read ([`Drive::scan_path`] takes the `.bin`).
-        let pcd = self.layout == Layout::Sequence;
+        // A sequence of another sensor may hold PCD or nuScenes `.pcd.bin` files (one per
+        // frame); one beside the `.bin` of its frame, or a `.pcd.bin` beside the `.pcd`, is not
+        // read ([`Drive::scan_path`] takes the first of `.bin`, `.pcd`, `.pcd.bin`).
+        let other = self.layout == Layout::Sequence;
         for p in crate::fs::sorted_dir(&dir)? {
             let frame = p
                 .file_name()
                 .and_then(|n| n.to_str())
                 .and_then(|n| {
-                    n.strip_suffix(".bin").or_else(|| {
-                        n.strip_suffix(".pcd")
-                            .filter(|_| pcd && !p.with_extension("bin").exists())
-                    })
+                    let taken = |stem: &str, ext: &str| dir.join(format!("{stem}.{ext}")).exists();
+                    if let Some(stem) = n.strip_suffix(".pcd.bin") {
+                        return Some(stem)
+                            .filter(|s| other && !taken(s, "bin") && !taken(s, "pcd"));
+                    }
+                    n.strip_suffix(".bin")
+                        .or_else(|| n.strip_suffix(".pcd").filter(|s| other && !taken(s, "bin")))
                 })
                 .filter(|stem| stem.len() == width && stem.bytes().all(|c| c.is_ascii_digit()))
                 // 10 digits beyond u32 (9999999999.bin) or beyond any drive's length: not a
@@ -442,12 +457,25 @@ mod tests {
         assert_eq!(id, FrameId::raw("2011_09_26", 1, 10));
         assert_eq!(id.to_string(), "2011_09_26_0001_0000000010");
         assert!("2011_09_26_1_10".parse::<FrameId>().is_err());
-        for s in ["00_000123", "000042"] {
+        for s in ["00_000123", "000042", "1077_000003", "100_000000"] {
             let id: FrameId = s.parse().unwrap();
             assert_eq!(id.to_string(), s);
         }
         assert_eq!("08_000007".parse::<FrameId>().unwrap().drive_name(), "08");
         assert!("0_000007".parse::<FrameId>().is_err());
+        // Sequences: two digits, or up to four without a leading zero (one spelling a number).
+        for (name, n) in [
+            ("00", Some(0)),
+            ("08", Some(8)),
+            ("61", Some(61)),
+            ("1077", Some(1077)),
+        ] {
+            assert_eq!(sequence_number(name), n);
+        }
+        for name in ["0", "008", "0061", "12345", "6a", "+1"] {
+            assert_eq!(sequence_number(name), None, "{name}");
+        }
+        assert!("0061_000007".parse::<FrameId>().is_err());
     }
 
     #[test]

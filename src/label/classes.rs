@@ -130,13 +130,15 @@ impl ClassMap {
     }
 
     /// The built-in map called `name`: the name outputs record (`kitti-paper-4`,
-    /// `semantic-kitti`) or its short forms (`kitti-paper`, `kitti_paper`, `semantic_kitti`).
+    /// `semantic-kitti`, `nuscenes`) or its short forms (`kitti-paper`, `kitti_paper`,
+    /// `semantic_kitti`, `nuscenes-16`, `nuscenes-lidarseg`).
     pub fn builtin(name: &str) -> Option<ClassMap> {
         match name {
             "kitti-paper-4" | "kitti-paper" | "kitti_paper" | "kitti_paper_4" => {
                 Some(ClassMap::kitti_paper())
             }
             "semantic-kitti" | "semantic_kitti" => Some(ClassMap::semantic_kitti()),
+            "nuscenes" | "nuscenes-16" | "nuscenes-lidarseg" => Some(ClassMap::nuscenes()),
             _ => None,
         }
     }

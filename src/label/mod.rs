@@ -1,7 +1,7 @@
 //! LABEL: the class of every velodyne point.
 //!
 //! - [`classes`]: the [`ClassMap`] (ids, names, colours, ignored and averaged ids, object types)
-//!   and per-class counts;
+//!   and per-class counts; [`nuscenes`]: nuScenes-lidarseg's classes;
 //! - [`boxes`]: boxes as parry cuboids and the [`Labeller`] that finds each point's box.
 //!
 //! The rule that turns a tracklet into a class lives here ([`tracklet_boxes`]), not in the
@@ -10,6 +10,7 @@
 pub mod boxes;
 pub mod classes;
 pub mod counts;
+pub mod nuscenes;
 
 pub use boxes::{LabelBox, Labeller, PointLabels};
 pub use classes::{ClassId, ClassInfo, ClassMap};

@@ -208,7 +208,7 @@ impl From<String> for Failed {
         }
         let drive = crate::kitti::parse_drive_name(&s).is_some()
             || s == "object"
-            || (s.len() == 2 && s.bytes().all(|c| c.is_ascii_digit()));
+            || crate::kitti::sequence_number(&s).is_some();
         if drive {
             Failed::Drive(s)
         } else {

@@ -3,7 +3,8 @@
 //! Each format has one reader module: [`pcd`] (PCD v0.7: `ascii`, `binary`,
 //! `binary_compressed`; it writes `binary` too), [`bin`] (flat records of a declared layout,
 //! nuScenes' `.pcd.bin` among them), [`bag`] (ROS 2 bags in MCAP, streamed) with
-//! [`pointcloud2`] (their `sensor_msgs/msg/PointCloud2` messages); [`fields`] describes and
+//! [`pointcloud2`] (their `sensor_msgs/msg/PointCloud2` messages), [`nuscenes`] (nuScenes'
+//! tables: its scenes, LIDAR_TOP keyframes and lidarseg labels); [`fields`] describes and
 //! decodes point records for all of them. Every reader gives a
 //! [`LidarCloud`]: the finite points in file order, their intensity as stored, and the beam id
 //! of every point where the data has a ring / channel / laser id field. Which beam each point
@@ -14,6 +15,7 @@ pub mod bin;
 mod cdr;
 mod decode;
 pub mod fields;
+pub mod nuscenes;
 pub mod pcd;
 pub mod pointcloud2;
 

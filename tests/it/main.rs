@@ -12,6 +12,7 @@ mod errors;
 mod fuzz;
 mod label;
 mod lidars;
+mod nuscenes;
 mod outputs;
 mod own_sensor;
 mod pinned;

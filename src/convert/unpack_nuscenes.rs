@@ -1,0 +1,290 @@
+//! A nuScenes root -> sequence folders that every command reads: one scene is one sequence
+//! (`scene-0061` -> `sequences/61`), one LIDAR_TOP keyframe one frame, in time order:
+//! `velodyne/<frame6>.pcd.bin` (the scan itself, hard-linked where the file system allows, else
+//! copied), `labels/<frame6>.label` (its nuScenes-lidarseg general classes as raw ids, u32 per
+//! point; convert with `--class-map nuscenes` for the benchmark's 16 classes), `times.txt`
+//! (seconds after the scene's first keyframe) and `nuscenes.json` (the scene and the
+//! `sample_data` token of every frame, to carry predictions back to the benchmark's files).
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::format::{atomic_write, create_dir, Durability};
+use crate::source::nuscenes::{Keyframe, NuScenes, Scene};
+
+/// Bytes of one nuScenes point (x, y, z, intensity, ring index as float32).
+const POINT_BYTES: u64 = 20;
+
+/// What to unpack and where to.
+#[derive(Debug, Clone)]
+pub struct NuScenesOptions {
+    /// The root the sequence folders go under (`ROOT/sequences/<scene number>/`).
+    pub out: PathBuf,
+    /// Only these scenes (by name); all when empty.
+    pub scenes: Vec<String>,
+    /// Replace the frames of an earlier unpack (else a non-empty sequence is refused).
+    pub overwrite: bool,
+    /// Whether each file is flushed to the device before its rename.
+    pub durability: Durability,
+}
+
+/// A frame that did not unpack.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NuScenesFailure {
+    /// The scene.
+    pub scene: String,
+    /// The frame (the keyframe's place in its scene).
+    pub frame: u64,
+    /// What was wrong.
+    pub error: String,
+}
+
+/// One scene as unpacked, written to its `sequences/NN/nuscenes.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneIndex {
+    /// The scene's name.
+    pub scene: String,
+    /// The nuScenes version read.
+    pub version: String,
+    /// The sequence folder.
+    pub sequence_dir: PathBuf,
+    /// The `sample_data` token of every frame, in frame order.
+    pub tokens: Vec<String>,
+    /// Its first keyframe's timestamp (microseconds), the zero of `times.txt`.
+    pub first_timestamp_us: Option<i64>,
+}
+
+/// What an unpack of a nuScenes root did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NuScenesSummary {
+    /// kitti2pgm's version.
+    pub version: String,
+    /// The nuScenes root.
+    pub root: PathBuf,
+    /// Its version read.
+    pub nuscenes_version: String,
+    /// The scenes unpacked.
+    pub scenes: Vec<SceneIndex>,
+    /// Frames written.
+    pub frames_written: u64,
+    /// Frames written with their lidarseg labels.
+    pub labelled_frames: u64,
+    /// Points in the frames written.
+    pub points: u64,
+    /// Frames that failed.
+    pub failures: Vec<NuScenesFailure>,
+    /// Files of an earlier unpack no frame wrote again, removed (`overwrite`).
+    pub removed_stale: u64,
+}
+
+/// The sequence folder of scene `s` under `out`.
+pub fn sequence_dir(out: &Path, s: &Scene) -> PathBuf {
+    out.join("sequences").join(format!("{:02}", s.number))
+}
+
+/// The scenes `opts` asks for (an unknown name is an error listing how many there are).
+fn chosen<'a>(ds: &'a NuScenes, opts: &NuScenesOptions) -> Result<Vec<&'a Scene>> {
+    if opts.scenes.is_empty() {
+        return Ok(ds.scenes.iter().collect());
+    }
+    opts.scenes
+        .iter()
+        .map(|name| {
+            ds.scenes
+                .iter()
+                .find(|s| &s.name == name)
+                .ok_or_else(|| Error::Input {
+                    path: ds.root.join(&ds.version),
+                    message: format!(
+                        "has no scene {name:?} ({} scenes, {} to {})",
+                        ds.scenes.len(),
+                        ds.scenes.first().map_or("", |s| &s.name),
+                        ds.scenes.last().map_or("", |s| &s.name)
+                    ),
+                })
+        })
+        .collect()
+}
+
+/// The files of an earlier unpack in a sequence folder (scans and labels).
+fn existing(seq: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for sub in ["velodyne", "labels"] {
+        let dir = seq.join(sub);
+        if dir.exists() {
+            out.extend(crate::fs::sorted_dir(&dir)?);
+        }
+    }
+    Ok(out)
+}
+
+/// Unpacks the scenes of `ds` that `opts` asks for. `progress` hears of every frame done.
+/// Errors: an unknown scene, or a non-empty sequence without `overwrite` (before anything is
+/// written); a frame that fails (its scan missing, its labels not one per point) is in the
+/// summary's `failures` and the rest goes on.
+pub fn unpack_nuscenes(
+    ds: &NuScenes,
+    opts: &NuScenesOptions,
+    progress: &(dyn Fn() + Sync),
+) -> Result<NuScenesSummary> {
+    let scenes = chosen(ds, opts)?;
+    let mut before = Vec::new();
+    for s in &scenes {
+        let old = existing(&sequence_dir(&opts.out, s))?;
+        if !old.is_empty() && !opts.overwrite {
+            return Err(Error::Input {
+                path: sequence_dir(&opts.out, s),
+                message: format!(
+                    "already holds {} files of an earlier unpack; replace them (--overwrite)",
+                    old.len()
+                ),
+            });
+        }
+        before.extend(old);
+    }
+    let mut summary = NuScenesSummary {
+        version: env!("CARGO_PKG_VERSION").into(),
+        root: ds.root.clone(),
+        nuscenes_version: ds.version.clone(),
+        scenes: Vec::new(),
+        frames_written: 0,
+        labelled_frames: 0,
+        points: 0,
+        failures: Vec::new(),
+        removed_stale: 0,
+    };
+    let mut written = std::collections::HashSet::new();
+    for s in scenes {
+        let seq = sequence_dir(&opts.out, s);
+        create_dir(&seq.join("velodyne"))?;
+        let done: Vec<Result<Written>> = s
+            .keyframes
+            .par_iter()
+            .enumerate()
+            .map(|(i, k)| {
+                let r = unpack_frame(k, &seq, i, opts.durability);
+                progress();
+                r
+            })
+            .collect();
+        for (i, r) in done.into_iter().enumerate() {
+            match r {
+                Ok(w) => {
+                    summary.frames_written += 1;
+                    summary.points += w.points;
+                    summary.labelled_frames += w.label.is_some() as u64;
+                    written.insert(w.scan);
+                    written.extend(w.label);
+                }
+                Err(e) => summary.failures.push(NuScenesFailure {
+                    scene: s.name.clone(),
+                    frame: i as u64,
+                    error: e.to_string(),
+                }),
+            }
+        }
+        summary
+            .scenes
+            .push(finish_scene(ds, s, &seq, opts.durability)?);
+    }
+    for old in before.iter().filter(|p| !written.contains(*p)) {
+        std::fs::remove_file(old).map_err(|e| Error::io(old, e))?;
+        summary.removed_stale += 1;
+    }
+    Ok(summary)
+}
+
+/// The files one frame wrote.
+struct Written {
+    scan: PathBuf,
+    label: Option<PathBuf>,
+    points: u64,
+}
+
+/// One keyframe: its scan linked (or copied) in, its labels checked against it and written.
+fn unpack_frame(k: &Keyframe, seq: &Path, i: usize, d: Durability) -> Result<Written> {
+    let meta = crate::fs::regular(&k.scan)?;
+    if meta.len() % POINT_BYTES != 0 {
+        return Err(Error::format(
+            &k.scan,
+            format!(
+                "{} bytes: not whole nuScenes points of {POINT_BYTES} bytes",
+                meta.len()
+            ),
+        ));
+    }
+    let points = meta.len() / POINT_BYTES;
+    // The labels are checked before anything is written: a scan never lands without the
+    // labels it has.
+    let classes = match &k.labels {
+        Some(path) => {
+            let classes = crate::fs::read(path, crate::fs::Limit::Data)?;
+            if classes.len() as u64 != points {
+                return Err(Error::LabelCount {
+                    path: path.clone(),
+                    labels: classes.len(),
+                    scan: k.scan.clone(),
+                    points: points as usize,
+                    note: Some("a nuScenes-lidarseg file holds one uint8 per point"),
+                });
+            }
+            Some(classes)
+        }
+        None => None,
+    };
+    let scan = seq.join("velodyne").join(format!("{i:06}.pcd.bin"));
+    link_or_copy(&k.scan, &scan, d)?;
+    let label = match classes {
+        Some(classes) => {
+            let raw: Vec<u8> = classes
+                .iter()
+                .flat_map(|&c| u32::from(c).to_le_bytes())
+                .collect();
+            let out = seq.join("labels").join(format!("{i:06}.label"));
+            create_dir(&seq.join("labels"))?;
+            atomic_write(&out, &raw, d)?;
+            Some(out)
+        }
+        None => None,
+    };
+    Ok(Written {
+        scan,
+        label,
+        points,
+    })
+}
+
+/// `to` becomes `from`'s content: a hard link where the file system allows, else a copy
+/// (written atomically).
+fn link_or_copy(from: &Path, to: &Path, d: Durability) -> Result<()> {
+    let tmp = to.with_extension("bin.link-tmp");
+    let _ = std::fs::remove_file(&tmp);
+    if std::fs::hard_link(from, &tmp).is_ok() {
+        return std::fs::rename(&tmp, to).map_err(|e| Error::io(to, e));
+    }
+    atomic_write(to, &crate::fs::read(from, crate::fs::Limit::Data)?, d)
+}
+
+/// Writes a scene's `times.txt` and `nuscenes.json`.
+fn finish_scene(ds: &NuScenes, s: &Scene, seq: &Path, d: Durability) -> Result<SceneIndex> {
+    let zero = s.keyframes.first().map(|k| k.timestamp_us);
+    let times = crate::kitti::poses::times_text(
+        s.keyframes
+            .iter()
+            .map(|k| (k.timestamp_us - zero.unwrap_or(0)) * 1000),
+    );
+    atomic_write(&seq.join("times.txt"), times.as_bytes(), d)?;
+    let index = SceneIndex {
+        scene: s.name.clone(),
+        version: ds.version.clone(),
+        sequence_dir: seq.to_path_buf(),
+        tokens: s.keyframes.iter().map(|k| k.token.clone()).collect(),
+        first_timestamp_us: zero,
+    };
+    let json = serde_json::to_vec_pretty(&index).expect("an index serialises");
+    atomic_write(&seq.join("nuscenes.json"), &json, d)?;
+    Ok(index)
+}
