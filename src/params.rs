@@ -54,7 +54,14 @@ impl MapParams {
         &self,
         path: &std::path::Path,
     ) -> Result<(crate::kitti::velodyne::Scan, crate::project::Projection)> {
-        let (mut scan, rings) = crate::kitti::velodyne::Scan::read_with_rings(path, None)?;
+        let layout = self
+            .sensor
+            .as_ref()
+            .map(|s| s.layout())
+            .transpose()?
+            .flatten();
+        let (mut scan, rings) =
+            crate::kitti::velodyne::Scan::read_with_rings(path, layout.as_ref())?;
         let proj = match &self.sensor {
             Some(s) => {
                 let b = s.beam_rows(&mut scan.points, rings.as_deref(), path)?;

@@ -82,16 +82,18 @@ fn list_scans(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
             "not a scan (`<frame>.bin`) in the velodyne folder: no conversion reads it".into(),
         );
     }
+    // Another sensor's `.bin` scans of a declared layout (`--fields`).
+    let layout = (c.opts.sensor.as_ref()).and_then(|s| s.layout().ok().flatten());
     for f in listing.frames {
         let path = drive.scan_path(f);
-        if !crate::source::is_kitti_bin(&path) {
-            // Another sensor's scan (a PCD): its point count from its header.
-            match crate::source::points_in_file(&path) {
+        if !crate::source::is_kitti_bin(&path) || layout.is_some() {
+            // Another sensor's scan: its point count from its header or its declared layout.
+            match crate::source::points_in_file_as(&path, layout.as_ref()) {
                 Some(n) => {
                     r.scans.insert(f, n as usize);
                 }
                 None => {
-                    let e = crate::source::read_cloud(&path, None).err();
+                    let e = crate::source::read_cloud(&path, layout.as_ref()).err();
                     let why = e.map_or("cannot be read".to_string(), |e| e.to_string());
                     c.add(C::Read, S::Error, &path, Some(f), None, why);
                 }

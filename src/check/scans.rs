@@ -149,7 +149,9 @@ fn frame(
         ..Default::default()
     };
     let path = r.drive.scan_path(f);
-    let scan = match Scan::read_with_rings(&path, None).and_then(|(mut scan, rings)| {
+    let layout = sensor.map(|s| s.layout()).transpose();
+    let read = layout.and_then(|l| Scan::read_with_rings(&path, l.flatten().as_ref()));
+    let scan = match read.and_then(|(mut scan, rings)| {
         // The rows as convert decides them: a ring field's ids must be the sensor's beams,
         // points placed by the table may fit none.
         if let Some(p) = sensor {

@@ -225,6 +225,14 @@ pub struct SensorArgs {
     /// columns and the x, y, z channels are the sensor's.
     #[arg(long, value_name = "X,Y,Z[,R,P,Y]", allow_hyphen_values = true)]
     pub sensor_pose: Option<String>,
+    /// The point layout of the scans' flat .bin files (with --sensor or --sensor-calibration):
+    /// comma-separated names, each with an optional :type (i8 u8 i16 u16 i32 u32 i64 u64 f32
+    /// f64; a field without one takes the next given type, the last ones f32; `_` is padding),
+    /// e.g. x,y,z,intensity,ring:f32 or x,y,z:f32,intensity:u8,_:u8,ring:u16. x, y, z are
+    /// required; the intensity and ring fields are found by name. Default: KITTI's x, y, z,
+    /// reflectance (nuScenes' five floats for .pcd.bin).
+    #[arg(long, value_name = "FIELDS")]
+    pub fields: Option<String>,
 }
 
 impl SensorArgs {
@@ -233,10 +241,15 @@ impl SensorArgs {
         let mut p = match (&self.sensor, &self.sensor_calibration) {
             (Some(s), _) => SensorParams::preset(*s, self.ring_order),
             (None, Some(path)) => SensorParams::file(path, self.ring_order)?,
-            (None, None) if self.sensor_pose.is_some() => {
-                return Err(kitti2pgm::Error::Config(
-                    "--sensor-pose needs the sensor: --sensor or --sensor-calibration".into(),
-                ))
+            (None, None) if self.sensor_pose.is_some() || self.fields.is_some() => {
+                let what = if self.fields.is_some() {
+                    "--fields"
+                } else {
+                    "--sensor-pose"
+                };
+                return Err(kitti2pgm::Error::Config(format!(
+                    "{what} needs the sensor: --sensor or --sensor-calibration"
+                )));
             }
             (None, None) => return Ok(None),
         };
@@ -245,6 +258,9 @@ impl SensorArgs {
             .as_deref()
             .map(SensorPose::parse)
             .transpose()?;
+        if let Some(spec) = &self.fields {
+            p = p.with_fields(spec)?;
+        }
         Ok(Some(p))
     }
 }

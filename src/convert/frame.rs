@@ -201,7 +201,13 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
 fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
     let scan_path = dp.drive.scan_path(frame);
-    let (mut scan, rings) = Scan::read_with_rings(&scan_path, None)?;
+    let layout = map
+        .sensor
+        .as_ref()
+        .map(|s| s.layout())
+        .transpose()?
+        .flatten();
+    let (mut scan, rings) = Scan::read_with_rings(&scan_path, layout.as_ref())?;
     let beams = (map.sensor.as_ref())
         .map(|s| s.beam_rows(&mut scan.points, rings.as_deref(), &scan_path))
         .transpose()?;

@@ -364,7 +364,8 @@ fn files_present(dp: &DrivePlan, frame: u32, opts: &ConvertOptions) -> bool {
     let npy_ok =
         !opts.params.npy || len(&opts.out.npy_path(&id)) == Some(npy::file_len_f32(&shape));
     let labels_ok = !opts.params.labels || {
-        let points = crate::source::points_in_file(&dp.drive.scan_path(frame));
+        let layout = map.sensor.as_ref().and_then(|s| s.layout().ok().flatten());
+        let points = crate::source::points_in_file_as(&dp.drive.scan_path(frame), layout.as_ref());
         points.is_some() && len(&opts.out.label_path(&id)) == points.map(|n| n * 4)
     };
     npy_ok && labels_ok

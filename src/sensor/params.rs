@@ -11,6 +11,7 @@ use super::presets::Sensor;
 use super::{read_calibration, RingOrder, SensorModel};
 use crate::error::{Error, Result};
 use crate::geom::Point3;
+use crate::source::PointLayout;
 
 /// Where the beam table comes from.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -71,6 +72,10 @@ pub struct SensorParams {
     /// show) instead of azimuth bins; needs an Ouster metadata file ([`SensorParams::check_map`]).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub ouster_columns: bool,
+    /// The point layout of the scans' `.bin` files (`--fields`), as a full declaration
+    /// ([`PointLayout::declaration`]); `None`: KITTI's (nuScenes' for `.pcd.bin`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fields: Option<String>,
     /// The model, resolved (not serialised: `source` says what it is).
     #[serde(skip)]
     pub model: Option<Arc<SensorModel>>,
@@ -85,6 +90,7 @@ impl PartialEq for SensorParams {
             self.ring_order,
             self.pose,
             self.ouster_columns,
+            &self.fields,
         ) == (
             &o.source,
             &o.name,
@@ -92,6 +98,7 @@ impl PartialEq for SensorParams {
             o.ring_order,
             o.pose,
             o.ouster_columns,
+            &o.fields,
         )
     }
 }
@@ -107,6 +114,7 @@ impl SensorParams {
             ring_order,
             pose: None,
             ouster_columns: false,
+            fields: None,
             model: Some(Arc::new(model)),
         }
     }
@@ -136,6 +144,7 @@ impl SensorParams {
             ring_order,
             pose: None,
             ouster_columns: false,
+            fields: None,
             model: Some(Arc::new(model)),
         })
     }
@@ -178,6 +187,21 @@ impl SensorParams {
             of.columns = Some(format.columns(&model, points, &of.rows));
         }
         Ok(of)
+    }
+
+    /// Declares the point layout of the scans' `.bin` files (`--fields x,y,z,intensity,ring:f32`:
+    /// [`PointLayout::declared`]).
+    pub fn with_fields(mut self, spec: &str) -> Result<SensorParams> {
+        self.fields = Some(PointLayout::declared(spec)?.declaration());
+        Ok(self)
+    }
+
+    /// The declared point layout of the scans' `.bin` files, if any.
+    pub fn layout(&self) -> Result<Option<PointLayout>> {
+        self.fields
+            .as_deref()
+            .map(PointLayout::declared)
+            .transpose()
     }
 
     /// Asks for Ouster's own columns ([`SensorParams::ouster_columns`]): an error unless the

@@ -214,6 +214,15 @@ impl PointLayout {
         Ok(layout)
     }
 
+    /// The layout as a declaration [`PointLayout::declared`] reads back to it, every field with
+    /// its type (`x:f32,y:f32,z:f32,intensity:u8,_:u8,ring:u16`): how parameters record it.
+    pub fn declaration(&self) -> String {
+        let fields: Vec<String> = (self.fields.iter())
+            .map(|f| format!("{}:{}", f.name, f.ty.as_str()))
+            .collect();
+        fields.join(",")
+    }
+
     fn find(&self, names: &[&str]) -> Option<&Field> {
         names
             .iter()

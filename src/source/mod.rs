@@ -79,6 +79,12 @@ pub fn is_kitti_bin(path: &Path) -> bool {
 /// files hold one label each): KITTI `.bin` size / 16, nuScenes `.pcd.bin` size / 20, a PCD's
 /// `POINTS`. `None` when the file cannot be read or is not a scan.
 pub fn points_in_file(path: &Path) -> Option<u64> {
+    points_in_file_as(path, None)
+}
+
+/// [`points_in_file`], a `.bin` being records of `layout` where one is declared (`--fields`);
+/// `None` too when its size is not whole records.
+pub fn points_in_file_as(path: &Path, layout: Option<&PointLayout>) -> Option<u64> {
     let name = path.file_name()?.to_str()?;
     // Through `fs::open`: a regular file only, never a FIFO that would block the read.
     let (file, meta) = crate::fs::open(path).ok()?;
@@ -87,6 +93,10 @@ pub fn points_in_file(path: &Path) -> Option<u64> {
         let mut head = Vec::with_capacity(4096);
         file.take(64 << 10).read_to_end(&mut head).ok()?;
         return pcd::header(&head, path).ok().map(|h| h.points as u64);
+    }
+    if let Some(l) = layout.filter(|_| name.ends_with(".bin")) {
+        let step = l.step as u64;
+        return (meta.len() % step == 0).then(|| meta.len() / step);
     }
     let step = if name.ends_with(".pcd.bin") {
         bin::nuscenes_layout().step

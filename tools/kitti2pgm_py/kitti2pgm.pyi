@@ -121,6 +121,7 @@ class Dataset:
         ring_order: str = "bottom-up",
         sensor_pose: Optional[str] = None,
         ouster_columns: bool = False,
+        fields: Optional[str] = None,
     ) -> None: ...
     @property
     def frames(self) -> List[str]: ...

@@ -40,6 +40,8 @@ use crate::{py_err, spec_of, MapArgs};
 /// and `project` makes one row per beam unless rows= says otherwise (as `convert --sensor`).
 /// sensor_pose: "x,y,z[,roll,pitch,yaw]" (metres, degrees), the sensor's pose in the points'
 /// frame (a base_link cloud): the points are moved into the sensor's frame (`--sensor-pose`).
+/// fields: the point layout of the scans' flat `.bin` files ("x,y,z,intensity,ring:f32", as
+/// `--fields`; with sensor=).
 /// ouster_columns: with an Ouster metadata file as sensor, Ouster's own columns (measurement
 /// ids, destaggered: `load` gives each point's as "column", `project` makes the SDK's image,
 /// its columns per frame over 360 degrees), as `convert --ouster-columns`.
@@ -54,7 +56,7 @@ pub struct Dataset {
 #[pymethods]
 impl Dataset {
     #[new]
-    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up", sensor_pose=None, ouster_columns=false))]
+    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up", sensor_pose=None, ouster_columns=false, fields=None))]
     // One Rust argument per Python keyword: the signature is the Python API.
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -69,6 +71,7 @@ impl Dataset {
         ring_order: &str,
         sensor_pose: Option<&str>,
         ouster_columns: bool,
+        fields: Option<&str>,
     ) -> PyResult<Dataset> {
         let ring_order = crate::named::<RingOrder>("ring_order", ring_order)?;
         let mut sensor = sensor
@@ -82,6 +85,12 @@ impl Dataset {
                 ));
             };
             s.pose = Some(SensorPose::parse(pose).map_err(py_err)?);
+        }
+        if let Some(spec) = fields {
+            let Some(s) = sensor.take() else {
+                return Err(PyValueError::new_err("fields needs the sensor (sensor=)"));
+            };
+            sensor = Some(s.with_fields(spec).map_err(py_err)?);
         }
         if ouster_columns {
             let Some(s) = sensor.take() else {

@@ -80,3 +80,25 @@ def test_project_with_a_sensor_is_convert_with_that_sensor(tmp_path, kitti2pgm_p
         k2.project(c["points"], sensor="vlp17")
     with pytest.raises(ValueError, match="not below 16"):
         k2.project(c["points"], rings=np.full(len(rows), 16, np.uint8), beams=16)
+
+
+def test_dataset_reads_flat_bin_scans_of_a_declared_layout(tmp_path):
+    """Dataset(fields=) as `convert --fields`: the VLP-16 scan as 16-byte records loads with its
+    rings and projects to the PCD's map; without the sensor it is a ValueError."""
+    c = k2.read_cloud(VLP16)
+    rec = np.zeros(len(c["points"]), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("i", "u1"),
+                                            ("pad", "u1"), ("ring", "<u2")])
+    rec["x"], rec["y"], rec["z"] = c["points"][:, 0], c["points"][:, 1], c["points"][:, 2]
+    rec["i"], rec["ring"] = c["points"][:, 3].astype("u1"), c["ring"]
+    seq = tmp_path / "sequences" / "00" / "velodyne"
+    seq.mkdir(parents=True)
+    (seq / "000000.bin").write_bytes(rec.tobytes())
+    fields = "x,y,z:f32,intensity:u8,_:u8,ring:u16"
+    ds = k2.Dataset(tmp_path, sensor="vlp16", fields=fields, all_frames=True)
+    np.testing.assert_array_equal(ds[0]["ring"], 15 - c["ring"])
+    pcd = k2.Dataset(OWN, sensor="vlp16", all_frames=True)
+    np.testing.assert_array_equal(ds.project(0, cols=1024)["map"], pcd.project(0, cols=1024)["map"])
+    with pytest.raises(ValueError, match="fields needs the sensor"):
+        k2.Dataset(tmp_path, fields=fields, all_frames=True)
+    with pytest.raises(ValueError, match="unknown type"):
+        k2.Dataset(tmp_path, sensor="vlp16", fields="x,y,z:f16", all_frames=True)
