@@ -119,6 +119,11 @@ pub struct UnpackArgs {
     /// (keyframes, labelled keyframes), and stop.
     #[arg(long)]
     pub list: bool,
+    /// The sensor's frame (velodyne, os_sensor...): its pose in the clouds' frame (a base_link)
+    /// is found through the bag's /tf_static, recorded in unpack.json and printed as the
+    /// --sensor-pose that convert takes.
+    #[arg(long, value_name = "FRAME")]
+    pub sensor_frame: Option<String>,
     /// nuScenes: the version to read (the folder of its tables: v1.0-mini, v1.0-trainval...);
     /// without it, the one the root holds.
     #[arg(long, value_name = "VERSION")]

@@ -58,6 +58,12 @@ fn print_summary(s: &UnpackSummary) {
     if s.removed_stale > 0 {
         println!("removed stale   {:>10}", s.removed_stale);
     }
+    if let Some(p) = &s.sensor_pose {
+        println!(
+            "sensor pose     {} in {}: convert with --sensor-pose {}",
+            p.sensor_frame, p.points_frame, p.pose
+        );
+    }
     for f in &s.failures {
         println!("FAILED frame {:06}: {}", f.frame, f.error);
     }
@@ -90,6 +96,7 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
         sequence: a.sequence,
         overwrite: a.overwrite,
         durability: super::durability(a.sync),
+        sensor_frame: a.sensor_frame.clone(),
     };
     let pb = super::progress::bar(topic.messages, g.progress, "unpacking");
     let s = g

@@ -76,9 +76,9 @@ fn print_summary(s: &NuScenesSummary) {
 }
 
 pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
-    if a.topic.is_some() || a.sequence != 0 {
+    if a.topic.is_some() || a.sequence != 0 || a.sensor_frame.is_some() {
         anyhow::bail!(
-            "{} is a nuScenes root: --topic and --sequence are for bags (one scene is one \
+            "{} is a nuScenes root: --topic, --sequence and --sensor-frame are for bags (one scene is one \
              sequence, numbered as the scene)",
             a.bag.display()
         );

@@ -29,6 +29,21 @@ pub struct UnpackOptions {
     pub overwrite: bool,
     /// Whether each file is flushed to the device before its rename.
     pub durability: Durability,
+    /// The sensor's frame (`velodyne`), to find its pose in the clouds' frame through the bag's
+    /// `/tf_static` ([`UnpackSummary::sensor_pose`]).
+    pub sensor_frame: Option<String>,
+}
+
+/// Where the sensor sits in the frame its clouds are written in, from the bag's static
+/// transforms: what `convert --sensor-pose` takes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FoundPose {
+    /// The sensor's frame.
+    pub sensor_frame: String,
+    /// The clouds' frame (`header.frame_id`).
+    pub points_frame: String,
+    /// The pose: `--sensor-pose` of its text.
+    pub pose: crate::sensor::SensorPose,
 }
 
 /// A frame that did not unpack.
@@ -69,6 +84,9 @@ pub struct UnpackSummary {
     pub failures: Vec<UnpackFailure>,
     /// Scans of an earlier unpack past the last frame, removed (`--overwrite`).
     pub removed_stale: u64,
+    /// The sensor's pose in the clouds' frame, when its frame was named.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_pose: Option<FoundPose>,
 }
 
 /// One decoded frame, ready to write.
@@ -164,6 +182,7 @@ pub fn unpack(
         log_time_frames: Vec::new(),
         failures: Vec::new(),
         removed_stale: 0,
+        sensor_pose: None,
     };
     let mut stamps: Vec<i64> = Vec::new();
     let mut stream = bag.messages(&topic.name);
@@ -199,8 +218,52 @@ pub fn unpack(
             break;
         }
     }
+    // The frames, times.txt and unpack.json are kept when the pose cannot be found.
+    let located = match (&opts.sensor_frame, s.frame_ids.first()) {
+        (Some(sensor), Some(points)) => locate_sensor(bag, sensor, points, &s.frame_ids).map(Some),
+        _ => Ok(None),
+    };
+    s.sensor_pose = located.as_ref().ok().cloned().flatten();
     finish(&mut s, &stamps, (&seq, &scans), &before, opts.durability)?;
-    Ok(s)
+    located.map(|_| s)
+}
+
+/// The pose of frame `sensor` in the clouds' frame `points` through the bag's `/tf_static`; an
+/// error (naming the frames the transforms know) without a chain, or when the clouds come in
+/// several frames.
+fn locate_sensor(bag: &Bag, sensor: &str, points: &str, frame_ids: &[String]) -> Result<FoundPose> {
+    let input = |message: String| Error::Input {
+        path: bag.path.clone(),
+        message,
+    };
+    if frame_ids.len() > 1 {
+        return Err(input(format!(
+            "its clouds come in several frames ({}): one sensor pose cannot serve them",
+            frame_ids.join(", ")
+        )));
+    }
+    let transforms = crate::source::tf::read_static(bag)?;
+    let pose = crate::source::tf::sensor_pose_in(&transforms, sensor, points).ok_or_else(|| {
+        let mut frames: Vec<&str> = (transforms.iter())
+            .flat_map(|t| [t.parent.as_str(), t.child.as_str()])
+            .collect();
+        frames.sort_unstable();
+        frames.dedup();
+        input(format!(
+            "no static transform joins {sensor} to the clouds' frame {points} (/tf_static \
+             knows: {})",
+            if frames.is_empty() {
+                "nothing".to_string()
+            } else {
+                frames.join(", ")
+            }
+        ))
+    })?;
+    Ok(FoundPose {
+        sensor_frame: sensor.into(),
+        points_frame: points.into(),
+        pose: crate::sensor::SensorPose::from_isometry(&pose),
+    })
 }
 
 /// Adds one frame's outcome to the summary and its stamp (nanoseconds) to `stamps`.

@@ -39,6 +39,16 @@ impl SensorPose {
         }
     }
 
+    /// The pose of a rigid motion sensor frame -> points' frame (a bag's static transforms).
+    pub fn from_isometry(iso: &na::Isometry3<f64>) -> SensorPose {
+        let (r, p, y) = iso.rotation.euler_angles();
+        let t = iso.translation.vector;
+        SensorPose {
+            xyz: [t.x, t.y, t.z],
+            rpy_deg: [r, p, y].map(f64::to_degrees),
+        }
+    }
+
     /// The sensor frame -> the points' frame.
     pub fn isometry(&self) -> na::Isometry3<f64> {
         let [r, p, y] = self.rpy_deg.map(f64::to_radians);
@@ -58,6 +68,25 @@ impl SensorPose {
     }
 }
 
+impl std::fmt::Display for SensorPose {
+    /// `x,y,z,roll,pitch,yaw` as `--sensor-pose` takes it (metres to 0.1 mm, degrees to 1e-4).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [x, y, z] = self.xyz;
+        let [r, p, w] = self.rpy_deg;
+        // `+ 0.0` turns -0 into 0.
+        write!(
+            f,
+            "{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            x + 0.0,
+            y + 0.0,
+            z + 0.0,
+            r + 0.0,
+            p + 0.0,
+            w + 0.0
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -73,6 +102,21 @@ mod tests {
         let mut pts = [Point3::new(0.0, 5.0, 0.0)];
         p.to_sensor_frame(&mut pts);
         assert!((pts[0] - Point3::new(5.0, 0.0, 0.0)).norm() < 1e-6);
+        // Round trip through an isometry, and its text as --sensor-pose takes it.
+        let p = SensorPose::parse("0.5,-0.2,1.8,1,-2,30").unwrap();
+        let back = SensorPose::from_isometry(&p.isometry());
+        for (a, b) in p
+            .xyz
+            .iter()
+            .chain(&p.rpy_deg)
+            .zip(back.xyz.iter().chain(&back.rpy_deg))
+        {
+            assert!((a - b).abs() < 1e-9, "{p:?} {back:?}");
+        }
+        assert_eq!(
+            SensorPose::parse(&back.to_string()).unwrap().to_string(),
+            back.to_string()
+        );
         for bad in ["1,2", "1,2,3,4", "1,x,3", "1,2,inf"] {
             assert!(SensorPose::parse(bad).is_err(), "{bad}");
         }

@@ -1,6 +1,7 @@
 //! OMG CDR (XCDR1, ROS 2's default serialisation) as a byte cursor: a 4-byte encapsulation
 //! header that names the byte order, then each primitive aligned to its own size, counted from
-//! the end of that header. Only what ROS 2 messages need: integers, strings and byte sequences.
+//! the end of that header. Only what ROS 2 messages need: integers, floats, strings and byte
+//! sequences.
 
 /// A cursor over one serialised message.
 #[derive(Debug)]
@@ -79,6 +80,11 @@ impl<'a> Cdr<'a> {
     /// An `int32`.
     pub(crate) fn i32(&mut self, what: &str) -> CdrResult<i32> {
         Ok(i32::from_ne_bytes(self.prim::<4>(what)?))
+    }
+
+    /// A `float64`.
+    pub(crate) fn f64(&mut self, what: &str) -> CdrResult<f64> {
+        Ok(f64::from_ne_bytes(self.prim::<8>(what)?))
     }
 
     /// A `bool` (one byte, 0 or 1).

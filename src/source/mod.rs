@@ -18,6 +18,7 @@ pub mod fields;
 pub mod nuscenes;
 pub mod pcd;
 pub mod pointcloud2;
+pub mod tf;
 
 use std::path::Path;
 

@@ -48,6 +48,7 @@ def project(
     rings: Optional[_Array] = None,
     beams: Optional[int] = None,
     sensor: Optional[str] = None,
+    sensor_pose: Optional[str] = None,
     ouster_columns: bool = False,
     labels: Optional[_Array] = None,
     instance: Optional[_Array] = None,

@@ -134,6 +134,9 @@ fn rings<'py>(
 /// calibration file (velodyne .yaml, Hesai .csv, Ouster .json): each point's row is its nearest
 /// beam (stats["off_model"] counts the points that fit none), `beams` the table's; with `rings`
 /// the table gives only the beam count.
+/// sensor_pose: "x,y,z[,roll,pitch,yaw]" (metres, degrees), the sensor's pose in the points'
+/// frame (a base_link cloud): the points are moved into the sensor's frame first, and the map's
+/// x, y, z are the sensor's (`--sensor-pose`).
 /// ouster_columns: with an Ouster metadata file as `sensor`, the columns are Ouster's own
 /// (measurement ids, destaggered: the SDK's image), the map its columns per frame over 360
 /// degrees (`convert --ouster-columns`); rotate_deg and flip are refused with them.
@@ -150,10 +153,10 @@ fn rings<'py>(
 /// point_cells=False, row, col and point_index are None (a little faster, for training).
 #[pyfunction]
 #[pyo3(signature = (points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None,
-    fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, ouster_columns=false,
-    labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0,
+    fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, sensor_pose=None,
+    ouster_columns=false, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0,
     drop=0.0, seed=0, point_cells=true),
-    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, ouster_columns=False, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
+    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, sensor_pose=None, ouster_columns=False, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
 // One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
@@ -169,6 +172,7 @@ fn project<'py>(
     rings: Option<&Bound<'py, PyAny>>,
     beams: Option<usize>,
     sensor: Option<String>,
+    sensor_pose: Option<String>,
     ouster_columns: bool,
     labels: Option<&Bound<'py, PyAny>>,
     instance: Option<&Bound<'py, PyAny>>,
@@ -191,7 +195,7 @@ fn project<'py>(
         fov_down_deg,
         row_mode,
     };
-    let (pts, intensity) = points_arg(points, "points", true)?;
+    let (mut pts, intensity) = points_arg(points, "points", true)?;
     let n = pts.len();
     let mut rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
     let model = sensor
@@ -211,6 +215,19 @@ fn project<'py>(
         (Some(m), _) => Some(m.beams()),
         (None, b) => b,
     };
+    // A vehicle-frame cloud moved into the sensor's frame first (`--sensor-pose`).
+    match (&model, sensor_pose.as_deref()) {
+        (Some(_), Some(text)) => {
+            let pose = kitti2pgm::sensor::SensorPose::parse(text).map_err(py_err)?;
+            py.detach(|| pose.to_sensor_frame(&mut pts));
+        }
+        (None, Some(_)) => {
+            return Err(PyValueError::new_err(
+                "sensor_pose needs the sensor (sensor=)",
+            ))
+        }
+        _ => {}
+    }
     let own = match (&model, ouster_columns) {
         (_, false) => None,
         (Some(m), true) => Some(m.ouster.as_ref().ok_or_else(|| {

@@ -222,7 +222,64 @@ def test_dataset_sensor_pose_brings_a_vehicle_frame_cloud_back(tmp_path):
     m = back.project(0, cols=1024)
     assert m["stats"]["off_model"] == 0
     np.testing.assert_array_equal(back[0]["ring"], 15 - k2.read_cloud(VLP16)["ring"])
+    # project(sensor_pose=) on the points themselves: the same map.
+    xyzi = np.stack([xyz["x"], xyz["y"], xyz["z"], np.zeros(len(xyz), "f4")], axis=-1)
+    p = k2.project(xyzi, preset="full", cols=1024, sensor="vlp16", sensor_pose="0,0,1.8")
+    assert p["stats"]["off_model"] == 0
+    np.testing.assert_array_equal(p["map"], m["map"])
+    with pytest.raises(ValueError, match="sensor_pose needs the sensor"):
+        k2.project(xyzi, sensor_pose="0,0,1.8")
     with pytest.raises(ValueError, match="sensor_pose needs the sensor"):
         k2.Dataset(tmp_path, all_frames=True, sensor_pose="0,0,1.8")
     with pytest.raises(ValueError, match="expected x,y,z or x,y,z,roll,pitch,yaw"):
         k2.Dataset(tmp_path, sensor="vlp16", all_frames=True, sensor_pose="0,1.8")
+
+
+def tf_message(ts, transforms):
+    """A tf2_msgs/msg/TFMessage of (parent, child, (x, y, z), (qx, qy, qz, qw))."""
+    T = ts.types
+    Header, Time = T["std_msgs/msg/Header"], T["builtin_interfaces/msg/Time"]
+    return T["tf2_msgs/msg/TFMessage"](transforms=[
+        T["geometry_msgs/msg/TransformStamped"](
+            header=Header(stamp=Time(sec=0, nanosec=0), frame_id=parent), child_frame_id=child,
+            transform=T["geometry_msgs/msg/Transform"](
+                translation=T["geometry_msgs/msg/Vector3"](x=t[0], y=t[1], z=t[2]),
+                rotation=T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3])))
+        for parent, child, t, q in transforms])
+
+
+def test_unpack_finds_the_sensor_pose_in_the_bag_s_static_transforms(tmp_path):
+    """A bag whose clouds are in base_link (the VLP-16 scan raised 1.8 m) and whose /tf_static
+    places velodyne there through a mount: unpack --sensor-frame prints the --sensor-pose that
+    brings every point back on a beam; a frame /tf_static does not know is named."""
+    mb, ts = make_bag(), typestore()
+    pts = mb.read_pcd(VLP16)
+    lifted = pts.copy()
+    lifted["z"] = pts["z"] + np.float32(1.8)
+    tf = "tf2_msgs/msg/TFMessage"
+    q = (0.0, 0.0, 0.0, 1.0)
+    mb.write_bag(tmp_path / "bag", [
+        ("/tf_static", tf, tf_message(ts, [("base_link", "lidar_mount", (0.0, 0.0, 1.0), q)]), 1, True),
+        ("/tf_static", tf, tf_message(ts, [("lidar_mount", "velodyne", (0.0, 0.0, 0.8), q)]), 2, False),
+        ("/points", PC2, mb.pointcloud2(ts, lifted[["x", "y", "z", "intensity"]], 10, "base_link"), 10, True),
+    ], ts)
+    out = tmp_path / "root"
+    r = subprocess.run([BIN, "unpack", str(tmp_path / "bag"), "--topic", "/points", "--out", str(out),
+                        "--sensor-frame", "velodyne"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "--sensor-pose 0.0000,0.0000,1.8000,0.0000,0.0000,0.0000" in r.stdout
+    found = json.loads((out / "sequences" / "00" / "unpack.json").read_text())["sensor_pose"]
+    assert (found["sensor_frame"], found["points_frame"]) == ("velodyne", "base_link")
+    conv = tmp_path / "conv"
+    r = subprocess.run([BIN, "convert", str(out), "--out", str(conv), "--sensor", "vlp16", "--all-frames",
+                        "--sensor-pose", "0.0000,0.0000,1.8000,0.0000,0.0000,0.0000", "--json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["off_model"] == 0
+    # A frame the transforms do not reach: exit 1 naming what they know; the frames are kept.
+    r = subprocess.run([BIN, "unpack", str(tmp_path / "bag"), "--topic", "/points", "--out", str(out),
+                        "--overwrite", "--sensor-frame", "os_sensor"], capture_output=True, text=True)
+    assert r.returncode == 1
+    assert "os_sensor" in r.stderr and "base_link, lidar_mount, velodyne" in r.stderr
+    assert (out / "sequences" / "00" / "velodyne" / "000000.pcd").is_file()
+    assert (out / "sequences" / "00" / "times.txt").is_file()
