@@ -95,6 +95,9 @@ impl Totals {
         if r.fallback() {
             s.fallback_frames.push(r.id.clone());
         }
+        if r.projection.beam_table_frames > 0 {
+            s.beam_table_frame_ids.push(r.id.clone());
+        }
         s.rgb_cells += r.rgb_cells;
         s.frames_without_labels += !r.annotated as u64;
         for t in &r.unknown_object_types {
@@ -116,6 +119,7 @@ impl Totals {
         s.labelled_cells = map.keyed(&self.cells.0);
         s.failures.sort_by_cached_key(|f| f.what.to_string());
         s.fallback_frames.sort();
+        s.beam_table_frame_ids.sort();
         s.changed_inputs = self.changed_inputs.into_iter().collect();
         s
     }

@@ -92,6 +92,10 @@ pub struct ConvertSummary {
     pub projection: ProjectionStats,
     /// Ids of the frames binned by elevation (sorted).
     pub fallback_frames: Vec<String>,
+    /// Another sensor's conversion: the ids of the frames whose rows came from the sensor's beam
+    /// table (sorted); the other frames' came from their ring field.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub beam_table_frame_ids: Vec<String>,
     /// Cells with a colour.
     pub rgb_cells: u64,
     /// Shards written.

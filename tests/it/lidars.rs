@@ -458,6 +458,7 @@ fn convert_makes_one_row_per_beam_from_the_ring_field_or_the_table() {
     assert_eq!(code, 0, "{err}");
     assert_eq!(j["params"]["map"]["spec"]["rows"], 40);
     assert_eq!(j["beam_table_frames"], 1);
+    assert_eq!(j["beam_table_frame_ids"], serde_json::json!(["00_000000"]));
     assert_eq!(j["off_model"], 0);
     assert!(j["params"]["map"]["sensor"]["source"]["file"]["digest"].is_string());
 }
