@@ -211,9 +211,14 @@ pub(crate) fn read_sequence(drive: &Drive, r: &mut DriveRead, c: &mut Collector)
             FrameCalib::read(&calib_path).map(Box::new),
         )
     } else {
+        // Another sensor's recording (`--sensor`) often has no camera: a note, not a warning.
+        let severity = match c.opts.sensor {
+            Some(_) => S::Note,
+            None => S::Warning,
+        };
         c.add(
             C::Inventory,
-            S::Warning,
+            severity,
             &calib_path,
             None,
             None,
