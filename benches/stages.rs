@@ -220,6 +220,13 @@ fn read(c: &mut Criterion) {
             b.iter(|| Scan::read_with_rings(black_box(path), None).unwrap())
         });
     }
+    // Another sensor's beam rows from its table (no ring field: the Pandar40P scan, 40 beams).
+    let scan = Scan::read(&pcd).unwrap();
+    let model = kitti2pgm::sensor::presets::Sensor::Pandar40p.model_table();
+    g.throughput(Throughput::Elements(scan.len() as u64));
+    g.bench_function("assign_pandar40p", |b| {
+        b.iter(|| model.assign(black_box(&scan.points)))
+    });
     // The fixture bag's /velodyne_points (the VLP-16 scan twice, one message big-endian, as
     // rosbags serialised them) alone in an uncompressed .mcap (rosbag2's default), read and
     // decoded as `kitti2pgm.read_bag` does.
