@@ -5,14 +5,18 @@
 //! ([`crate::format::shard::metadata`]), and it is read back typed by the reports
 //! ([`crate::report::truth::GroundTruth`]), so that `score` and `stats` never guess the map.
 
+use std::path::Path;
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::kitti::velodyne::Scan;
 use crate::label::ClassMap;
 use crate::plan::selection::FrameSelection;
 use crate::plan::split::SplitRule;
 use crate::project::camera::RgbOptions;
 use crate::project::{Channels, PgmSpec};
+use crate::sensor::params::{BeamRowsOf, SensorParams};
 
 /// What every converted frame's content depends on.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -50,29 +54,16 @@ impl MapParams {
     /// (another sensor's pose, beam rows and columns), keeping the cell of every point: what
     /// carries map predictions back to points (`unproject`, `score` per point). The scan's
     /// points are in the sensor's frame, as the map's.
-    pub fn project_scan(
-        &self,
-        path: &std::path::Path,
-    ) -> Result<(crate::kitti::velodyne::Scan, crate::project::Projection)> {
-        let layout = self
-            .sensor
-            .as_ref()
-            .map(|s| s.layout())
-            .transpose()?
-            .flatten();
-        let (mut scan, rings) =
-            crate::kitti::velodyne::Scan::read_with_rings(path, layout.as_ref())?;
-        let proj = match &self.sensor {
-            Some(s) => {
-                let b = s.beam_rows(&mut scan.points, rings.as_deref(), path)?;
-                crate::project::project_beams_with_point_cells(
-                    &scan.points,
-                    &self.spec,
-                    &b.rows,
-                    b.beams,
-                    b.columns.as_deref(),
-                )
-            }
+    pub fn project_scan(&self, path: &Path) -> Result<(Scan, crate::project::Projection)> {
+        let (scan, beams) = read_scan(self.sensor.as_ref(), path)?;
+        let proj = match &beams {
+            Some(b) => crate::project::project_beams_with_point_cells(
+                &scan.points,
+                &self.spec,
+                &b.rows,
+                b.beams,
+                b.columns.as_deref(),
+            ),
             None => crate::project::project_with_point_cells(&scan.points, &self.spec),
         };
         Ok((scan, proj))
@@ -100,6 +91,19 @@ impl MapParams {
         }
         Ok(())
     }
+}
+
+/// Reads the scan at `path` as a conversion with `sensor` does: its `.bin` records in the
+/// declared layout (`--fields`), and with a sensor its points moved into the sensor's frame and
+/// the beam row (and Ouster column) of every point ([`SensorParams::beam_rows`]). The one place
+/// that decides it, for `convert`, `check`, `unproject` and `score`.
+pub fn read_scan(sensor: Option<&SensorParams>, path: &Path) -> Result<(Scan, Option<BeamRowsOf>)> {
+    let layout = sensor.map(SensorParams::layout).transpose()?.flatten();
+    let (mut scan, rings) = Scan::read_with_rings(path, layout.as_ref())?;
+    let beams = sensor
+        .map(|s| s.beam_rows(&mut scan.points, rings.as_deref(), path))
+        .transpose()?;
+    Ok((scan, beams))
 }
 
 /// Chunk compression of shards.

@@ -15,7 +15,6 @@ use crate::geom::{Matrix3x4, Point3, Real};
 use crate::sensor::params::RowsFrom;
 use crate::sensor::SensorParams;
 
-use crate::kitti::velodyne::Scan;
 use crate::kitti::Layout;
 use crate::label::LabelBox;
 
@@ -149,20 +148,15 @@ fn frame(
         ..Default::default()
     };
     let path = r.drive.scan_path(f);
-    let layout = sensor.map(|s| s.layout()).transpose();
-    let read = layout.and_then(|l| Scan::read_with_rings(&path, l.flatten().as_ref()));
-    let scan = match read.and_then(|(mut scan, rings)| {
-        // The rows as convert decides them: a ring field's ids must be the sensor's beams,
-        // points placed by the table may fit none.
-        if let Some(p) = sensor {
-            let b = p.beam_rows(&mut scan.points, rings.as_deref(), &path)?;
-            if b.from == RowsFrom::BeamTable {
+    // The rows as convert decides them: a ring field's ids must be the sensor's beams, points
+    // placed by the table may fit none.
+    let scan = match crate::params::read_scan(sensor, &path) {
+        Ok((scan, beams)) => {
+            if let Some(b) = beams.filter(|b| b.from == RowsFrom::BeamTable) {
                 out.off_model = Some((b.off_model, scan.len()));
             }
+            scan
         }
-        Ok(scan)
-    }) {
-        Ok(s) => s,
         Err(e) => {
             out.error = Some(e.to_string());
             return out;

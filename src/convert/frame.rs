@@ -201,16 +201,7 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
 fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
     let scan_path = dp.drive.scan_path(frame);
-    let layout = map
-        .sensor
-        .as_ref()
-        .map(|s| s.layout())
-        .transpose()?
-        .flatten();
-    let (mut scan, rings) = Scan::read_with_rings(&scan_path, layout.as_ref())?;
-    let beams = (map.sensor.as_ref())
-        .map(|s| s.beam_rows(&mut scan.points, rings.as_deref(), &scan_path))
-        .transpose()?;
+    let (scan, beams) = crate::params::read_scan(map.sensor.as_ref(), &scan_path)?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
     let mut png = None;
     let camera = match &map.rgb {

@@ -262,17 +262,7 @@ pub fn project_beams(
     beams: usize,
     columns: Option<&[u16]>,
 ) -> Projection {
-    debug_assert!(columns.is_none_or(|c| c.len() == points.len()));
-    project_impl(
-        points,
-        spec,
-        PointCells::Drop,
-        Rows::Beams(rows, beams),
-        Geometry {
-            columns,
-            ..Geometry::plain(points)
-        },
-    )
+    beams_impl(points, spec, (rows, beams, columns), PointCells::Drop)
 }
 
 /// Like [`project_beams`], and also records the cell of every point.
@@ -283,17 +273,21 @@ pub fn project_beams_with_point_cells(
     beams: usize,
     columns: Option<&[u16]>,
 ) -> Projection {
+    beams_impl(points, spec, (rows, beams, columns), PointCells::Keep)
+}
+
+fn beams_impl(
+    points: &[Point3],
+    spec: &PgmSpec,
+    (rows, beams, columns): (&[u8], usize, Option<&[u16]>),
+    cells: PointCells,
+) -> Projection {
+    debug_assert!(columns.is_none_or(|c| c.len() == points.len()));
     let geometry = Geometry {
         columns,
         ..Geometry::plain(points)
     };
-    project_impl(
-        points,
-        spec,
-        PointCells::Keep,
-        Rows::Beams(rows, beams),
-        geometry,
-    )
+    project_impl(points, spec, cells, Rows::Beams(rows, beams), geometry)
 }
 
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
