@@ -37,6 +37,15 @@ fn print_topics(bag: &Bag, topics: &[Topic], json: bool) -> anyhow::Result<()> {
     for t in topics {
         println!("{:<w$}  {:<36}  {:>8}", t.name, t.type_name, t.messages);
     }
+    // The frames --sensor-frame can name: the static transforms, each as the pose it gives.
+    let transforms = kitti2pgm::source::tf::read_static(bag)?;
+    if !transforms.is_empty() {
+        println!("\nstatic transforms (/tf_static): child in parent as x,y,z,roll,pitch,yaw");
+        for t in &transforms {
+            let pose = kitti2pgm::sensor::SensorPose::from_isometry(&t.isometry());
+            println!("  {} in {}: {pose}", t.child, t.parent);
+        }
+    }
     Ok(())
 }
 

@@ -263,6 +263,9 @@ def test_unpack_finds_the_sensor_pose_in_the_bag_s_static_transforms(tmp_path):
         ("/tf_static", tf, tf_message(ts, [("lidar_mount", "velodyne", (0.0, 0.0, 0.8), q)]), 2, False),
         ("/points", PC2, mb.pointcloud2(ts, lifted[["x", "y", "z", "intensity"]], 10, "base_link"), 10, True),
     ], ts)
+    r = subprocess.run([BIN, "unpack", str(tmp_path / "bag"), "--list"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "velodyne in lidar_mount: 0.0000,0.0000,0.8000,0.0000,0.0000,0.0000" in r.stdout
     out = tmp_path / "root"
     r = subprocess.run([BIN, "unpack", str(tmp_path / "bag"), "--topic", "/points", "--out", str(out),
                         "--sensor-frame", "velodyne"], capture_output=True, text=True)
