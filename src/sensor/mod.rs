@@ -265,6 +265,18 @@ impl SensorModel {
         self.table.len()
     }
 
+    /// Ouster's frame layout, which its own columns need: an error unless the model is an
+    /// Ouster metadata file's.
+    pub fn ouster_format(&self) -> Result<&ouster::OusterFormat> {
+        self.ouster.as_ref().ok_or_else(|| {
+            Error::Config(format!(
+                "Ouster columns need an Ouster metadata file (.json) as the sensor calibration; \
+                 {} has no Ouster frame layout",
+                self.name
+            ))
+        })
+    }
+
     /// The elevation of `p` seen from its beam's origin, radians.
     #[inline]
     pub fn elevation(&self, p: &Point3, points_to_lidar: &na::Isometry3<f64>) -> f64 {

@@ -28,14 +28,9 @@ pub struct OusterFormat {
     pub pixel_shift_by_row: Vec<i64>,
 }
 
-/// Reads an Ouster metadata JSON; the sensor is named by its `prod_line` (else the file).
+/// Reads an Ouster metadata JSON (the model carries its frame layout,
+/// [`SensorModel::ouster_format`]); the sensor is named by its `prod_line` (else the file).
 pub fn read(path: &Path) -> Result<SensorModel> {
-    let text = fs::read_text(path, Limit::Text)?;
-    parse(&text, path).map(|(m, _)| m)
-}
-
-/// Reads an Ouster metadata JSON with its frame layout.
-pub fn read_with_format(path: &Path) -> Result<(SensorModel, OusterFormat)> {
     let text = fs::read_text(path, Limit::Text)?;
     parse(&text, path)
 }
@@ -120,7 +115,7 @@ fn data_format(root: &Value, path: &Path, beams: usize) -> Result<OusterFormat> 
 }
 
 /// Parses the metadata text of `path`.
-pub fn parse(text: &str, path: &Path) -> Result<(SensorModel, OusterFormat)> {
+pub fn parse(text: &str, path: &Path) -> Result<SensorModel> {
     let root: Value = serde_json::from_str(text).map_err(|e| Error::NotFormat {
         path: path.into(),
         format: "Ouster metadata (JSON)",
@@ -179,17 +174,13 @@ pub fn parse(text: &str, path: &Path) -> Result<(SensorModel, OusterFormat)> {
     let name = field(&root, &["sensor_info"], "prod_line")
         .and_then(Value::as_str)
         .map_or_else(|| file_stem(path), str::to_string);
-    let format = data_format(&root, path, altitude.len())?;
-    Ok((
-        SensorModel {
-            name,
-            table,
-            beam_origin_offset: offset_mm / 1000.0,
-            lidar_to_points,
-            ouster: Some(format.clone()),
-        },
-        format,
-    ))
+    Ok(SensorModel {
+        name,
+        table,
+        beam_origin_offset: offset_mm / 1000.0,
+        lidar_to_points,
+        ouster: Some(data_format(&root, path, altitude.len())?),
+    })
 }
 
 impl OusterFormat {

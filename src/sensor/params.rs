@@ -183,8 +183,7 @@ impl SensorParams {
             }
         };
         if self.ouster_columns {
-            let format = self.ouster_format(&model)?;
-            of.columns = Some(format.columns(&model, points, &of.rows));
+            of.columns = Some(model.ouster_format()?.columns(&model, points, &of.rows));
         }
         Ok(of)
     }
@@ -208,18 +207,8 @@ impl SensorParams {
     /// model is an Ouster metadata file's.
     pub fn with_ouster_columns(mut self) -> Result<SensorParams> {
         self.ouster_columns = true;
-        self.ouster_format(&*self.model()?)?;
+        self.model()?.ouster_format()?;
         Ok(self)
-    }
-
-    fn ouster_format<'m>(&self, model: &'m SensorModel) -> Result<&'m super::ouster::OusterFormat> {
-        model.ouster.as_ref().ok_or_else(|| {
-            Error::Config(format!(
-                "Ouster columns need an Ouster metadata file (.json) as the sensor calibration; \
-                 {} has no Ouster frame layout",
-                self.name
-            ))
-        })
     }
 
     /// Checks that a map of `cols` columns over `fov` can hold this sensor's maps: with Ouster
@@ -228,8 +217,7 @@ impl SensorParams {
         if !self.ouster_columns {
             return Ok(());
         }
-        let model = self.model()?;
-        self.ouster_format(&model)?.check_map(cols, fov)
+        self.model()?.ouster_format()?.check_map(cols, fov)
     }
 
     /// With Ouster columns, the sensor's columns per frame.

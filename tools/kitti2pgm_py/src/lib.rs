@@ -230,13 +230,7 @@ fn project<'py>(
     }
     let own = match (&model, ouster_columns) {
         (_, false) => None,
-        (Some(m), true) => Some(m.ouster.as_ref().ok_or_else(|| {
-            PyValueError::new_err(format!(
-                "ouster_columns needs an Ouster metadata file as sensor; {} has no Ouster frame \
-                 layout",
-                m.name
-            ))
-        })?),
+        (Some(m), true) => Some(m.ouster_format().map_err(py_err)?),
         (None, true) => {
             return Err(PyValueError::new_err(
                 "ouster_columns needs the sensor: sensor=\"<unit's metadata>.json\"",
