@@ -79,7 +79,7 @@ fn print_summary(s: &UnpackSummary) {
 }
 
 pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
-    if super::unpack_nuscenes::is_root(&a.bag) {
+    if kitti2pgm::source::nuscenes::is_root(&a.bag) {
         return super::unpack_nuscenes::run(a, g);
     }
     if a.nuscenes_version.is_some() || !a.scenes.is_empty() {

@@ -9,17 +9,6 @@ use super::Global;
 use crate::cli::UnpackArgs;
 use crate::Outcome;
 
-/// Whether `path` is a nuScenes root (a folder holding a `<version>/sample_data.json`), not a
-/// bag.
-pub fn is_root(path: &std::path::Path) -> bool {
-    path.is_dir()
-        && !path.join("metadata.yaml").exists()
-        && std::fs::read_dir(path).is_ok_and(|d| {
-            d.flatten()
-                .any(|e| e.path().join("sample_data.json").is_file())
-        })
-}
-
 fn print_scenes(ds: &NuScenes, json: bool) -> anyhow::Result<()> {
     let rows: Vec<(String, u32, usize, usize)> = ds
         .scenes

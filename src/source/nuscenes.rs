@@ -199,14 +199,26 @@ impl NuScenes {
     }
 }
 
-/// The one `v1.0-*` folder under `root` with a `sample_data.json`.
-fn only_version(root: &Path) -> Result<String> {
-    let found: Vec<String> = crate::fs::sorted_dir(root)?
+/// The folders under `root` holding a `sample_data.json` (nuScenes' versions: `v1.0-mini`...).
+fn versions(root: &Path) -> Result<Vec<String>> {
+    Ok(crate::fs::sorted_dir(root)?
         .into_iter()
         .filter(|p| p.join("sample_data.json").is_file())
         .filter_map(|p| p.file_name()?.to_str().map(str::to_string))
-        .collect();
-    match found.as_slice() {
+        .collect())
+}
+
+/// Whether `path` is a nuScenes root: a folder (not a ROS 2 bag's, which has a
+/// `metadata.yaml`) holding at least one version of the tables.
+pub fn is_root(path: &Path) -> bool {
+    path.is_dir()
+        && !path.join("metadata.yaml").exists()
+        && versions(path).is_ok_and(|v| !v.is_empty())
+}
+
+/// The one `v1.0-*` folder under `root` with a `sample_data.json`.
+fn only_version(root: &Path) -> Result<String> {
+    match versions(root)?.as_slice() {
         [one] => Ok(one.clone()),
         [] => Err(Error::Input {
             path: root.into(),
