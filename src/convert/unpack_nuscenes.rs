@@ -160,6 +160,9 @@ pub fn unpack_nuscenes(
     for s in scenes {
         let seq = sequence_dir(&opts.out, s);
         create_dir(&seq.join("velodyne"))?;
+        if s.keyframes.iter().any(|k| k.labels.is_some()) {
+            create_dir(&seq.join("labels"))?;
+        }
         let done: Vec<Result<Written>> = s
             .keyframes
             .par_iter()
@@ -244,7 +247,6 @@ fn unpack_frame(k: &Keyframe, seq: &Path, i: usize, d: Durability) -> Result<Wri
                 .flat_map(|&c| u32::from(c).to_le_bytes())
                 .collect();
             let out = seq.join("labels").join(format!("{i:06}.label"));
-            create_dir(&seq.join("labels"))?;
             atomic_write(&out, &raw, d)?;
             Some(out)
         }
