@@ -104,6 +104,25 @@ fn score(args: &[&str]) -> (f64, u64) {
     )
 }
 
+/// `unproject` of the predictions `pred` of the conversion `conv` of `root` into `up` by
+/// `method`, then `score` of `up` against `root`'s labels: (accuracy, points scored).
+fn carried_back(conv: &Path, pred: &Path, root: &Path, up: &Path, method: &str) -> (f64, u64) {
+    ok(&[
+        "unproject",
+        "--gt",
+        s(conv),
+        "--pred",
+        s(pred),
+        "--raw",
+        s(root),
+        "--out",
+        s(up),
+        "--method",
+        method,
+    ]);
+    score(&["--gt", s(root), "--pred", s(up)])
+}
+
 #[test]
 fn split_stats_check_score_unproject_and_preview_work_on_another_sensor_s_root() {
     let t = tmp();
@@ -164,20 +183,7 @@ fn split_stats_check_score_unproject_and_preview_work_on_another_sensor_s_root()
     assert!(acc > 0.999, "{acc}");
     for (method, least) in [("cell", 0.999), ("knn", 0.97)] {
         let up = t.path().join(method);
-        ok(&[
-            "unproject",
-            "--gt",
-            s(&conv),
-            "--pred",
-            s(&pred),
-            "--raw",
-            s(&root),
-            "--out",
-            s(&up),
-            "--method",
-            method,
-        ]);
-        let (acc, n) = score(&["--gt", s(&root), "--pred", s(&up)]);
+        let (acc, n) = carried_back(&conv, &pred, &root, &up, method);
         assert_eq!(n, 2 * 14_831);
         assert!(acc > least, "{method}: {acc}");
     }
@@ -215,20 +221,7 @@ fn unproject_moves_the_points_by_the_sensor_pose_as_convert_did() {
     let pred = t.path().join("pred");
     predictions_from_maps(&conv, &pred);
     let up = t.path().join("up");
-    ok(&[
-        "unproject",
-        "--gt",
-        s(&conv),
-        "--pred",
-        s(&pred),
-        "--raw",
-        s(&root),
-        "--out",
-        s(&up),
-        "--method",
-        "cell",
-    ]);
-    let (acc, n) = score(&["--gt", s(&root), "--pred", s(&up)]);
+    let (acc, n) = carried_back(&conv, &pred, &root, &up, "cell");
     assert_eq!(n, 14_831);
     assert!(acc > 0.999, "{acc}");
 }
