@@ -19,6 +19,7 @@ pub mod ouster;
 pub mod params;
 pub mod pose;
 pub mod presets;
+mod slopes;
 pub mod velodyne;
 
 use std::path::Path;
@@ -30,6 +31,7 @@ pub use pose::SensorPose;
 
 use crate::error::{Error, Result};
 use crate::geom::{na, Degrees, Point3};
+use slopes::Slopes;
 
 /// The most beams a table may have (rows of a map are `u8` ring ids).
 pub const MAX_BEAMS: usize = 256;
@@ -61,37 +63,6 @@ pub struct BeamTable {
     /// The slopes (tangents) of the boundaries between rows k and k + 1, descending, and of
     /// each beam's tolerance band: `nearest` without an arc tangent per point.
     slopes: Slopes,
-}
-
-/// A table's angles as slopes z / horizontal distance (tangents: monotonic in the elevation).
-#[derive(Debug, Clone, PartialEq, Default)]
-struct Slopes {
-    mid: Vec<f64>,
-    low: Vec<f64>,
-    high: Vec<f64>,
-}
-
-impl Slopes {
-    fn new(elevations: &[f64], tolerance: &[f64]) -> Slopes {
-        let half_pi = std::f64::consts::FRAC_PI_2;
-        let tan = |a: f64| match a {
-            a if a >= half_pi => f64::INFINITY,
-            a if a <= -half_pi => f64::NEG_INFINITY,
-            a => a.tan(),
-        };
-        Slopes {
-            mid: elevations
-                .windows(2)
-                .map(|w| tan((w[0] + w[1]) / 2.0))
-                .collect(),
-            low: (0..elevations.len())
-                .map(|i| tan(elevations[i] - tolerance[i]))
-                .collect(),
-            high: (0..elevations.len())
-                .map(|i| tan(elevations[i] + tolerance[i]))
-                .collect(),
-        }
-    }
 }
 
 impl BeamTable {
@@ -209,18 +180,26 @@ impl BeamTable {
     /// (the same row but where rounding decides a point exactly on a boundary; 4x faster).
     #[inline]
     pub fn nearest_slope(&self, z: f64, horizontal: f64) -> (u8, bool) {
-        let t = z / horizontal;
-        if !(horizontal > 0.0 && t.is_finite()) {
-            return self.nearest(z.atan2(horizontal));
+        match slope(z, horizontal) {
+            t if t.is_finite() => self.slopes.row(t),
+            _ => self.nearest(z.atan2(horizontal)),
         }
-        let s = &self.slopes;
-        // Rows descend: the row is the number of boundaries above the point (a point on a
-        // boundary takes the upper row, as `nearest` does), counted without a branch (the
-        // compiler vectorises it; a binary search mispredicted about half of its steps).
-        let row: usize = s.mid.iter().map(|&m| usize::from(m > t)).sum();
-        (row as u8, s.low[row] <= t && t <= s.high[row])
     }
 }
+
+/// The slope `z / horizontal` of a point in front of its beam's origin (`horizontal > 0`); NaN
+/// otherwise, where the arc tangent decides.
+#[inline(always)]
+fn slope(z: f64, horizontal: f64) -> f64 {
+    if horizontal > 0.0 {
+        z / horizontal
+    } else {
+        f64::NAN
+    }
+}
+
+/// Points per block of [`SensorModel::assign`]'s two passes (slopes, vectorised; then rows).
+const BLOCK: usize = 256;
 
 /// Where the points of a cloud are, relative to the beams' origins: Ouster's beams start
 /// `beam_origin_offset` metres off the axis, and its points are in the sensor frame.
@@ -298,21 +277,37 @@ impl SensorModel {
     pub fn assign(&self, points: &[Point3]) -> BeamRows {
         let inverse = self.lidar_to_points.inverse();
         let plain = self.beam_origin_offset == 0.0 && inverse == na::Isometry3::identity();
+        let seen = |p: &Point3| {
+            if plain {
+                let (x, y) = (p.x as f64, p.y as f64);
+                (p.z as f64, (x * x + y * y).sqrt())
+            } else {
+                self.seen_from_beams(p, &inverse)
+            }
+        };
         let mut off_model = 0u64;
-        let rows = points
-            .iter()
-            .map(|p| {
-                let (z, horizontal) = if plain {
-                    let (x, y) = (p.x as f64, p.y as f64);
-                    (p.z as f64, (x * x + y * y).sqrt())
+        let mut rows = vec![0u8; points.len()];
+        let mut slopes = [0f64; BLOCK];
+        for (block, rows) in points.chunks(BLOCK).zip(rows.chunks_mut(BLOCK)) {
+            let slopes = &mut slopes[..block.len()];
+            for (t, p) in slopes.iter_mut().zip(block) {
+                let (z, horizontal) = seen(p);
+                *t = slope(z, horizontal);
+            }
+            // Counted in a local: a count behind a reference was a store-to-load chain.
+            let mut off = 0u64;
+            for ((row, p), &t) in rows.iter_mut().zip(block).zip(slopes.iter()) {
+                let (beam, fits) = if t.is_finite() {
+                    self.table.slopes.row(t)
                 } else {
-                    self.seen_from_beams(p, &inverse)
+                    let (z, horizontal) = seen(p);
+                    self.table.nearest(z.atan2(horizontal))
                 };
-                let (row, fits) = self.table.nearest_slope(z, horizontal);
-                off_model += u64::from(!fits);
-                row
-            })
-            .collect();
+                *row = beam;
+                off += u64::from(!fits);
+            }
+            off_model += off;
+        }
         BeamRows { rows, off_model }
     }
 }
