@@ -20,7 +20,7 @@ use kitti2pgm::label::{ClassMap, Labeller};
 use kitti2pgm::plan::DrivePlan;
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
-use kitti2pgm::project::{project, project_cloud, Augment, Cloud, PgmSpec};
+use kitti2pgm::project::{project, project_beams, project_cloud, Augment, Cloud, PgmSpec};
 use kitti2pgm::source::bag::Bag;
 use kitti2pgm::source::pointcloud2::PointCloud2;
 
@@ -226,6 +226,18 @@ fn read(c: &mut Criterion) {
     g.throughput(Throughput::Elements(scan.len() as u64));
     g.bench_function("assign_pandar40p", |b| {
         b.iter(|| model.assign(black_box(&scan.points)))
+    });
+    // Its projection, one row per beam, 40 x 1024 over 360 degrees (what `convert --sensor
+    // pandar40p --cols 1024` does with the rows).
+    let rows = model.assign(&scan.points).rows;
+    let spec = PgmSpec {
+        rows: 40,
+        cols: 1024,
+        fov: kitti2pgm::geom::Degrees(360.0),
+        ..PgmSpec::default()
+    };
+    g.bench_function("project_pandar40p", |b| {
+        b.iter(|| project_beams(black_box(&scan.points), &spec, &rows, 40, None))
     });
     // The fixture bag's /velodyne_points (the VLP-16 scan twice, one message big-endian, as
     // rosbags serialised them) alone in an uncompressed .mcap (rosbag2's default), read and

@@ -338,8 +338,10 @@ pub(crate) fn project_impl(
         fallback,
     } = row_source(points, spec, rows);
     let ring_ids = ring_ids.as_deref();
-    let mut cell_point = vec![EMPTY; spec.cells()];
-    let mut cell_range = vec![0f32; spec.cells()];
+    // The point kept in each cell as one key, range bits above index: the smallest key is the
+    // nearest point, the first of equally near ones (ranges are finite and >= 0, whose bits
+    // order as their values), kept without a branch.
+    let mut cell_key = vec![u64::MAX; spec.cells()];
     let keep_point_cells = point_cells == PointCells::Keep;
     let mut point_cell = if keep_point_cells {
         vec![EMPTY; points.len()]
@@ -380,12 +382,17 @@ pub(crate) fn project_impl(
             if keep_point_cells {
                 point_cell[i] = c as u32;
             }
-            if cell_point[c] == EMPTY || range < cell_range[c] {
-                cell_point[c] = i as u32;
-                cell_range[c] = range;
-            }
+            let key = (u64::from(range.to_bits()) << 32) | i as u64;
+            cell_key[c] = cell_key[c].min(key);
         }
     }
+    let (cell_point, cell_range): (Vec<u32>, Vec<f32>) = cell_key
+        .iter()
+        .map(|&k| match k {
+            u64::MAX => (EMPTY, 0.0),
+            k => (k as u32, f32::from_bits((k >> 32) as u32)),
+        })
+        .unzip();
     Projection {
         spec: *spec,
         stats: ProjectionStats::count(&cell_point, in_fov, fallback),
