@@ -60,6 +60,12 @@ impl Durability {
 ///
 /// The rename makes the file appear whole or not at all, whatever happens to the process.
 pub fn atomic_write(path: &Path, bytes: &[u8], durability: Durability) -> Result<()> {
+    atomic_write_parts(path, &[bytes], durability)
+}
+
+/// [`atomic_write`] of the concatenation of `parts` (a header and a large body, without copying
+/// them into one buffer first).
+pub fn atomic_write_parts(path: &Path, parts: &[&[u8]], durability: Durability) -> Result<()> {
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -74,7 +80,9 @@ pub fn atomic_write(path: &Path, bytes: &[u8], durability: Durability) -> Result
             path: dir.into(),
             source,
         })?;
-    tmp.write_all(bytes).map_err(werr)?;
+    for part in parts {
+        tmp.write_all(part).map_err(werr)?;
+    }
     durability.flush(tmp.as_file()).map_err(werr)?;
     tmp.persist(path).map_err(|e| werr(e.error))?;
     Ok(())

@@ -27,15 +27,19 @@ pub struct PgmFile {
 
 /// The `.npy` bytes of a converted frame.
 pub fn encode(frame: &PgmFrame) -> Vec<u8> {
-    npy::encode_f32(
-        &[frame.rows as u64, frame.cols as u64, frame.depth() as u64],
-        &frame.data,
-    )
+    npy::encode_f32(&shape(frame), &frame.data)
 }
 
-/// Writes a converted frame to `path`, atomically.
+/// Writes a converted frame to `path`, atomically: the bytes of [`encode`], written without
+/// copying the map into them first.
 pub fn write(path: &Path, frame: &PgmFrame, durability: super::Durability) -> Result<()> {
-    super::atomic_write(path, &encode(frame), durability)
+    let (header, body) = npy::parts_f32(&shape(frame), &frame.data);
+    super::atomic_write_parts(path, &[&header, &body], durability)
+}
+
+/// The `.npy` shape of a converted frame: H x W x C.
+fn shape(frame: &PgmFrame) -> [u64; 3] {
+    [frame.rows as u64, frame.cols as u64, frame.depth() as u64]
 }
 
 /// Reads a map: H x W x 6 or 9, any numeric dtype.

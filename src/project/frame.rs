@@ -99,22 +99,27 @@ pub fn assemble(
     let mut instance = vec![0u16; cells];
     let mut mask = vec![0u8; cells];
     let mut rgb_valid = colour.map(|_| vec![0u8; cells]);
-    for (c, &pi) in proj.cell_point.iter().enumerate() {
+    let per_cell = data
+        .chunks_exact_mut(depth)
+        .zip(&mut label)
+        .zip(&mut instance)
+        .zip(&mut mask)
+        .zip(proj.cell_point.iter().zip(&proj.cell_range))
+        .enumerate();
+    for (c, ((((out, label), instance), mask), (&pi, &range))) in per_cell {
         if pi == EMPTY {
             continue;
         }
         let i = pi as usize;
         let p = &values.points[i];
-        let range = proj.cell_range[c];
-        let out = &mut data[c * depth..(c + 1) * depth];
         let class = values.class[i];
         out[x..x + 3].copy_from_slice(&[p.x, p.y, p.z]);
         out[intensity] = values.intensity[i];
         out[range_at] = range;
         out[label_at] = class as f32;
-        label[c] = class;
-        instance[c] = values.instance[i];
-        mask[c] = (range > 0.0) as u8;
+        *label = class;
+        *instance = values.instance[i];
+        *mask = (range > 0.0) as u8;
         if let (Some(f), Some(valid), Some(r)) = (colour, rgb_valid.as_mut(), rgb_at) {
             if let Some(rgb) = f(i) {
                 out[r..r + 3].copy_from_slice(&rgb);
