@@ -46,7 +46,10 @@ impl PointLayout {
             // u8 and u16 ids are beam ids as they are; other types are checked point by point.
             out.ring = Some(if matches!(r.1, FieldType::U8 | FieldType::U16) {
                 let v: Vec<u16> = column(recs, self.step, r, be, |v| v as u16);
-                kept(&out.dropped, n, |i| v[i])
+                match out.dropped.is_empty() {
+                    true => v,
+                    false => kept(&out.dropped, n, |i| v[i]),
+                }
             } else {
                 let v = column(recs, self.step, r, be, |v| v);
                 kept_rings(&v, &out.dropped, path)?
@@ -62,22 +65,35 @@ impl PointLayout {
 fn xyz_points(recs: &[u8], step: usize, xyz: [(usize, FieldType); 3], be: bool) -> Vec<Point3> {
     let [(ox, tx), (oy, ty), (oz, tz)] = xyz;
     if [tx, ty, tz] == [FieldType::F32; 3] {
-        let f = |r: &[u8], o: usize| -> f32 {
-            let b: [u8; 4] = r[o..o + 4].try_into().expect("inside the record");
-            if be {
-                f32::from_be_bytes(b)
-            } else {
-                f32::from_le_bytes(b)
-            }
+        // The byte order decided once, not per value (it cost a select and a swap a value).
+        return if be {
+            xyz_f32::<true>(recs, step, [ox, oy, oz])
+        } else {
+            xyz_f32::<false>(recs, step, [ox, oy, oz])
         };
-        return recs
-            .chunks_exact(step)
-            .map(|r| Point3::new(f(r, ox), f(r, oy), f(r, oz)))
-            .collect();
     }
     let [x, y, z] = xyz.map(|r| column(recs, step, r, be, |v| v as f32));
     (0..x.len())
         .map(|i| Point3::new(x[i], y[i], z[i]))
+        .collect()
+}
+
+/// Float32 coordinates at byte offsets `off` of each record of `step` bytes, big-endian if `BE`.
+fn xyz_f32<const BE: bool>(recs: &[u8], step: usize, off: [usize; 3]) -> Vec<Point3> {
+    assert!(
+        off.iter().all(|&o| o + 4 <= step),
+        "coordinates inside the record"
+    );
+    let f = |r: &[u8], o: usize| -> f32 {
+        let b: [u8; 4] = r[o..o + 4].try_into().expect("inside the record");
+        if BE {
+            f32::from_be_bytes(b)
+        } else {
+            f32::from_le_bytes(b)
+        }
+    };
+    recs.chunks_exact(step)
+        .map(|r| Point3::new(f(r, off[0]), f(r, off[1]), f(r, off[2])))
         .collect()
 }
 
