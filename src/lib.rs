@@ -24,6 +24,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod alloc;
 pub mod check;
 pub mod convert;
 pub mod draw;

@@ -16,19 +16,6 @@ use clap::Parser;
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
-/// mimalloc's purging, set for frame-sized buffers: every frame frees and allocates the same
-/// 0.5-2 MB again. With its defaults (freed memory decommitted after 10 ms) the kernel faulted in
-/// and cleared fresh pages, often 2 MB huge ones, frame after frame: 37,000 page faults for 300
-/// Pandar40P frames on one thread, page clearing 8-15% of the profile on two. Kept a second, and
-/// then reset (the kernel may take the pages when it needs them; untaken, they are reused as they
-/// are) instead of decommitted: 230 faults, page clearing under 1%.
-const ALLOCATOR_OPTIONS: [(libmimalloc_sys::mi_option_t, std::ffi::c_long); 2] = [
-    // `mi_option_purge_delay` (15 in mimalloc's v2 and v3 headers; the bindings do not name it).
-    (15, 1000),
-    // `mi_option_purge_decommits` (5): 0 = purge by resetting.
-    (5, 0),
-];
-
 /// How a command ended, when it did not fail outright.
 pub enum Outcome {
     /// Everything done.
@@ -50,10 +37,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    // SAFETY: sets plain integer options; mimalloc reads its options lazily, any time.
-    for (option, value) in ALLOCATOR_OPTIONS {
-        unsafe { libmimalloc_sys::mi_option_set(option, value) };
-    }
+    kitti2pgm::alloc::tune_mimalloc();
     let args = cli::Args::parse();
     let json = args.json();
     match commands::run(args) {

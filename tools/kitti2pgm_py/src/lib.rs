@@ -520,6 +520,7 @@ fn stats_into(
 #[pymodule]
 #[pyo3(name = "kitti2pgm")]
 fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    kitti2pgm::alloc::tune_mimalloc();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("LASERS", kitti2pgm::project::LASERS)?;
     let sensors = PyDict::new(m.py());
