@@ -386,13 +386,15 @@ pub(crate) fn project_impl(
             cell_key[c] = cell_key[c].min(key);
         }
     }
-    let (cell_point, cell_range): (Vec<u32>, Vec<f32>) = cell_key
+    // An empty cell's key is all ones: its low half is EMPTY already.
+    let cell_point: Vec<u32> = cell_key.iter().map(|&k| k as u32).collect();
+    let cell_range: Vec<f32> = cell_key
         .iter()
         .map(|&k| match k {
-            u64::MAX => (EMPTY, 0.0),
-            k => (k as u32, f32::from_bits((k >> 32) as u32)),
+            u64::MAX => 0.0,
+            k => f32::from_bits((k >> 32) as u32),
         })
-        .unzip();
+        .collect();
     Projection {
         spec: *spec,
         stats: ProjectionStats::count(&cell_point, in_fov, fallback),
