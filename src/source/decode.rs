@@ -92,8 +92,27 @@ fn xyz_f32<const BE: bool>(recs: &[u8], step: usize, off: [usize; 3]) -> Vec<Poi
             f32::from_le_bytes(b)
         }
     };
+    let [ox, oy, oz] = off;
+    if oy == ox + 4 && oz == ox + 8 {
+        // x, y, z side by side (nearly every driver): one 12-byte read and one bounds test.
+        let word = |b: &[u8]| -> f32 {
+            let b: [u8; 4] = b.try_into().expect("four bytes");
+            if BE {
+                f32::from_be_bytes(b)
+            } else {
+                f32::from_le_bytes(b)
+            }
+        };
+        return recs
+            .chunks_exact(step)
+            .map(|r| {
+                let xyz: &[u8; 12] = r[ox..ox + 12].try_into().expect("inside the record");
+                Point3::new(word(&xyz[..4]), word(&xyz[4..8]), word(&xyz[8..]))
+            })
+            .collect();
+    }
     recs.chunks_exact(step)
-        .map(|r| Point3::new(f(r, off[0]), f(r, off[1]), f(r, off[2])))
+        .map(|r| Point3::new(f(r, ox), f(r, oy), f(r, oz)))
         .collect()
 }
 
