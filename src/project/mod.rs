@@ -386,15 +386,7 @@ pub(crate) fn project_impl(
             cell_key[c] = cell_key[c].min(key);
         }
     }
-    // An empty cell's key is all ones: its low half is EMPTY already.
-    let cell_point: Vec<u32> = cell_key.iter().map(|&k| k as u32).collect();
-    let cell_range: Vec<f32> = cell_key
-        .iter()
-        .map(|&k| match k {
-            u64::MAX => 0.0,
-            k => f32::from_bits((k >> 32) as u32),
-        })
-        .collect();
+    let (cell_point, cell_range) = split_keys(&cell_key);
     Projection {
         spec: *spec,
         stats: ProjectionStats::count(&cell_point, in_fov, fallback),
@@ -403,6 +395,20 @@ pub(crate) fn project_impl(
         point_cell,
         rings_found,
     }
+}
+
+/// The point and the range of every cell from its key (range bits above point index; all ones
+/// for an empty cell, whose low half is [`EMPTY`] already).
+fn split_keys(cell_key: &[u64]) -> (Vec<u32>, Vec<f32>) {
+    let point = cell_key.iter().map(|&k| k as u32).collect();
+    let range = cell_key
+        .iter()
+        .map(|&k| match k {
+            u64::MAX => 0.0,
+            k => f32::from_bits((k >> 32) as u32),
+        })
+        .collect();
+    (point, range)
 }
 
 impl ProjectionStats {
