@@ -35,21 +35,12 @@ impl PointLayout {
             .map(|r| column(recs, self.step, r, be, |v| v as f32));
         let mut out = LidarCloud::with_capacity(0, intensity.is_some(), false);
         (out.dropped, out.dropped_out_of_range) = dropped(&points, intensity.as_deref());
-        let inten = intensity.unwrap_or_else(|| vec![0.0; n]);
-        if out.dropped.is_empty() {
-            (out.points, out.intensity) = (points, inten);
-        } else {
-            out.points = kept(&out.dropped, n, |i| points[i]);
-            out.intensity = kept(&out.dropped, n, |i| inten[i]);
-        }
+        out.points = keep(&out.dropped, points);
+        out.intensity = keep(&out.dropped, intensity.unwrap_or_else(|| vec![0.0; n]));
         if let Some(r) = roles.ring {
             // u8 and u16 ids are beam ids as they are; other types are checked point by point.
             out.ring = Some(if matches!(r.1, FieldType::U8 | FieldType::U16) {
-                let v: Vec<u16> = column(recs, self.step, r, be, |v| v as u16);
-                match out.dropped.is_empty() {
-                    true => v,
-                    false => kept(&out.dropped, n, |i| v[i]),
-                }
+                keep(&out.dropped, column(recs, self.step, r, be, |v| v as u16))
             } else {
                 let v = column(recs, self.step, r, be, |v| v);
                 kept_rings(&v, &out.dropped, path)?
@@ -84,8 +75,8 @@ fn xyz_f32<const BE: bool>(recs: &[u8], step: usize, off: [usize; 3]) -> Vec<Poi
         off.iter().all(|&o| o + 4 <= step),
         "coordinates inside the record"
     );
-    let f = |r: &[u8], o: usize| -> f32 {
-        let b: [u8; 4] = r[o..o + 4].try_into().expect("inside the record");
+    let word = |b: &[u8]| -> f32 {
+        let b: [u8; 4] = b.try_into().expect("four bytes");
         if BE {
             f32::from_be_bytes(b)
         } else {
@@ -95,14 +86,6 @@ fn xyz_f32<const BE: bool>(recs: &[u8], step: usize, off: [usize; 3]) -> Vec<Poi
     let [ox, oy, oz] = off;
     if oy == ox + 4 && oz == ox + 8 {
         // x, y, z side by side (nearly every driver): one 12-byte read and one bounds test.
-        let word = |b: &[u8]| -> f32 {
-            let b: [u8; 4] = b.try_into().expect("four bytes");
-            if BE {
-                f32::from_be_bytes(b)
-            } else {
-                f32::from_le_bytes(b)
-            }
-        };
         return recs
             .chunks_exact(step)
             .map(|r| {
@@ -111,6 +94,7 @@ fn xyz_f32<const BE: bool>(recs: &[u8], step: usize, off: [usize; 3]) -> Vec<Poi
             })
             .collect();
     }
+    let f = |r: &[u8], o: usize| word(&r[o..o + 4]);
     recs.chunks_exact(step)
         .map(|r| Point3::new(f(r, ox), f(r, oy), f(r, oz)))
         .collect()
@@ -186,6 +170,14 @@ fn column<T>(
         FieldType::F32 => col!(f32),
         FieldType::F64 => col!(f64),
     }
+}
+
+/// The values of `v` but those at the ascending indices `dropped`: `v` itself when none is.
+fn keep<T: Copy>(dropped: &[u32], v: Vec<T>) -> Vec<T> {
+    if dropped.is_empty() {
+        return v;
+    }
+    kept(dropped, v.len(), |i| v[i])
 }
 
 /// `f(i)` for every `i` in `0..n` but the ascending `dropped`.
