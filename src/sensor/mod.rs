@@ -180,9 +180,18 @@ impl BeamTable {
     /// (the same row but where rounding decides a point exactly on a boundary; 4x faster).
     #[inline]
     pub fn nearest_slope(&self, z: f64, horizontal: f64) -> (u8, bool) {
-        match slope(z, horizontal) {
-            t if t.is_finite() => self.slopes.row(t),
-            _ => self.nearest(z.atan2(horizontal)),
+        self.nearest_at_slope(slope(z, horizontal), || (z, horizontal))
+    }
+
+    /// The row of slope `t` ([`slope`]) of a point whose height and horizontal distance
+    /// `seen` gives: by the slope where it is finite, else by the arc tangent.
+    #[inline(always)]
+    fn nearest_at_slope(&self, t: f64, seen: impl FnOnce() -> (f64, f64)) -> (u8, bool) {
+        if t.is_finite() {
+            self.slopes.row(t)
+        } else {
+            let (z, horizontal) = seen();
+            self.nearest(z.atan2(horizontal))
         }
     }
 }
@@ -297,12 +306,7 @@ impl SensorModel {
             // Counted in a local: a count behind a reference was a store-to-load chain.
             let mut off = 0u64;
             for ((row, p), &t) in rows.iter_mut().zip(block).zip(slopes.iter()) {
-                let (beam, fits) = if t.is_finite() {
-                    self.table.slopes.row(t)
-                } else {
-                    let (z, horizontal) = seen(p);
-                    self.table.nearest(z.atan2(horizontal))
-                };
+                let (beam, fits) = self.table.nearest_at_slope(t, || seen(p));
                 *row = beam;
                 off += u64::from(!fits);
             }
