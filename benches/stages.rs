@@ -21,7 +21,7 @@ use kitti2pgm::plan::DrivePlan;
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
 use kitti2pgm::project::{project, project_beams, project_cloud, Augment, Cloud, PgmSpec};
-use kitti2pgm::source::bag::Bag;
+use kitti2pgm::source::bag::{Bag, MessageRef};
 use kitti2pgm::source::pointcloud2::PointCloud2;
 
 /// The same allocator as the binary, so that stage costs match what `convert` pays.
@@ -252,14 +252,11 @@ fn read(c: &mut Criterion) {
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut points = 0;
-                for m in bag.messages(black_box("/velodyne_points")) {
-                    let m = m.unwrap();
-                    let what = std::path::Path::new("bag");
-                    let cloud = PointCloud2::decode(&m.data, what)
-                        .unwrap()
-                        .cloud(what)
-                        .unwrap();
-                    points += cloud.len();
+                let mut messages = bag.messages(black_box("/velodyne_points"));
+                let what = std::path::Path::new("bag");
+                let decode = |m: MessageRef<'_>| PointCloud2::decode(m.data, what)?.cloud(what);
+                while let Some(cloud) = messages.next_with(decode) {
+                    points += cloud.unwrap().unwrap().len();
                 }
                 points
             })

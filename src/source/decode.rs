@@ -103,6 +103,9 @@ fn xyz_f32<const BE: bool>(recs: &[u8], step: usize, off: [usize; 3]) -> Vec<Poi
 /// The file indices of the points to drop (a non-finite coordinate or intensity, or beyond
 /// [`MAX_RANGE_M`]), ascending, and how many of them are finite but too far.
 fn dropped(points: &[Point3], intensity: Option<&[f32]>) -> (Vec<u32>, usize) {
+    if surely_none_dropped(points, intensity) {
+        return (Vec::new(), 0);
+    }
     let far2 = (MAX_RANGE_M as f64).powi(2);
     let r2 = |p: &Point3| (p.x as f64).powi(2) + (p.y as f64).powi(2) + (p.z as f64).powi(2);
     let inten_ok = |i: usize| intensity.is_none_or(|v| v[i].is_finite());
@@ -132,6 +135,25 @@ fn dropped(points: &[Point3], intensity: Option<&[f32]>) -> (Vec<u32>, usize) {
         }
     }
     out
+}
+
+/// Whether every point is finite and surely within [`MAX_RANGE_M`] (and every intensity
+/// finite), decided in single precision: twice the lanes of the exact double-precision test,
+/// which runs only when this one cannot tell. Its squared range is within a few units in the
+/// last place of the exact one, far inside the 0.1% margin; a NaN, or a square that overflows to
+/// infinity, fails the comparison.
+fn surely_none_dropped(points: &[Point3], intensity: Option<&[f32]>) -> bool {
+    let near2 = MAX_RANGE_M * MAX_RANGE_M * 0.999;
+    // Not "within": a NaN fails it.
+    let near = |p: &Point3| (p.x * p.x + p.y * p.y + p.z * p.z <= near2) as usize;
+    match intensity {
+        Some(v) => {
+            let near = points.iter().map(near).sum::<usize>();
+            let finite = v.iter().map(|i| i.is_finite() as usize).sum::<usize>();
+            near == points.len() && finite == v.len()
+        }
+        None => points.iter().map(near).sum::<usize>() == points.len(),
+    }
 }
 
 /// One field of `n` records as `T`: a loop per scalar type and byte order; each value goes
@@ -273,6 +295,33 @@ mod tests {
         assert!(layout.decode(&data, 1, p).is_err());
         let data = records(&[[1.0, 0.0, 0.0, 65536.0]]);
         assert!(layout.decode(&data, 1, p).is_err());
+    }
+
+    #[test]
+    fn the_single_precision_pretest_never_decides_otherwise_than_the_exact_one() {
+        let p = |x: f32, y: f32, z: f32| Point3::new(x, y, z);
+        let cases = [
+            (vec![p(1.0, 2.0, 3.0), p(-300.0, 350.0, 20.0)], true),
+            // Within 0.1% of the limit the exact test decides: kept at 500 m exactly.
+            (vec![p(500.0, 0.0, 0.0), p(0.0, -499.9, 0.0)], false),
+            (vec![p(500.001, 0.0, 0.0)], false),
+            (vec![p(f32::INFINITY, 0.0, 0.0)], false),
+            (vec![p(1e30, 0.0, 0.0)], false),
+            (vec![p(0.0, f32::NAN, 0.0)], false),
+        ];
+        for (points, surely) in cases {
+            assert_eq!(surely_none_dropped(&points, None), surely, "{points:?}");
+            let exact = dropped(&points, None).0.is_empty();
+            assert!(!surely || exact, "{points:?}");
+        }
+        let at_limit = [p(500.0, 0.0, 0.0), p(300.0, 400.0, 0.0)];
+        assert_eq!(dropped(&at_limit, None), (vec![], 0));
+        let far = [p(1.0, 0.0, 0.0), p(300.0, 400.001, 0.0)];
+        assert_eq!(dropped(&far, None), (vec![1], 1));
+        let fine = [p(1.0, 0.0, 0.0)];
+        assert!(surely_none_dropped(&fine, Some(&[7.0])));
+        assert!(!surely_none_dropped(&fine, Some(&[f32::NAN])));
+        assert_eq!(dropped(&fine, Some(&[f32::INFINITY])), (vec![0], 0));
     }
 
     #[test]

@@ -467,3 +467,97 @@ fn check_warns_when_the_points_are_not_in_the_sensor_s_frame() {
         "{out}"
     );
 }
+
+/// `messages` on `/points` in a bare `.mcap` written with `options` (chunks compressed or not,
+/// or no chunks).
+fn write_mcap_with(path: &Path, messages: &[Vec<u8>], options: mcap::WriteOptions) {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut w = options.create(file).unwrap();
+    let schema = w
+        .add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"")
+        .unwrap();
+    let ch = w
+        .add_channel(schema, "/points", "cdr", &Default::default())
+        .unwrap();
+    for (i, m) in messages.iter().enumerate() {
+        let header = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: 10 * i as u64,
+            publish_time: i as u64,
+        };
+        w.write_to_known_channel(&header, m).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn every_chunk_layout_reads_the_same_messages_and_damage_is_named() {
+    let t = tmp();
+    let messages: Vec<Vec<u8>> = (0..12).map(|i| cdr_cloud(300 + i, 16, i as i32)).collect();
+    let layouts = [
+        ("plain", mcap::WriteOptions::new().compression(None)),
+        (
+            "zstd",
+            mcap::WriteOptions::new().compression(Some(mcap::Compression::Zstd)),
+        ),
+        (
+            "lz4",
+            mcap::WriteOptions::new().compression(Some(mcap::Compression::Lz4)),
+        ),
+        ("unchunked", mcap::WriteOptions::new().use_chunks(false)),
+        // Small chunks: several messages, and several chunks, one after the other.
+        (
+            "small",
+            mcap::WriteOptions::new()
+                .compression(None)
+                .chunk_size(Some(4000)),
+        ),
+    ];
+    for (name, options) in layouts {
+        let path = t.path().join(format!("{name}.mcap"));
+        write_mcap_with(&path, &messages, options);
+        let bag = Bag::open(&path).unwrap();
+        let read: Vec<_> = bag.messages("/points").map(|m| m.unwrap()).collect();
+        assert_eq!(read.len(), messages.len(), "{name}");
+        for (i, (m, want)) in read.iter().zip(&messages).enumerate() {
+            assert_eq!((m.index, m.log_time), (i as u64, 10 * i as u64), "{name}");
+            assert_eq!(&m.data, want, "{name} message {i}");
+            assert_eq!(m.file, path);
+        }
+        // Read in place, message by message, the same bytes.
+        let mut stream = bag.messages("/points");
+        let mut i = 0;
+        while let Some(same) = stream.next_with(|m| m.data == messages[i]) {
+            assert!(same.unwrap(), "{name} message {i}");
+            i += 1;
+        }
+        assert_eq!(i, messages.len());
+        assert!(stream.next_with(|_| ()).is_none());
+    }
+    // A flipped byte inside a compressed chunk fails its CRC: the error names the file, and
+    // the stream ends there.
+    let zstd = std::fs::read(t.path().join("zstd.mcap")).unwrap();
+    let mut bad = zstd.clone();
+    let at = bad.len() / 3;
+    bad[at] ^= 0x40;
+    let damaged = t.path().join("damaged.mcap");
+    std::fs::write(&damaged, &bad).unwrap();
+    let results: Vec<_> = Bag::open(&damaged).unwrap().messages("/points").collect();
+    let e = results.last().unwrap().as_ref().unwrap_err().to_string();
+    assert!(e.contains("damaged.mcap"), "{e}");
+    assert!(results[..results.len() - 1].iter().all(|r| r.is_ok()));
+    // Not MCAP at all.
+    let text = t.path().join("notes.mcap");
+    std::fs::write(&text, "not a bag").unwrap();
+    let e = Bag::open(&text)
+        .unwrap()
+        .messages("/points")
+        .next()
+        .unwrap()
+        .unwrap_err();
+    assert!(
+        e.to_string().contains("notes.mcap") && e.to_string().contains("MCAP magic"),
+        "{e}"
+    );
+}

@@ -56,15 +56,17 @@ impl BagFrames {
 
     fn __next__<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let decoded = py.detach(|| {
-            let next = self.messages.lock().expect("not poisoned").next()?;
-            Some(next.and_then(|m| {
+            // Decoded where the reader holds it (not copied out first).
+            let mut messages = self.messages.lock().expect("not poisoned");
+            let next = messages.next_with(|m| {
                 let what = m
                     .file
                     .join(format!("message {} of {}", m.index, self.topic));
-                let msg = PointCloud2::decode(&m.data, &what)?;
+                let msg = PointCloud2::decode(m.data, &what)?;
                 let cloud = msg.cloud(&what)?;
                 Ok((m.index, msg.stamp, msg.frame_id.clone(), cloud))
-            }))
+            })?;
+            Some(next.and_then(|decoded| decoded))
         });
         let Some(decoded) = decoded else {
             return Ok(None);

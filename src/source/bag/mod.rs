@@ -1,20 +1,24 @@
 //! ROS 2 bags stored as MCAP: a bag directory (rosbag2's `metadata.yaml` naming its `.mcap`
-//! files, read in that order) or a bare `.mcap` file. Messages are streamed from the file (the
-//! MCAP library's linear reader, chunks decompressed one at a time), so memory holds one chunk
-//! and one message whatever the bag's size; the topic list comes from the summary section, or
-//! from one pass over the file when it has none (an unfinished recording).
+//! files, read in that order) or a bare `.mcap` file. Messages are read where they lie in the
+//! mapped file ([`records`]: an uncompressed chunk's messages are not copied, a compressed chunk
+//! is decompressed whole, the pages passed are given back), so memory holds one chunk and one
+//! message whatever the bag's size; the topic list comes from the summary section, or from one
+//! pass over the file when it has none (an unfinished recording).
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::{Read, Seek};
 use std::path::{Path, PathBuf};
 
-use mcap::records::op;
-use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader};
+use mcap::records::Record;
 use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
+
+use records::Records;
 
 use crate::error::{Error, Result};
 use crate::fs::{self, Limit};
+
+mod records;
 
 /// A topic of a bag.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -27,6 +31,31 @@ pub struct Topic {
     pub encoding: String,
     /// Messages on it, over all the bag's files.
     pub messages: u64,
+}
+
+/// One message as read, borrowed from the reader's buffer (see [`Messages::next_with`]).
+#[derive(Debug, Clone, Copy)]
+pub struct MessageRef<'a> {
+    /// Its place among the topic's messages, from 0.
+    pub index: u64,
+    /// When the recorder received it (nanoseconds).
+    pub log_time: u64,
+    /// The serialised message.
+    pub data: &'a [u8],
+    /// The `.mcap` file it came from.
+    pub file: &'a Path,
+}
+
+impl MessageRef<'_> {
+    /// The message copied out of the reader.
+    pub fn to_owned(&self) -> BagMessage {
+        BagMessage {
+            index: self.index,
+            log_time: self.log_time,
+            data: self.data.to_vec(),
+            file: self.file.into(),
+        }
+    }
 }
 
 /// One message as read.
@@ -269,29 +298,31 @@ fn read_summary(path: &Path) -> Result<Option<mcap::Summary>> {
 fn scanned_topics(path: &Path) -> Result<Vec<Topic>> {
     let mut schemas: HashMap<u16, String> = HashMap::new();
     let mut topics: HashMap<u16, Topic> = HashMap::new();
-    let read = each_record(path, |opcode, data| {
-        let record = mcap::parse_record(opcode, data);
-        match record.map_err(|e| Error::mcap(path, "a record", e))? {
-            mcap::records::Record::Schema { header, .. } => {
-                schemas.insert(header.id, header.name);
-            }
-            mcap::records::Record::Channel(c) => {
-                topics.insert(
-                    c.id,
-                    Topic {
-                        name: c.topic,
-                        type_name: schemas.get(&c.schema_id).cloned().unwrap_or_default(),
-                        encoding: c.message_encoding,
-                        messages: 0,
-                    },
-                );
-            }
-            mcap::records::Record::Message { header, .. } => {
-                if let Some(t) = topics.get_mut(&header.channel_id) {
-                    t.messages += 1;
+    let read = Records::open(path).and_then(|mut records| {
+        while let Some(record) = records.next(&|| "counting the topics".into())? {
+            match record {
+                Record::Schema { header, .. } => {
+                    schemas.insert(header.id, header.name);
                 }
+                Record::Channel(c) => {
+                    let type_name = schemas.get(&c.schema_id).cloned().unwrap_or_default();
+                    topics.insert(
+                        c.id,
+                        Topic {
+                            name: c.topic,
+                            type_name,
+                            encoding: c.message_encoding,
+                            messages: 0,
+                        },
+                    );
+                }
+                Record::Message { header, .. } => {
+                    if let Some(t) = topics.get_mut(&header.channel_id) {
+                        t.messages += 1;
+                    }
+                }
+                _ => {}
             }
-            _ => {}
         }
         Ok(())
     });
@@ -301,29 +332,13 @@ fn scanned_topics(path: &Path) -> Result<Vec<Topic>> {
     }
 }
 
-/// Calls `each` with every record of the file, chunks opened.
-fn each_record(path: &Path, mut each: impl FnMut(u8, &[u8]) -> Result<()>) -> Result<()> {
-    let (mut file, _) = fs::open(path)?;
-    let mut reader = LinearReader::new();
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| Error::mcap(path, "reading", e))? {
-            LinearReadEvent::ReadRequest(n) => {
-                let got = fill(&mut file, reader.insert(n), path)?;
-                reader.notify_read(got);
-            }
-            LinearReadEvent::Record { opcode, data } => each(opcode, data)?,
-        }
-    }
-    Ok(())
-}
-
 /// The messages of one topic, streamed file by file (see [`Bag::messages`]). An error ends the
 /// stream after the messages read before it.
 pub struct Messages {
     files: Vec<PathBuf>,
     topic: String,
     next_file: usize,
-    open: Option<(File, LinearReader, PathBuf)>,
+    open: Option<Records>,
     /// Channel ids of the open file: whether each is on the topic.
     ours: HashMap<u16, bool>,
     index: u64,
@@ -331,60 +346,54 @@ pub struct Messages {
 }
 
 impl Messages {
-    /// The next record of the open file (opening the next file as needed): `None` at the end.
-    fn step(&mut self) -> Result<Option<BagMessage>> {
-        let Some((file, reader, path)) = self.open.as_mut() else {
-            let Some(path) = self.files.get(self.next_file) else {
-                self.done = true;
-                return Ok(None);
-            };
-            self.next_file += 1;
-            let (file, _) = fs::open(path)?;
-            self.open = Some((file, LinearReader::new(), path.clone()));
-            self.ours.clear();
-            return self.step();
-        };
+    /// Calls `f` with the next message, borrowed from the reader's buffer (a message decoded
+    /// in place is not copied out first): `None` at the end of the topic. An error ends the
+    /// stream after the messages read before it.
+    pub fn next_with<T>(&mut self, f: impl FnOnce(MessageRef<'_>) -> T) -> Option<Result<T>> {
+        if self.done {
+            return None;
+        }
+        let out = self.step(f);
+        if out.is_err() {
+            self.done = true;
+        }
+        out.transpose()
+    }
+
+    /// The next message of the topic (opening the next file as needed) given to `f`: `None` at
+    /// the end.
+    fn step<T>(&mut self, f: impl FnOnce(MessageRef<'_>) -> T) -> Result<Option<T>> {
         loop {
-            let context = || format!("reading after message {} of {}", self.index, self.topic);
-            let event = match reader.next_event() {
-                None => {
-                    self.open = None;
-                    return self.step();
-                }
-                Some(e) => e.map_err(|e| Error::mcap(&*path, context(), e))?,
+            let Some(records) = self.open.as_mut() else {
+                let Some(path) = self.files.get(self.next_file) else {
+                    self.done = true;
+                    return Ok(None);
+                };
+                self.next_file += 1;
+                self.open = Some(Records::open(path)?);
+                self.ours.clear();
+                continue;
             };
-            match event {
-                LinearReadEvent::ReadRequest(n) => {
-                    let got = fill(file, reader.insert(n), path)?;
-                    reader.notify_read(got);
+            let context = || format!("reading after message {} of {}", self.index, self.topic);
+            let path = &self.files[self.next_file - 1];
+            match records.next(&context)? {
+                None => self.open = None,
+                Some(Record::Channel(c)) => {
+                    self.ours.insert(c.id, c.topic == self.topic);
                 }
-                LinearReadEvent::Record { opcode, data } if opcode == op::CHANNEL => {
-                    let record = mcap::parse_record(opcode, data);
-                    if let mcap::records::Record::Channel(c) =
-                        record.map_err(|e| Error::mcap(&*path, context(), e))?
-                    {
-                        self.ours.insert(c.id, c.topic == self.topic);
-                    }
-                }
-                LinearReadEvent::Record { opcode, data } if opcode == op::MESSAGE => {
-                    let record = mcap::parse_record(opcode, data);
-                    let mcap::records::Record::Message { header, data } =
-                        record.map_err(|e| Error::mcap(&*path, context(), e))?
-                    else {
-                        continue;
-                    };
+                Some(Record::Message { header, data }) => {
                     if self.ours.get(&header.channel_id) == Some(&true) {
-                        let m = BagMessage {
+                        let out = f(MessageRef {
                             index: self.index,
                             log_time: header.log_time,
-                            data: data.into_owned(),
-                            file: path.clone(),
-                        };
+                            data: &data,
+                            file: path,
+                        });
                         self.index += 1;
-                        return Ok(Some(m));
+                        return Ok(Some(out));
                     }
                 }
-                LinearReadEvent::Record { .. } => {}
+                Some(_) => {}
             }
         }
     }
@@ -394,13 +403,6 @@ impl Iterator for Messages {
     type Item = Result<BagMessage>;
 
     fn next(&mut self) -> Option<Result<BagMessage>> {
-        if self.done {
-            return None;
-        }
-        let out = self.step();
-        if out.is_err() {
-            self.done = true;
-        }
-        out.transpose()
+        self.next_with(|m| m.to_owned())
     }
 }
