@@ -35,6 +35,12 @@ pub fn discover_all(root: &Path) -> Result<Discovery> {
 /// one sequence folder `<NN>` with `velodyne/`), or the object set (a root with `training/`
 /// and/or `testing/`: `training/` is taken when both are there; or one split folder).
 pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
+    if let Some(how) = crate::source::needs_unpack(root) {
+        return Err(Error::Input {
+            path: root.into(),
+            message: how,
+        });
+    }
     if !root.is_dir() {
         return Err(Error::Input {
             path: root.into(),

@@ -27,6 +27,59 @@ use crate::geom::Point3;
 
 pub use fields::{Field, FieldType, PointLayout};
 
+/// What to do with `path` when it is a recording that `convert` does not read as it is (a ROS 2
+/// bag, another kind of bag, a nuScenes root): the command that makes a sequence folder of it,
+/// or `None` when it is none of these.
+pub fn needs_unpack(path: &Path) -> Option<String> {
+    let shown = path.display();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    let bag = (path.is_file() && ext == "mcap") || path.join("metadata.yaml").is_file();
+    if bag {
+        // Its point cloud topics, when they can be read: the one there is goes in the command.
+        let clouds: Vec<String> = bag::Bag::open(path)
+            .and_then(|b| b.topics())
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|t| t.type_name == pointcloud2::TYPE_NAME)
+            .map(|t| t.name)
+            .collect();
+        let (topic, listed) = match clouds.as_slice() {
+            [one] => (one.clone(), String::new()),
+            [] => (
+                "TOPIC".into(),
+                format!("; `kitti2pgm unpack {shown} --list` lists its topics"),
+            ),
+            many => (
+                "TOPIC".into(),
+                format!("; its point cloud topics: {}", many.join(", ")),
+            ),
+        };
+        return Some(format!(
+            "a ROS 2 bag: make it a sequence folder first, `kitti2pgm unpack {shown} --topic \
+             {topic} --out ROOT`, then convert ROOT{listed}"
+        ));
+    }
+    if path.is_file() && (ext == "bag" || ext == "db3") {
+        return Some(format!(
+            "a {} bag: convert it to an MCAP bag first (`rosbags-convert --src {shown} --dst \
+             BAG --dst-storage mcap`, docs/sources.md), then `kitti2pgm unpack BAG --topic \
+             TOPIC --out ROOT`",
+            if ext == "bag" {
+                "ROS 1"
+            } else {
+                "rosbag2 sqlite3"
+            }
+        ));
+    }
+    if nuscenes::is_root(path) {
+        return Some(format!(
+            "a nuScenes root: make its scenes sequence folders first, `kitti2pgm unpack {shown} \
+             --out ROOT`, then convert ROOT with --sensor hdl32e --class-map nuscenes"
+        ));
+    }
+    None
+}
+
 /// A cloud as read: finite points in file order with their intensity and, where the data has
 /// one, their beam id.
 #[derive(Debug, Clone, Default, PartialEq)]

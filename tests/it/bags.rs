@@ -561,3 +561,42 @@ fn every_chunk_layout_reads_the_same_messages_and_damage_is_named() {
         "{e}"
     );
 }
+
+#[test]
+fn a_bag_given_to_convert_or_check_is_named_with_the_command_that_reads_it() {
+    let t = tmp();
+    let (out, fixture) = (t.path().join("out"), bag());
+    // The fixture bag has two point cloud topics: both listed.
+    for cmd in ["convert", "check"] {
+        let mut args = vec![cmd, s(&fixture)];
+        if cmd == "convert" {
+            args.extend(["--out", s(&out)]);
+        }
+        let (code, _, err) = run_text(&args);
+        assert_eq!(code, 1, "{cmd}");
+        assert!(
+            err.contains("a ROS 2 bag")
+                && err.contains("kitti2pgm unpack")
+                && err.contains("/pandar_points, /velodyne_points"),
+            "{err}"
+        );
+    }
+    // A bare .mcap with one point cloud topic: that topic is in the command.
+    let one = t.path().join("one.mcap");
+    write_mcap(&one, &[cdr_cloud(3, 16, 1)]);
+    let (code, _, err) = run_text(&["convert", s(&one), "--out", s(&out)]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--topic /points --out ROOT"), "{err}");
+    // ROS 1 and sqlite3 bags: how to convert them first.
+    for (name, kind) in [("run.bag", "ROS 1"), ("run.db3", "sqlite3")] {
+        let p = t.path().join(name);
+        std::fs::write(&p, b"#ROSBAG V2.0\n").unwrap();
+        let (code, _, err) = run_text(&["convert", s(&p), "--out", s(&out)]);
+        assert_eq!(code, 1);
+        assert!(
+            err.contains(kind) && err.contains("rosbags-convert"),
+            "{err}"
+        );
+    }
+    assert!(!out.exists());
+}

@@ -141,6 +141,13 @@ fn a_nuscenes_root_unpacks_one_sequence_a_scene_and_converts_with_its_16_classes
             {"scene": "scene-1077", "sequence": "1077", "keyframes": 1, "labelled": 1},
         ])
     );
+    // Given to convert as it is, the root is named with the command that makes it readable.
+    let (code, _, err) = run_text(&["convert", s(&root), "--out", s(&t.path().join("x"))]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("a nuScenes root") && err.contains("kitti2pgm unpack"),
+        "{err}"
+    );
     let out = t.path().join("root");
     let (code, j, err) = unpack(&[s(&root), "--out", s(&out)]);
     assert_eq!(code, 0, "{err}");
