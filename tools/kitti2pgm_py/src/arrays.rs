@@ -190,15 +190,27 @@ pub fn vec_arg<T: Element + Copy + DtypeName>(
     name: &str,
     n: usize,
 ) -> PyResult<Vec<T>> {
+    with_vec(obj, name, n, |v: &[T]| Ok(v.to_vec()))
+}
+
+/// `f` of a one-dimensional array of `n` entries of type `T`, read in place where it can be
+/// (as [`vec_arg`] checks it, without the copy).
+pub fn with_vec<T: Element + Copy + DtypeName, R>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    n: usize,
+    f: impl FnOnce(&[T]) -> PyResult<R>,
+) -> PyResult<R> {
     let want = format!("a {} array of shape ({n},)", T::NAME);
-    let (v, shape) = values::<T>(obj, name, &want)?;
-    if shape != [n] {
-        return Err(PyValueError::new_err(format!(
-            "{name} must be {want} (one per point), got {}",
-            describe(obj)
-        )));
-    }
-    Ok(v)
+    with_values(obj, name, &want, |v: &[T], shape| {
+        if shape != [n] {
+            return Err(PyValueError::new_err(format!(
+                "{name} must be {want} (one per point), got {}",
+                describe(obj)
+            )));
+        }
+        f(v)
+    })
 }
 
 /// A one-dimensional array of type `T`, of any length (one copy).

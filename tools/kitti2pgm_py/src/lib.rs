@@ -343,8 +343,10 @@ fn unproject<'py>(
     let (pred, h, w) = arrays::grid_arg::<u8>(pred, "pred")?;
     let point_range = arrays::point_ranges(points, "points")?;
     let n = point_range.len();
-    let row = vec_arg::<i32>(row, "row", n)?;
-    let col = vec_arg::<i32>(col, "col", n)?;
+    // The cells straight from the row and col arrays, read in place.
+    let point_cell = arrays::with_vec::<i32, _>(row, "row", n, |row| {
+        arrays::with_vec::<i32, _>(col, "col", n, |col| point_cells_arg(row, col, (h, w)))
+    })?;
     let method = named::<MethodKind>("method", method)?.with(KnnParams {
         k,
         window,
@@ -360,12 +362,13 @@ fn unproject<'py>(
                     "cell_range is {ch}x{cw}, pred is {h}x{w}"
                 )));
             }
-            // A map's range channel: finite, 0 in empty cells.
-            if let Some((i, r)) = v
-                .iter()
-                .enumerate()
-                .find(|(_, r)| !(r.is_finite() && **r >= 0.0))
-            {
+            // A map's range channel: finite, 0 in empty cells (checked in one branch-free
+            // pass; the bad value looked for only when there is one).
+            let range = |r: &f32| (r.is_finite() && *r >= 0.0) as usize;
+            if v.iter().map(range).sum::<usize>() != v.len() {
+                let (i, r) = (v.iter().enumerate())
+                    .find(|(_, r)| range(r) == 0)
+                    .expect("one is not a range");
                 return Err(PyValueError::new_err(format!(
                     "cell_range: value {r} at cell ({}, {}) is not a range (finite, >= 0)",
                     i / w,
@@ -381,7 +384,6 @@ fn unproject<'py>(
         }
         None => vec![0.0; h * w],
     };
-    let point_cell = point_cells_arg(&row, &col, (h, w))?;
     let classes = readers::class_map_of(class_map)?;
     let labels = py
         .detach(|| {
