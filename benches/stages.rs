@@ -24,7 +24,8 @@ use kitti2pgm::project::{project, project_beams, project_cloud, Augment, Cloud, 
 use kitti2pgm::source::bag::{Bag, MessageRef};
 use kitti2pgm::source::pointcloud2::PointCloud2;
 
-/// The same allocator as the binary, so that stage costs match what `convert` pays.
+/// The same allocator as the binary, so that stage costs match what `convert` pays (set up as
+/// the binary sets it up: [`kitti2pgm::alloc::tune_mimalloc`], called by each group).
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
@@ -45,6 +46,7 @@ fn drive_0052() -> (DrivePlan, u32) {
 }
 
 fn stages(c: &mut Criterion) {
+    kitti2pgm::alloc::tune_mimalloc();
     let (dp, f) = drive_0052();
     let scan_path = dp.drive.scan_path(f);
     let img_path = dp.drive.image_path(2, f);
@@ -169,6 +171,7 @@ fn stages(c: &mut Criterion) {
 /// RangeNet++'s kNN on a real SemanticKITTI scan (64 x 2048 over 360 degrees, predictions at
 /// random), one thread: the scalar kernel and the eight-lane one (the same classes).
 fn knn(c: &mut Criterion) {
+    kitti2pgm::alloc::tune_mimalloc();
     use kitti2pgm::project::unproject::{knn_with, KnnKernel, KnnParams, PointsInMap};
     use kitti2pgm::project::{norm, project_with_point_cells, MapPreset};
     let bin = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -198,6 +201,7 @@ fn knn(c: &mut Criterion) {
 /// Reading other sensors' files against KITTI's `.bin`, in points per second (issue 27's goal:
 /// PCD binary at least 0.8x the `.bin` path).
 fn read(c: &mut Criterion) {
+    kitti2pgm::alloc::tune_mimalloc();
     let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let bin = drive_0052().0.drive.scan_path(0);
     let pcd = here.join("fixtures/lidars/hesai/Pandar40P_1673400149711850138.pcd");
