@@ -39,7 +39,9 @@ pub struct SplitArgs {
 pub struct ConvertArgs {
     /// The input: a KITTI raw root, date or drive folder; a SemanticKITTI / odometry root
     /// (sequences/<NN>/) or one sequence folder; a KITTI object root (training/, testing/) or
-    /// one split folder. The layout is detected (see --source).
+    /// one split folder; another LiDAR's sequence folders (.pcd, .pcd.bin, .bin with
+    /// --fields; a ROS 2 bag or a nuScenes root after `kitti2pgm unpack`). The layout is
+    /// detected (see --source).
     #[arg(value_name = "ROOT")]
     pub raw_root: PathBuf,
     /// Force the input layout instead of detecting it.

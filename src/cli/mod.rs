@@ -57,7 +57,10 @@ pub enum Command {
     ///
     /// ROOT is a KITTI raw root (<date>/calib_*.txt and <date>/<date>_drive_NNNN_sync/), date or
     /// drive folder; a SemanticKITTI root (sequences/<NN>/) or sequence; a KITTI object root
-    /// (training/) or split folder. Writes DIR/lidar_2d/<frame id>.npy (float32 64x512x6: x, y,
+    /// (training/) or split folder. Any other LiDAR's scans come in the sequence layout
+    /// (sequences/<NN>/velodyne/ of .pcd, nuScenes .pcd.bin, or .bin with --fields; rows from
+    /// --sensor or --sensor-calibration); `kitti2pgm unpack` makes one of a ROS 2 bag or a
+    /// nuScenes root. Writes DIR/lidar_2d/<frame id>.npy (float32 64x512x6: x, y,
     /// z, intensity, range, label; with --rgb x9 adding r, g, b) and
     /// DIR/labels/<drive>/<frame>.label (u32 per point: class | instance << 16). A re-run with the
     /// same parameters keeps finished frames (--overwrite converts all). Exit status: 0 all
