@@ -35,12 +35,18 @@ pub fn discover_all(root: &Path) -> Result<Discovery> {
 /// one sequence folder `<NN>` with `velodyne/`), or the object set (a root with `training/`
 /// and/or `testing/`: `training/` is taken when both are there; or one split folder).
 pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
-    if let Some(how) = crate::source::needs_unpack(root) {
-        return Err(Error::Input {
+    // Nothing found: a recording that must be unpacked first says so.
+    discover_layout(root, source).map_err(|e| match crate::source::needs_unpack(root) {
+        Some(how) => Error::Input {
             path: root.into(),
             message: how,
-        });
-    }
+        },
+        None => e,
+    })
+}
+
+/// [`discover_as`] without the hint for recordings to unpack.
+fn discover_layout(root: &Path, source: Option<Layout>) -> Result<Discovery> {
     if !root.is_dir() {
         return Err(Error::Input {
             path: root.into(),

@@ -114,18 +114,6 @@ pub fn assemble(
         (Some(f), 9) => cell_values::<9>(values, proj, slots, Some((f, rgb_valid.as_mut()))),
         (_, depth) => unreachable!("the .npy layout has 6 or 9 channels, not {depth}"),
     };
-    let of_point = |v: &[u16]| -> Vec<u16> {
-        let at = |&pi: &u32| if pi == EMPTY { 0 } else { v[pi as usize] };
-        proj.cell_point.iter().map(at).collect()
-    };
-    let label = proj.cell_point.iter();
-    let label = label.map(|&pi| {
-        if pi == EMPTY {
-            0
-        } else {
-            values.class[pi as usize]
-        }
-    });
     let mask = proj.cell_point.iter().zip(&proj.cell_range);
     let mask = mask.map(|(&pi, &range)| (pi != EMPTY && range > 0.0) as u8);
     PgmFrame {
@@ -133,11 +121,23 @@ pub fn assemble(
         cols: proj.spec.cols,
         channels,
         data,
-        label: label.collect(),
-        instance: of_point(values.instance),
+        label: per_cell(proj, values.class),
+        instance: per_cell(proj, values.instance),
         mask: mask.collect(),
         rgb_valid,
     }
+}
+
+/// A per-point value for every cell: its point's, 0 where the cell is empty.
+fn per_cell<T: Copy + Default>(proj: &Projection, of_point: &[T]) -> Vec<T> {
+    let at = |&pi: &u32| {
+        if pi == EMPTY {
+            T::default()
+        } else {
+            of_point[pi as usize]
+        }
+    };
+    proj.cell_point.iter().map(at).collect()
 }
 
 /// The `D` channels of every cell, row-major; with colour, the cells' colour validity is

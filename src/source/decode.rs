@@ -146,14 +146,8 @@ fn surely_none_dropped(points: &[Point3], intensity: Option<&[f32]>) -> bool {
     let near2 = MAX_RANGE_M * MAX_RANGE_M * 0.999;
     // Not "within": a NaN fails it.
     let near = |p: &Point3| (p.x * p.x + p.y * p.y + p.z * p.z <= near2) as usize;
-    match intensity {
-        Some(v) => {
-            let near = points.iter().map(near).sum::<usize>();
-            let finite = v.iter().map(|i| i.is_finite() as usize).sum::<usize>();
-            near == points.len() && finite == v.len()
-        }
-        None => points.iter().map(near).sum::<usize>() == points.len(),
-    }
+    let finite = |v: &[f32]| v.iter().map(|i| i.is_finite() as usize).sum::<usize>() == v.len();
+    points.iter().map(near).sum::<usize>() == points.len() && intensity.is_none_or(finite)
 }
 
 /// One field of `n` records as `T`: a loop per scalar type and byte order; each value goes

@@ -144,9 +144,9 @@ impl Records {
 fn release(map: &memmap2::Mmap, released: &mut usize, at: usize) {
     let upto = at / RELEASE * RELEASE;
     if upto > *released {
-        // SAFETY (Unix; elsewhere the pages stay mapped): nothing borrowed from the map before `at` is alive (a record read from it
-        // borrows the reader); the mapping is read-only and backed by the file, so a later
-        // access (there is none) would read the file again.
+        // SAFETY (Unix; elsewhere the pages stay mapped): nothing borrowed from the map before
+        // `at` is alive (a record read from it borrows the reader); the mapping is read-only
+        // and backed by the file, so a later access (there is none) would read the file again.
         #[cfg(unix)]
         let _ = unsafe {
             map.unchecked_advise_range(
