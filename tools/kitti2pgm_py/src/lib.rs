@@ -453,7 +453,8 @@ pub(crate) fn map_dict<'py>(
         PyArray1::from_vec(py, frame.data).reshape([h, w, c])?,
     )?;
     d.set_item("channels", frame.channels.names())?;
-    let mask: Vec<bool> = frame.mask.iter().map(|&v| v != 0).collect();
+    // (each conversion below collects in place: the same buffer, no allocation)
+    let mask: Vec<bool> = frame.mask.into_iter().map(|v| v != 0).collect();
     d.set_item("mask", PyArray1::from_vec(py, mask).reshape([h, w])?)?;
     d.set_item(
         "label",
@@ -465,7 +466,7 @@ pub(crate) fn map_dict<'py>(
     )?;
     match frame.rgb_valid {
         Some(v) => {
-            let v: Vec<bool> = v.iter().map(|&b| b != 0).collect();
+            let v: Vec<bool> = v.into_iter().map(|b| b != 0).collect();
             d.set_item("rgb_valid", PyArray1::from_vec(py, v).reshape([h, w])?)?
         }
         None => d.set_item("rgb_valid", py.None())?,
@@ -476,22 +477,27 @@ pub(crate) fn map_dict<'py>(
         }
         return stats_into(py, &d, &stats, rings_found).map(|()| d);
     }
+    // `c / w` by a multiplication in double precision (the integer division and remainder of
+    // every point were 7% of the call): exact, `(c + 0.5) / w` lying at least `0.5 / w` from an
+    // integer, far beyond the product's rounding for cells below 2^32.
+    let inv_w = 1.0 / w as f64;
     let (row, col): (Vec<i32>, Vec<i32>) = point_cell
         .iter()
         .map(|&c| {
+            let r = ((f64::from(c) + 0.5) * inv_w) as i32;
+            // (wrapping: an EMPTY cell's quotient is meaningless, and discarded)
+            let col = (c as i32).wrapping_sub(r.wrapping_mul(w as i32));
             if c == EMPTY {
                 (-1, -1)
             } else {
-                ((c as usize / w) as i32, (c as usize % w) as i32)
+                (r, col)
             }
         })
         .unzip();
     d.set_item("row", PyArray1::from_vec(py, row))?;
     d.set_item("col", PyArray1::from_vec(py, col))?;
-    let index: Vec<i32> = cell_point
-        .iter()
-        .map(|&i| if i == EMPTY { -1 } else { i as i32 })
-        .collect();
+    // EMPTY (u32::MAX) is -1 as an i32, the "no point" of the array.
+    let index: Vec<i32> = cell_point.into_iter().map(|i| i as i32).collect();
     d.set_item(
         "point_index",
         PyArray1::from_vec(py, index).reshape([h, w])?,

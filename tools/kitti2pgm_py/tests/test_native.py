@@ -107,6 +107,26 @@ def test_rings_are_the_converters():
         assert np.array_equal(k2.project(f["points"], rings=r)["map"], m["map"])
 
 
+def test_row_and_col_name_every_points_cell():
+    # row and col are split from the cell index by a floating-point multiplication: every kept
+    # point's (row, col) is its cell, every point's cell holds a point at least as near, and a
+    # point outside the map has (-1, -1); on map widths that are not powers of two too.
+    f = k2.Dataset(RAW).load(0)
+    rng = np.linalg.norm(f["points"][:, :3], axis=1)
+    for rows, cols in ((64, 512), (64, 2048), (7, 1000), (33, 4095), (3, 65535)):
+        m = k2.project(f["points"], rows=rows, cols=cols, fov_deg=360.0, row_mode="elevation")
+        row, col, idx = m["row"], m["col"], m["point_index"]
+        assert row.dtype == col.dtype == np.int32
+        out = row < 0
+        assert np.array_equal(out, col < 0) and np.all(row[out] == -1) and np.all(col[out] == -1)
+        assert np.all((row[~out] < rows) & (col[~out] < cols))
+        kept_rows, kept_cols = np.nonzero(idx >= 0)
+        kept = idx[idx >= 0]
+        assert np.array_equal(row[kept], kept_rows) and np.array_equal(col[kept], kept_cols)
+        assert np.all(idx[row[~out], col[~out]] >= 0)
+        assert np.all(rng[idx[row[~out], col[~out]]] <= rng[~out])
+
+
 def test_identity_augmentation_and_one_column_rotation():
     ds = k2.Dataset(RAW)
     f = ds.load(0)
