@@ -9,9 +9,9 @@
 # 64 x 2048 x 6 .npy per scan (elevation bins, learning-mapped labels); kitti2pgm writes the same
 # layout with rings (--fov-deg 360 --cols 2048 --no-point-labels), then again with the per-point
 # .label files the peer does not write. The floor (benches/io_floor.py, as many processes) reads
-# every .bin and .label and writes a .npy of the same size per scan, computing nothing. Each runs
-# three times, alternating, each after `sync` (no run pays for the last one's writeback); the best
-# run counts.
+# every .bin and .label and writes a .npy of the same size per scan, computing nothing (timed
+# inside, without Python's start). Each runs three times, alternating, each after `sync` (no run
+# pays for the last one's writeback); the best run counts.
 set -euo pipefail
 . "$(dirname "$0")/common.sh"
 copies=${1:-100}
@@ -32,14 +32,13 @@ build
 echo "scans: $n, workers/threads: $workers, cpu: $(nproc) cores"
 t() { local s e; sync; s=$(date +%s.%N); "$@" >/dev/null; e=$(date +%s.%N); echo "$e - $s" | bc; }
 min() { echo "if ($1 < $2) $1 else $2" | bc; }
-floor() { python3 "$here/benches/io_floor.py" semantickitti "$work/sk" "$work/floor" --workers "$workers"; }
 pb=999999; ob=999999; lb=999999; fb=999999
 for rep in 1 2 3; do
   rm -rf "$work/peer" "$work/ours" "$work/ours_lab" "$work/floor"
   p=$(t python3 "$shared/bench/semantickitti_numpy_baseline.py" "$work/sk" "$work/peer" --workers "$workers" --yaml "$shared/semantickitti/semantic-kitti.yaml")
   o=$(t "$bin" --threads "$workers" --no-progress convert "$work/sk" --out "$work/ours" --fov-deg 360 --cols 2048 --no-point-labels)
   l=$(t "$bin" --threads "$workers" --no-progress convert "$work/sk" --out "$work/ours_lab" --fov-deg 360 --cols 2048)
-  f=$(t floor)
+  f=$(sync; python3 "$here/benches/io_floor.py" semantickitti "$work/sk" "$work/floor" --workers "$workers")
   pb=$(min "$p" "$pb"); ob=$(min "$o" "$ob"); lb=$(min "$l" "$lb"); fb=$(min "$f" "$fb")
   echo "run $rep: peer ${p}s  kitti2pgm ${o}s  kitti2pgm+labels ${l}s  floor ${f}s"
 done
