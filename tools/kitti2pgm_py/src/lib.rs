@@ -365,7 +365,11 @@ fn unproject<'py>(
             // A map's range channel: finite, 0 in empty cells (checked in one branch-free
             // pass; the bad value looked for only when there is one).
             let range = |r: &f32| (r.is_finite() && *r >= 0.0) as usize;
-            if v.iter().map(range).sum::<usize>() != v.len() {
+            if arrays::with_avx2(
+                #[inline(always)]
+                || v.iter().map(range).sum::<usize>(),
+            ) != v.len()
+            {
                 let (i, r) = (v.iter().enumerate())
                     .find(|(_, r)| range(r) == 0)
                     .expect("one is not a range");
@@ -397,34 +401,48 @@ fn unproject<'py>(
             run(&m, &pred, &method, &classes)
         })
         .map_err(py_err)?;
-    let out: Vec<i16> = labels
-        .into_iter()
-        .map(|l| l.map_or(-1, i16::from))
-        .collect();
+    let out: Vec<i16> = arrays::with_avx2(
+        #[inline(always)]
+        || {
+            let mut out = vec![0i16; labels.len()];
+            for (o, l) in out.iter_mut().zip(&labels) {
+                *o = l.map_or(-1, i16::from);
+            }
+            out
+        },
+    );
     Ok(PyArray1::from_vec(py, out))
 }
 
 /// The cell (`row * w + col`) of every point from `project`'s row and col arrays (-1, -1:
 /// outside the map); an error for a cell outside the `h x w` prediction.
 fn point_cells_arg(row: &[i32], col: &[i32], (h, w): (usize, usize)) -> PyResult<Vec<u32>> {
-    // One pass that only notes a bad point; the error is built after it (a `Result` per
-    // element made this the Python call's second largest cost).
-    let mut bad = None;
-    let cells: Vec<u32> = row
-        .iter()
-        .zip(col)
-        .enumerate()
-        .map(|(i, (&r, &c))| {
-            if r == -1 && c == -1 {
-                EMPTY
-            } else if (r as u32 as usize) < h && (c as u32 as usize) < w {
-                (r as usize * w + c as usize) as u32
-            } else {
-                bad.get_or_insert((i, r, c));
-                EMPTY
+    // One branch-free pass (with AVX2 where the CPU has it) that only notes whether a point is
+    // bad; the first is looked for and named after it (a `Result` per element made this the
+    // Python call's second largest cost).
+    let (h32, w32) = (h as u32, w as u32);
+    let (cells, any_bad) = arrays::with_avx2(
+        #[inline(always)]
+        || {
+            let mut cells = vec![EMPTY; row.len()];
+            let mut any_bad = false;
+            for ((cell, &r), &c) in cells.iter_mut().zip(row).zip(col) {
+                let inside = ((r as u32) < h32) & ((c as u32) < w32);
+                any_bad |= !inside & !((r == -1) & (c == -1));
+                let at = (r as u32).wrapping_mul(w32).wrapping_add(c as u32);
+                *cell = if inside { at } else { EMPTY };
             }
+            (cells, any_bad)
+        },
+    );
+    let bad = any_bad
+        .then(|| {
+            let in_map = |r: i32, c: i32| (r as u32) < h32 && (c as u32) < w32;
+            (row.iter().zip(col).enumerate())
+                .find(|(_, (&r, &c))| !in_map(r, c) && (r, c) != (-1, -1))
+                .map(|(i, (&r, &c))| (i, r, c))
         })
-        .collect();
+        .flatten();
     match bad {
         None => Ok(cells),
         Some((i, r, c)) => Err(PyValueError::new_err(format!(
@@ -481,19 +499,19 @@ pub(crate) fn map_dict<'py>(
     // every point were 7% of the call): exact, `(c + 0.5) / w` lying at least `0.5 / w` from an
     // integer, far beyond the product's rounding for cells below 2^32.
     let inv_w = 1.0 / w as f64;
-    let (row, col): (Vec<i32>, Vec<i32>) = point_cell
-        .iter()
-        .map(|&c| {
-            let r = ((f64::from(c) + 0.5) * inv_w) as i32;
-            // (wrapping: an EMPTY cell's quotient is meaningless, and discarded)
-            let col = (c as i32).wrapping_sub(r.wrapping_mul(w as i32));
-            if c == EMPTY {
-                (-1, -1)
-            } else {
-                (r, col)
+    let (row, col) = arrays::with_avx2(
+        #[inline(always)]
+        || {
+            let (mut row, mut col) = (vec![0i32; point_cell.len()], vec![0i32; point_cell.len()]);
+            for ((r, k), &c) in row.iter_mut().zip(&mut col).zip(&point_cell) {
+                let q = ((f64::from(c) + 0.5) * inv_w) as i32;
+                // (wrapping: an EMPTY cell's quotient is meaningless, and discarded)
+                let rem = (c as i32).wrapping_sub(q.wrapping_mul(w as i32));
+                (*r, *k) = if c == EMPTY { (-1, -1) } else { (q, rem) };
             }
-        })
-        .unzip();
+            (row, col)
+        },
+    );
     d.set_item("row", PyArray1::from_vec(py, row))?;
     d.set_item("col", PyArray1::from_vec(py, col))?;
     // EMPTY (u32::MAX) is -1 as an i32, the "no point" of the array.
