@@ -1,0 +1,157 @@
+//! `unproject`: a map prediction carried back to every point, and its arguments' checks.
+
+use numpy::PyArray1;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use kitti2pgm::project::EMPTY;
+
+use crate::{arrays, named, py_err, readers};
+
+/// Carries a map prediction back to every point of the scan it was projected from.
+///
+/// pred: (H, W) class ids (a model's label map); row, col: (N,) each point's cell, as `project`
+/// returns them (-1 outside the map); points: (N, 3+) the scan (its ranges are computed as the
+/// map's); cell_range: (H, W) the map's range channel (`m["map"][..., 4]`), needed by "knn".
+/// method: "knn" (the default, as `kitti2pgm unproject`'s: RangeNet++'s post-processing, its
+/// result point for point: k nearest by range in a window around the cell, Gaussian-weighted,
+/// neighbours beyond cutoff vote for nobody, the class map's ignored classes never win) or
+/// "cell" (a point takes its cell's class).
+/// class_map: the classes (a name or yaml path); wrap_columns: neighbours across the 360-degree
+/// seam (the reference pads with zeros there).
+///
+/// Returns (N,) int16: each point's class, -1 for points outside the map ("not predicted").
+#[pyfunction]
+#[pyo3(signature = (pred, row, col, points, cell_range=None, *, method="knn", class_map="semantic-kitti",
+    k=5, window=5, sigma=1.0, cutoff=1.0, wrap_columns=false))]
+// One Rust argument per Python keyword: the signature is the Python API.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn unproject<'py>(
+    py: Python<'py>,
+    pred: &Bound<'py, PyAny>,
+    row: &Bound<'py, PyAny>,
+    col: &Bound<'py, PyAny>,
+    points: &Bound<'py, PyAny>,
+    cell_range: Option<&Bound<'py, PyAny>>,
+    method: &str,
+    class_map: &str,
+    k: usize,
+    window: usize,
+    sigma: f32,
+    cutoff: f32,
+    wrap_columns: bool,
+) -> PyResult<Bound<'py, PyArray1<i16>>> {
+    use kitti2pgm::project::unproject::{unproject as run, KnnParams, MethodKind, PointsInMap};
+    let (pred, h, w) = arrays::grid_arg::<u8>(pred, "pred")?;
+    let point_range = arrays::point_ranges(points, "points")?;
+    let n = point_range.len();
+    // The cells straight from the row and col arrays, read in place.
+    let point_cell = arrays::with_vec::<i32, _>(row, "row", n, |row| {
+        arrays::with_vec::<i32, _>(col, "col", n, |col| point_cells_arg(row, col, (h, w)))
+    })?;
+    let method = named::<MethodKind>("method", method)?.with(KnnParams {
+        k,
+        window,
+        sigma,
+        cutoff,
+        wrap_columns,
+    });
+    let cell_range = match cell_range {
+        Some(c) => cell_range_arg(c, (h, w))?,
+        None if method.kind() == MethodKind::Knn => {
+            return Err(PyValueError::new_err(
+                "method 'knn' needs cell_range: the map's range channel (m['map'][..., 4])",
+            ))
+        }
+        None => vec![0.0; h * w],
+    };
+    let classes = readers::class_map_of(class_map)?;
+    let labels = py
+        .detach(|| {
+            let m = PointsInMap {
+                rows: h,
+                cols: w,
+                point_cell: &point_cell,
+                point_range: &point_range,
+                cell_range: &cell_range,
+            };
+            run(&m, &pred, &method, &classes)
+        })
+        .map_err(py_err)?;
+    let out: Vec<i16> = arrays::with_avx2(
+        #[inline(always)]
+        || {
+            let mut out = vec![0i16; labels.len()];
+            for (o, l) in out.iter_mut().zip(&labels) {
+                *o = l.map_or(-1, i16::from);
+            }
+            out
+        },
+    );
+    Ok(PyArray1::from_vec(py, out))
+}
+
+/// `unproject`'s `cell_range`: an `h x w` float32 map's range channel, finite and >= 0 (0 in
+/// empty cells), checked in one branch-free pass; the bad value looked for only when there is
+/// one.
+fn cell_range_arg(c: &Bound<'_, PyAny>, (h, w): (usize, usize)) -> PyResult<Vec<f32>> {
+    let (v, ch, cw) = arrays::grid_arg::<f32>(c, "cell_range")?;
+    if (ch, cw) != (h, w) {
+        return Err(PyValueError::new_err(format!(
+            "cell_range is {ch}x{cw}, pred is {h}x{w}"
+        )));
+    }
+    let range = |r: &f32| (r.is_finite() && *r >= 0.0) as usize;
+    let ranges = arrays::with_avx2(
+        #[inline(always)]
+        || v.iter().map(range).sum::<usize>(),
+    );
+    if ranges == v.len() {
+        return Ok(v);
+    }
+    let (i, r) = (v.iter().enumerate())
+        .find(|(_, r)| range(r) == 0)
+        .expect("one is not a range");
+    Err(PyValueError::new_err(format!(
+        "cell_range: value {r} at cell ({}, {}) is not a range (finite, >= 0)",
+        i / w,
+        i % w
+    )))
+}
+
+/// The cell (`row * w + col`) of every point from `project`'s row and col arrays (-1, -1:
+/// outside the map); an error for a cell outside the `h x w` prediction.
+fn point_cells_arg(row: &[i32], col: &[i32], (h, w): (usize, usize)) -> PyResult<Vec<u32>> {
+    // One branch-free pass (with AVX2 where the CPU has it) that only notes whether a point is
+    // bad; the first is looked for and named after it (a `Result` per element made this the
+    // Python call's second largest cost).
+    let (h32, w32) = (h as u32, w as u32);
+    let (cells, any_bad) = arrays::with_avx2(
+        #[inline(always)]
+        || {
+            let mut cells = vec![EMPTY; row.len()];
+            let mut any_bad = false;
+            for ((cell, &r), &c) in cells.iter_mut().zip(row).zip(col) {
+                let inside = ((r as u32) < h32) & ((c as u32) < w32);
+                any_bad |= !inside & !((r == -1) & (c == -1));
+                let at = (r as u32).wrapping_mul(w32).wrapping_add(c as u32);
+                *cell = if inside { at } else { EMPTY };
+            }
+            (cells, any_bad)
+        },
+    );
+    let bad = any_bad
+        .then(|| {
+            let in_map = |r: i32, c: i32| (r as u32) < h32 && (c as u32) < w32;
+            (row.iter().zip(col).enumerate())
+                .find(|(_, (&r, &c))| !in_map(r, c) && (r, c) != (-1, -1))
+                .map(|(i, (&r, &c))| (i, r, c))
+        })
+        .flatten();
+    match bad {
+        None => Ok(cells),
+        Some((i, r, c)) => Err(PyValueError::new_err(format!(
+            "point {i} is in cell ({r}, {c}), outside the {h}x{w} prediction"
+        ))),
+    }
+}
