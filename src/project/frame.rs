@@ -158,9 +158,9 @@ fn cell_values<const D: usize>(
         .chain(rgb.into_iter().flat_map(|r| r..r + 3))
         .fold(0u64, |m, slot| m | (1 << slot));
     assert_eq!(filled, (1 << D) - 1, "the layout's slots fill a cell");
-    let cells = proj.cell_point.len();
-    let mut data: Vec<f32> = Vec::with_capacity(cells * D);
-    let out = &mut data.spare_capacity_mut()[..cells * D];
+    let n = proj.cell_point.len() * D;
+    let mut data: Vec<f32> = Vec::with_capacity(n);
+    let out = &mut data.spare_capacity_mut()[..n];
     let cells = proj.cell_point.iter().zip(&proj.cell_range);
     for (dst, (&pi, &range)) in out.chunks_exact_mut(D).zip(cells) {
         if pi == EMPTY {
@@ -195,6 +195,6 @@ fn cell_values<const D: usize>(
     }
     // SAFETY: the loop wrote all `D` values of every cell: an empty cell's by the fill, a kept
     // one's by its stores, which fill every slot (asserted above).
-    unsafe { data.set_len(proj.cell_point.len() * D) };
+    unsafe { data.set_len(n) };
     data
 }

@@ -158,19 +158,17 @@ pub fn points_arg(
             return Ok((pts.collect(), None));
         }
         // One pass for both.
-        #[inline(always)]
-        fn split(v: &[f32]) -> (Vec<Point3>, Vec<f32>) {
-            let n = v.len() / 4;
-            let (mut pts, mut inten) = (vec![Point3::origin(); n], vec![0f32; n]);
-            for ((p, i), r) in pts.iter_mut().zip(&mut inten).zip(v.chunks_exact(4)) {
-                *p = Point3::new(r[0], r[1], r[2]);
-                *i = r[3];
-            }
-            (pts, inten)
-        }
         let (pts, inten) = with_avx2(
             #[inline(always)]
-            || split(v),
+            || {
+                let n = v.len() / 4;
+                let (mut pts, mut inten) = (vec![Point3::origin(); n], vec![0f32; n]);
+                for ((p, i), r) in pts.iter_mut().zip(&mut inten).zip(v.chunks_exact(4)) {
+                    *p = Point3::new(r[0], r[1], r[2]);
+                    *i = r[3];
+                }
+                (pts, inten)
+            },
         );
         Ok((pts, Some(inten)))
     })

@@ -124,34 +124,31 @@ fn cell_range_arg(c: &Bound<'_, PyAny>, (h, w): (usize, usize)) -> PyResult<Vec<
 fn point_cells_arg(row: &[i32], col: &[i32], (h, w): (usize, usize)) -> PyResult<Vec<u32>> {
     // One branch-free pass (with AVX2 where the CPU has it) that only notes whether a point is
     // bad; the first is looked for and named after it (a `Result` per element made this the
-    // Python call's second largest cost).
+    // Python call's second largest cost). `&`, not `&&`: no branch, so the pass vectorises.
     let (h32, w32) = (h as u32, w as u32);
+    let in_map = move |r: i32, c: i32| ((r as u32) < h32) & ((c as u32) < w32);
+    let bad_point = move |r: i32, c: i32| !in_map(r, c) & !((r == -1) & (c == -1));
+    // (`move`: the bounds are the pass's own values, which no store of it can change)
     let (cells, any_bad) = arrays::with_avx2(
         #[inline(always)]
-        || {
+        move || {
             let mut cells = vec![EMPTY; row.len()];
             let mut any_bad = false;
             for ((cell, &r), &c) in cells.iter_mut().zip(row).zip(col) {
-                let inside = ((r as u32) < h32) & ((c as u32) < w32);
-                any_bad |= !inside & !((r == -1) & (c == -1));
+                any_bad |= bad_point(r, c);
                 let at = (r as u32).wrapping_mul(w32).wrapping_add(c as u32);
-                *cell = if inside { at } else { EMPTY };
+                *cell = if in_map(r, c) { at } else { EMPTY };
             }
             (cells, any_bad)
         },
     );
-    let bad = any_bad
-        .then(|| {
-            let in_map = |r: i32, c: i32| (r as u32) < h32 && (c as u32) < w32;
-            (row.iter().zip(col).enumerate())
-                .find(|(_, (&r, &c))| !in_map(r, c) && (r, c) != (-1, -1))
-                .map(|(i, (&r, &c))| (i, r, c))
-        })
-        .flatten();
-    match bad {
-        None => Ok(cells),
-        Some((i, r, c)) => Err(PyValueError::new_err(format!(
-            "point {i} is in cell ({r}, {c}), outside the {h}x{w} prediction"
-        ))),
+    if !any_bad {
+        return Ok(cells);
     }
+    let (i, (&r, &c)) = (row.iter().zip(col).enumerate())
+        .find(|(_, (&r, &c))| bad_point(r, c))
+        .expect("one point is bad");
+    Err(PyValueError::new_err(format!(
+        "point {i} is in cell ({r}, {c}), outside the {h}x{w} prediction"
+    )))
 }
