@@ -42,6 +42,7 @@ pub mod project;
 pub mod report;
 pub mod rng;
 pub mod sensor;
+pub mod simd;
 pub mod source;
 
 pub use error::{Error, Result};

@@ -122,12 +122,15 @@ impl Cloud<'_> {
             IntensityKind::AsStored => f32::MIN..=f32::MAX,
         };
         let ok_intensity = |v: f32| (v >= *range.start()) & (v <= *range.end());
-        if self.points.iter().fold(true, |ok, p| ok & ok_point(p))
-            && self
-                .intensity
-                .iter()
-                .fold(true, |ok, v| ok & ok_intensity(*v))
-        {
+        let (points, intensity) = (self.points, self.intensity);
+        let all_ok = crate::simd::with_avx2(
+            #[inline(always)]
+            move || {
+                points.iter().fold(true, |ok, p| ok & ok_point(p))
+                    && intensity.iter().fold(true, |ok, v| ok & ok_intensity(*v))
+            },
+        );
+        if all_ok {
             return self.validate_rings_and_colours();
         }
         if let Some(i) = self.points.iter().position(|p| !ok_point(p)) {

@@ -20,6 +20,7 @@
 pub mod augment;
 pub mod camera;
 pub mod channels;
+mod claim;
 pub mod cloud;
 pub mod columns;
 pub mod frame;
@@ -29,6 +30,7 @@ pub mod unproject;
 
 pub use augment::Augment;
 pub use channels::{Channel, Channels};
+use claim::{claim_cells, split_keys};
 pub use cloud::{project_cloud, Cloud, CloudProjection, IntensityKind};
 pub(crate) use columns::Geometry;
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
@@ -317,12 +319,10 @@ pub(crate) enum PointCells {
     Drop,
 }
 
-/// Points per block of the two-pass loop (columns and ranges, then cells).
-const BLOCK: usize = 512;
-
 /// The projection of `points` (as the map stores them) with rows from `rows` and columns and
-/// ranges from `geometry`. Two passes per block of points: the columns and ranges of the whole
-/// block (vectorised), then the cells, one point at a time in scan order.
+/// ranges from `geometry`. Two passes per block of points: the columns, ranges and (rows given)
+/// cells of the whole block, vectorised; then each point's claim on its cell, one point at a
+/// time in scan order. Both compiled with AVX2 where the CPU has it ([`crate::simd`]).
 pub(crate) fn project_impl(
     points: &[Point3],
     spec: &PgmSpec,
@@ -338,55 +338,14 @@ pub(crate) fn project_impl(
         fallback,
     } = row_source(points, spec, rows);
     let ring_ids = ring_ids.as_deref();
-    // The point kept in each cell as one key, range bits above index: the smallest key is the
-    // nearest point, the first of equally near ones (ranges are finite and >= 0, whose bits
-    // order as their values), kept without a branch.
-    let mut cell_key = vec![u64::MAX; spec.cells()];
-    let keep_point_cells = point_cells == PointCells::Keep;
-    let mut point_cell = if keep_point_cells {
-        vec![EMPTY; points.len()]
-    } else {
-        Vec::new()
-    };
-    let mut in_fov = 0u64;
-    // Cheap reject for maps narrower than 180 degrees: a point outside the front wedge.
-    let wedge = spec.front_wedge().filter(|_| geometry.columns.is_none());
-    let columns = spec.columns();
-    let (rotate, scale) = (geometry.rotate, geometry.scale);
-    let mut code = [0i32; BLOCK];
-    let mut range = [0f32; BLOCK];
-    for start in (0..points.len()).step_by(BLOCK) {
-        let end = (start + BLOCK).min(points.len());
-        let base = &geometry.base[start..end];
-        for ((c, r), b) in code.iter_mut().zip(range.iter_mut()).zip(base) {
-            *c = columns.code(b, rotate as f32);
-            *r = norm(b) * scale;
-        }
-        for (k, p) in points[start..end].iter().enumerate() {
-            let i = start + k;
-            if let Some(t) = wedge {
-                if !(p.x > 0.0 && p.y.abs() <= p.x * t) {
-                    continue;
-                }
-            }
-            let Some(col) = geometry.column(i, code[k], spec) else {
-                continue;
-            };
-            let range = range[k];
-            let row = match ring_ids {
-                Some(r) => spec.beam_row(r[i], beams),
-                None => spec.elevation_row(p, range),
-            };
-            in_fov += 1;
-            let c = row * spec.cols + col;
-            if keep_point_cells {
-                point_cell[i] = c as u32;
-            }
-            let key = (u64::from(range.to_bits()) << 32) | i as u64;
-            cell_key[c] = cell_key[c].min(key);
-        }
-    }
-    let (cell_point, cell_range) = split_keys(&cell_key);
+    let (cell_key, point_cell, in_fov) = crate::simd::with_avx2(
+        #[inline(always)]
+        move || claim_cells(points, spec, point_cells, (ring_ids, beams), geometry),
+    );
+    let (cell_point, cell_range) = crate::simd::with_avx2(
+        #[inline(always)]
+        || split_keys(&cell_key),
+    );
     Projection {
         spec: *spec,
         stats: ProjectionStats::count(&cell_point, in_fov, fallback),
@@ -395,20 +354,6 @@ pub(crate) fn project_impl(
         point_cell,
         rings_found,
     }
-}
-
-/// The point and the range of every cell from its key (range bits above point index; all ones
-/// for an empty cell, whose low half is [`EMPTY`] already).
-fn split_keys(cell_key: &[u64]) -> (Vec<u32>, Vec<f32>) {
-    let point = cell_key.iter().map(|&k| k as u32).collect();
-    let range = cell_key
-        .iter()
-        .map(|&k| match k {
-            u64::MAX => 0.0,
-            k => f32::from_bits((k >> 32) as u32),
-        })
-        .collect();
-    (point, range)
 }
 
 impl ProjectionStats {

@@ -15,22 +15,64 @@ use crate::geom::Point3;
 /// The ring must also have reached the rear half (`x < 0`) since it started, so that jitter of
 /// the azimuth around zero does not split a ring.
 pub fn rings(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
-    let mut ring = vec![0u8; points.len()];
+    crate::simd::with_avx2(
+        #[inline(always)]
+        move || rings_by_flags(points),
+    )
+}
+
+/// Points per block of [`rings_by_flags`].
+const RING_BLOCK: usize = 512;
+/// [`rings_by_flags`]'s flag of a point in the rear half.
+const REAR: u8 = 1;
+/// [`rings_by_flags`]'s flag of a point that crosses the forward direction from its predecessor.
+const CROSSING: u8 = 2;
+
+/// [`rings`] in two passes per block of points: the flags of every point (rear half; crossing
+/// from its predecessor), vectorised; then the rule, eight points at a time where none of them
+/// crosses (the common case: a ring holds thousands of points and starts once).
+#[inline(always)]
+fn rings_by_flags(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
+    let n = points.len();
+    let mut ring = Vec::with_capacity(n);
     let mut current = 0usize;
     let mut seen_rear = false;
-    let mut prev: Option<&Point3> = None;
-    for (i, p) in points.iter().enumerate() {
-        if let Some(q) = prev {
-            if seen_rear && q.y < 0.0 && p.y >= 0.0 && q.x > 0.0 && p.x > 0.0 {
-                current += 1;
-                seen_rear = false;
+    let mut flags = [0u8; RING_BLOCK];
+    let flag = |q: &Point3, p: &Point3| {
+        let crossing = (q.y < 0.0) & (p.y >= 0.0) & (q.x > 0.0) & (p.x > 0.0);
+        (p.x < 0.0) as u8 | (crossing as u8 * CROSSING)
+    };
+    for start in (0..n).step_by(RING_BLOCK) {
+        let end = (start + RING_BLOCK).min(n);
+        let flags = &mut flags[..end - start];
+        // Point 0 has no predecessor: compared with itself, it never crosses.
+        let from = start.max(1);
+        if start == 0 {
+            flags[0] = flag(&points[0], &points[0]);
+        }
+        let (now, prev) = (&points[from..end], &points[from - 1..end - 1]);
+        for ((f, p), q) in flags[from - start..].iter_mut().zip(now).zip(prev) {
+            *f = flag(q, p);
+        }
+        for (k8, eight) in flags.chunks(8).enumerate() {
+            let word = eight.iter().fold(0u64, |w, &f| (w << 8) | u64::from(f));
+            if word & (0x0101_0101_0101_0101 * u64::from(CROSSING)) == 0 {
+                seen_rear |= word != 0;
+                continue;
+            }
+            for (j, &f) in eight.iter().enumerate() {
+                if f & CROSSING != 0 && seen_rear {
+                    let i = start + k8 * 8 + j;
+                    // Saturates past 255 rings; such a scan is rejected below anyway.
+                    ring.resize(i, current.min(u8::MAX as usize) as u8);
+                    current += 1;
+                    seen_rear = false;
+                }
+                seen_rear |= f & REAR != 0;
             }
         }
-        seen_rear |= p.x < 0.0;
-        // Saturates past 255 rings; such a scan is rejected below anyway.
-        ring[i] = current.min(u8::MAX as usize) as u8;
-        prev = Some(p);
     }
+    ring.resize(n, current.min(u8::MAX as usize) as u8);
     let found = if points.is_empty() { 0 } else { current + 1 };
     ((found == LASERS).then_some(ring), found)
 }
@@ -79,5 +121,75 @@ pub(crate) fn row_source<'a>(points: &[Point3], spec: &PgmSpec, rows: Rows<'a>) 
         found,
         beams,
         fallback,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kitti::velodyne::Scan;
+    use crate::rng::SplitMix;
+
+    /// The rule of [`rings`] point by point, as first written: the reference.
+    fn rings_one_by_one(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
+        let mut ring = vec![0u8; points.len()];
+        let mut current = 0usize;
+        let mut seen_rear = false;
+        let mut prev: Option<&Point3> = None;
+        for (i, p) in points.iter().enumerate() {
+            if let Some(q) = prev {
+                if seen_rear && q.y < 0.0 && p.y >= 0.0 && q.x > 0.0 && p.x > 0.0 {
+                    current += 1;
+                    seen_rear = false;
+                }
+            }
+            seen_rear |= p.x < 0.0;
+            ring[i] = current.min(u8::MAX as usize) as u8;
+            prev = Some(p);
+        }
+        let found = if points.is_empty() { 0 } else { current + 1 };
+        ((found == LASERS).then_some(ring), found)
+    }
+
+    /// Both paths (AVX2 and baseline) equal the reference on `points` and on every prefix
+    /// length around the block and chunk edges.
+    fn check(points: &[Point3], what: &str) {
+        let mut lens: Vec<usize> = vec![0, 1, 2, 7, 8, 9, 511, 512, 513, 1025, points.len()];
+        lens.retain(|&l| l <= points.len());
+        for l in lens {
+            let want = rings_one_by_one(&points[..l]);
+            assert_eq!(rings(&points[..l]), want, "{what}, {l} points");
+            let baseline = crate::simd::baseline(|| rings(&points[..l]));
+            assert_eq!(baseline, want, "{what}, {l} points, baseline path");
+        }
+    }
+
+    #[test]
+    fn flags_equal_the_rule_point_by_point() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+        let raw = "raw/2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000000.bin";
+        for file in [raw, "semantickitti/sequences/00/velodyne/000000.bin"] {
+            let scan = Scan::read(&root.join(file)).unwrap();
+            assert_eq!(rings(&scan.points).1, LASERS, "{file}");
+            check(&scan.points, file);
+            // Reversed: crossings the other way round, no ring structure.
+            let reversed: Vec<Point3> = scan.points.iter().rev().copied().collect();
+            check(&reversed, &format!("{file} reversed"));
+        }
+        // Random points in every quadrant (a crossing every few points, many saturating past
+        // 255 rings), and points jittering about the forward direction with rare rear ones.
+        let mut rng = SplitMix::new(7);
+        let mut unit = move || (rng.next_u64() >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
+        let random: Vec<Point3> = (0..5000)
+            .map(|_| Point3::new(unit(), unit(), unit()))
+            .collect();
+        check(&random, "random");
+        let jitter: Vec<Point3> = (0..5000)
+            .map(|i| {
+                let x = if i % 97 == 0 { -1.0 } else { 1.0 };
+                Point3::new(x, unit() * 0.01, 0.0)
+            })
+            .collect();
+        check(&jitter, "jitter");
     }
 }

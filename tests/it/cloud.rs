@@ -202,3 +202,56 @@ fn augmentation_drops_scales_and_refuses_bad_input() {
     .to_string();
     assert!(e.contains("ring 64 of point 0"), "{e}");
 }
+
+/// The AVX2 and baseline paths ([`kitti2pgm::simd`]) project every real scan of the fixtures
+/// the same, bit for bit: plain and augmented, by rings, given beams and elevation, 90 and
+/// 360 degrees.
+#[test]
+fn both_code_paths_project_the_same() {
+    use kitti2pgm::project::RowMode;
+    let plan = Plan::build(&raw_root(), FrameSelection::Annotated).unwrap();
+    let narrow = PgmSpec::default();
+    let elevation = PgmSpec {
+        row_mode: RowMode::Elevation,
+        ..spec360()
+    };
+    let all = Augment {
+        rotate: 0.7,
+        scale: 1.03,
+        flip: true,
+        jitter: 0.02,
+        drop: 0.1,
+        seed: 5,
+    };
+    let mut scans = 0;
+    for &(d, f) in &plan.jobs {
+        let l = load(&plan.drives[d], f, &MapParams::default(), Viz::Off).unwrap();
+        for spec in [narrow, spec360(), elevation] {
+            for aug in [None, Some(all)] {
+                let run = || cloud_map(&l, &spec, aug.as_ref());
+                let (fast, base) = (run(), kitti2pgm::simd::baseline(run));
+                let what = format!("{} {} cols {:?} {aug:?}", l.id, spec.cols, spec.row_mode);
+                assert_eq!(fast.frame, base.frame, "{what}");
+                assert_eq!(fast.point_cell, base.point_cell, "{what}");
+                assert_eq!(fast.cell_point, base.cell_point, "{what}");
+                assert_eq!(fast.stats, base.stats, "{what}");
+            }
+        }
+        // Given beams (the recovered rings, scaled to 32 rows).
+        let (r, _) = rings(&l.scan.points);
+        let given = Cloud {
+            rings: r.as_deref(),
+            ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+        };
+        let half = PgmSpec {
+            rows: 32,
+            ..spec360()
+        };
+        let run = || project_cloud(&given, &half, None).unwrap();
+        let (fast, base) = (run(), kitti2pgm::simd::baseline(run));
+        assert_eq!(fast.frame, base.frame, "{} given rings", l.id);
+        assert_eq!(fast.point_cell, base.point_cell, "{} given rings", l.id);
+        scans += 1;
+    }
+    assert!(scans >= 3, "{scans} scans");
+}

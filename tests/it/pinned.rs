@@ -34,6 +34,19 @@ fn tree_digest(out: &Path) -> String {
 }
 
 fn convert(raw: &Path, out: &Path, extra: &[&str]) {
+    convert_on(raw, out, extra, CodePath::Avx2);
+}
+
+/// Which of the binary's code paths runs ([`kitti2pgm::simd`]).
+#[derive(Debug, Clone, Copy)]
+enum CodePath {
+    /// AVX2 where the CPU has it (as users run it).
+    Avx2,
+    /// The baseline x86-64 build (`KITTI2PGM_NO_AVX2=1`).
+    Baseline,
+}
+
+fn convert_on(raw: &Path, out: &Path, extra: &[&str], path: CodePath) {
     let mut args = vec![
         "convert",
         s(raw),
@@ -43,8 +56,12 @@ fn convert(raw: &Path, out: &Path, extra: &[&str]) {
         "--no-progress",
     ];
     args.extend_from_slice(extra);
-    let (code, _, stderr) = run_text(&args);
-    assert_eq!(code, 0, "{stderr}");
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_kitti2pgm"));
+    if let CodePath::Baseline = path {
+        cmd.env("KITTI2PGM_NO_AVX2", "1");
+    }
+    let o = cmd.args(&args).output().expect("run kitti2pgm");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 const LABELS: [(&str, &str); 3] = [
@@ -92,17 +109,28 @@ fn fixture_outputs_are_pinned() {
             "c532a4c2c3b4a32270d990b94c7be7760c73414983e3723a26ae71cd167c94d4",
         ),
     ];
-    for (extra, npys) in [(&[][..], lidar), (&["--rgb"][..], rgb)] {
+    // Both code paths: the same bytes.
+    let runs = [
+        (&[][..], lidar, CodePath::Avx2),
+        (&["--rgb"][..], rgb, CodePath::Avx2),
+        (&[][..], lidar, CodePath::Baseline),
+        (&["--rgb"][..], rgb, CodePath::Baseline),
+    ];
+    for (extra, npys, path) in runs {
         let t = tmp();
         let out = t.path().join("out");
-        convert(&fixtures(), &out, extra);
+        convert_on(&fixtures(), &out, extra, path);
         let mut want: Vec<(String, String)> = LABELS
             .iter()
             .chain(npys.iter())
             .map(|(p, h)| (p.to_string(), h.to_string()))
             .collect();
         want.sort();
-        assert_eq!(hashes(&out), want, "outputs with {extra:?} changed");
+        assert_eq!(
+            hashes(&out),
+            want,
+            "outputs with {extra:?} changed ({path:?})"
+        );
     }
 }
 

@@ -358,14 +358,17 @@ pub(crate) fn map_dict<'py>(
     let (row, col) = arrays::with_avx2(
         #[inline(always)]
         || {
-            let (mut row, mut col) = (vec![0i32; point_cell.len()], vec![0i32; point_cell.len()]);
-            for ((r, k), &c) in row.iter_mut().zip(&mut col).zip(&point_cell) {
+            let row_col = point_cell.iter().map(|&c| {
                 let q = ((f64::from(c) + 0.5) * inv_w) as i32;
                 // (wrapping: an EMPTY cell's quotient is meaningless, and discarded)
                 let rem = (c as i32).wrapping_sub(q.wrapping_mul(w as i32));
-                (*r, *k) = if c == EMPTY { (-1, -1) } else { (q, rem) };
-            }
-            (row, col)
+                if c == EMPTY {
+                    (-1, -1)
+                } else {
+                    (q, rem)
+                }
+            });
+            arrays::unzip_exact(row_col, point_cell.len())
         },
     );
     d.set_item("row", PyArray1::from_vec(py, row))?;
