@@ -99,6 +99,15 @@ impl<'a> Geometry<'a> {
         }
     }
 
+    /// The geometry of the points `range` alone.
+    pub fn part(&self, range: std::ops::Range<usize>) -> Geometry<'a> {
+        Geometry {
+            base: &self.base[range.clone()],
+            columns: self.columns.map(|c| &c[range]),
+            ..*self
+        }
+    }
+
     /// The column of point `i`, whose column code ([`Columns::code`]) is `code`: the given one
     /// where columns are given, else by azimuth; `None` outside the map.
     #[inline(always)]
@@ -189,9 +198,15 @@ pub fn atan2_fast(y: f32, x: f32) -> f32 {
     let (num, den) = (ax.min(ay), ax.max(ay));
     // 0 at the origin (and pi for x = -0.0 exactly, where the column check defers to the
     // definition anyway: such a point lies on a column border).
-    let z0 = if den > 0.0 { num / den } else { 0.0 }; // in [0, 1]
-    let big = z0 > 0.414_213_56;
-    let z = if big { (z0 - 1.0) / (z0 + 1.0) } else { z0 };
+    // Above tan(pi/8), the argument moves to (z - 1) / (z + 1) about pi/4: one division for
+    // either, `(num - den) / (num + den)`.
+    let big = num > 0.414_213_56 * den;
+    let (n, d) = if big {
+        (num - den, num + den)
+    } else {
+        (num, den)
+    };
+    let z = if d > 0.0 { n / d } else { 0.0 }; // in [-0.42, 0.42]
     let base = if big { FRAC_PI_4 } else { 0.0 };
     let zz = z * z;
     let a = base

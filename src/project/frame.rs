@@ -5,6 +5,8 @@
 //! ([`Channels::npy`]): x, y, z, intensity, range, label, then r, g, b when colour is on. Empty
 //! cells are all zeros, which is what SqueezeSeg's loader expects (its mask is `range > 0`).
 
+use std::mem::MaybeUninit;
+
 use serde::Serialize;
 
 use super::channels::{Channel, Channels};
@@ -97,6 +99,17 @@ pub fn assemble(
     proj: &Projection,
     colour: Option<&dyn Fn(usize) -> Option<[f32; 3]>>,
 ) -> PgmFrame {
+    assemble_on(values, proj, colour, 1)
+}
+
+/// [`assemble`] with the cells split into bands among up to `threads` threads (without colour;
+/// the same frame).
+pub(crate) fn assemble_on(
+    values: PointValues<'_>,
+    proj: &Projection,
+    colour: Option<&dyn Fn(usize) -> Option<[f32; 3]>>,
+    threads: usize,
+) -> PgmFrame {
     let channels = Channels::npy(colour.is_some());
     assert!(
         channels.0[..LIDAR.len()] == LIDAR,
@@ -108,13 +121,15 @@ pub fn assemble(
         instance,
         mask,
         rgb_valid,
+        ..
     } = match colour {
-        // Every pass over the cells compiled with AVX2 where the CPU has it.
-        None => crate::simd::with_avx2(
-            #[inline(always)]
-            move || cell_values::<6>(values, proj, None),
-        ),
-        Some(f) => cell_values::<9>(values, proj, Some(f)),
+        None => lidar_cells(values, proj, threads),
+        Some(f) => {
+            let mut out = PerCell::with_capacity::<9>(proj.cell_point.len(), true);
+            cell_values::<9>(values, proj, 0, out.slots::<9>(), Some(f));
+            // SAFETY: `cell_values` wrote every cell of every output.
+            unsafe { out.set_len::<9>() }
+        }
     };
     PgmFrame {
         rows: proj.spec.rows,
@@ -130,6 +145,8 @@ pub fn assemble(
 
 /// What [`cell_values`] gives for every cell, in [`PgmFrame`]'s fields.
 struct PerCell {
+    /// Cells.
+    cells: usize,
     data: Vec<f32>,
     label: Vec<ClassId>,
     instance: Vec<u16>,
@@ -137,8 +154,117 @@ struct PerCell {
     rgb_valid: Option<Vec<u8>>,
 }
 
+/// The outputs of a band of cells, to be written (each slot once).
+struct Cells<'a> {
+    data: &'a mut [MaybeUninit<f32>],
+    label: &'a mut [MaybeUninit<ClassId>],
+    instance: &'a mut [MaybeUninit<u16>],
+    mask: &'a mut [MaybeUninit<u8>],
+    rgb_valid: Option<&'a mut [MaybeUninit<u8>]>,
+}
+
+impl PerCell {
+    /// Room for `cells` cells of `D` channels, nothing written yet.
+    fn with_capacity<const D: usize>(cells: usize, colour: bool) -> PerCell {
+        PerCell {
+            cells,
+            data: Vec::with_capacity(cells * D),
+            label: Vec::with_capacity(cells),
+            instance: Vec::with_capacity(cells),
+            mask: Vec::with_capacity(cells),
+            rgb_valid: colour.then(|| Vec::with_capacity(cells)),
+        }
+    }
+
+    /// The unwritten outputs of all the cells, `D` channels each.
+    fn slots<const D: usize>(&mut self) -> Cells<'_> {
+        let n = self.cells;
+        Cells {
+            data: &mut self.data.spare_capacity_mut()[..n * D],
+            label: &mut self.label.spare_capacity_mut()[..n],
+            instance: &mut self.instance.spare_capacity_mut()[..n],
+            mask: &mut self.mask.spare_capacity_mut()[..n],
+            rgb_valid: self
+                .rgb_valid
+                .as_mut()
+                .map(|v| &mut v.spare_capacity_mut()[..n]),
+        }
+    }
+
+    /// The outputs, every cell written.
+    ///
+    /// # Safety
+    /// Every slot of [`PerCell::slots`] was written.
+    unsafe fn set_len<const D: usize>(mut self) -> PerCell {
+        let n = self.cells;
+        // SAFETY: the caller wrote them all; the capacities were asked for exactly these.
+        unsafe {
+            self.data.set_len(n * D);
+            self.label.set_len(n);
+            self.instance.set_len(n);
+            self.mask.set_len(n);
+            if let Some(v) = &mut self.rgb_valid {
+                v.set_len(n);
+            }
+        }
+        self
+    }
+}
+
+/// Cells per band of [`lidar_cells`]: whole bands for a thread, not fewer.
+const MIN_BAND: usize = 16_384;
+
+/// The six [`LIDAR`] channels, class, instance and mask of every cell, in up to `threads`
+/// bands of cells at once, each pass compiled with AVX2 where the CPU has it.
+fn lidar_cells(values: PointValues<'_>, proj: &Projection, threads: usize) -> PerCell {
+    use rayon::prelude::*;
+    let cells = proj.cell_point.len();
+    let mut out = PerCell::with_capacity::<6>(cells, false);
+    let bands = threads.min(cells / MIN_BAND).max(1);
+    let band = cells.div_ceil(bands).max(1);
+    let fill = |first: usize, band: Cells<'_>| {
+        crate::simd::with_avx2(
+            #[inline(always)]
+            move || cell_values::<6>(values, proj, first, band, None),
+        )
+    };
+    let all = out.slots::<6>();
+    if bands == 1 {
+        fill(0, all);
+    } else {
+        let Cells {
+            data,
+            label,
+            instance,
+            mask,
+            ..
+        } = all;
+        let parts = data
+            .par_chunks_mut(band * 6)
+            .zip(label.par_chunks_mut(band));
+        let parts = parts
+            .zip(instance.par_chunks_mut(band))
+            .zip(mask.par_chunks_mut(band));
+        parts
+            .enumerate()
+            .for_each(|(b, (((data, label), instance), mask))| {
+                let cells = Cells {
+                    data,
+                    label,
+                    instance,
+                    mask,
+                    rgb_valid: None,
+                };
+                fill(b * band, cells)
+            });
+    }
+    // SAFETY: the bands cover the cells, and `cell_values` wrote every cell of its band.
+    unsafe { out.set_len::<6>() }
+}
+
 /// The `D` channels ([`LIDAR`], then r, g, b where `colour` is given), the class, instance,
-/// mask (and colour validity) of every cell, row-major, in one pass over the cells.
+/// mask (and colour validity) of the cells from `first` on that `out` holds, row-major, in one
+/// pass over the cells, writing every slot of `out`.
 ///
 /// Every value is stored straight into its output once, without a branch: an empty cell reads
 /// the first point and keeps zeros instead (a cell built as an array on the stack and copied
@@ -147,79 +273,73 @@ struct PerCell {
 fn cell_values<const D: usize>(
     values: PointValues<'_>,
     proj: &Projection,
+    first: usize,
+    out: Cells<'_>,
     colour: Option<Colour<'_>>,
-) -> PerCell {
+) {
     assert_eq!(D, LIDAR.len() + if colour.is_some() { 3 } else { 0 });
-    let cells = proj.cell_point.len();
-    let mut out = PerCell {
-        data: Vec::with_capacity(cells * D),
-        label: Vec::with_capacity(cells),
-        instance: Vec::with_capacity(cells),
-        mask: Vec::with_capacity(cells),
-        rgb_valid: colour.map(|_| Vec::with_capacity(cells)),
-    };
+    let cells = out.label.len();
+    assert_eq!(out.data.len(), cells * D);
+    assert!(out.instance.len() == cells && out.mask.len() == cells);
+    assert_eq!(
+        out.rgb_valid.as_ref().map(|v| v.len()),
+        colour.map(|_| cells)
+    );
+    let kept = &proj.cell_point[first..first + cells];
+    let ranges = &proj.cell_range[first..first + cells];
+    let Cells {
+        data,
+        label,
+        instance: inst,
+        mask,
+        mut rgb_valid,
+    } = out;
     if values.points.is_empty() {
         // No point, so every cell is empty: zeros everywhere.
-        out.data.resize(cells * D, 0.0);
-        out.label.resize(cells, 0);
-        out.instance.resize(cells, 0);
-        out.mask.resize(cells, 0);
-        if let Some(v) = &mut out.rgb_valid {
-            v.resize(cells, 0);
+        data.iter_mut().for_each(|v| {
+            v.write(0.0);
+        });
+        for ((l, i), m) in label.iter_mut().zip(inst.iter_mut()).zip(mask.iter_mut()) {
+            l.write(0);
+            i.write(0);
+            m.write(0);
         }
-        return out;
+        rgb_valid
+            .iter_mut()
+            .flat_map(|v| v.iter_mut())
+            .for_each(|v| {
+                v.write(0);
+            });
+        return;
     }
     // One length for every per-point array, so that one bounds check covers them all.
     let n = values.points.len();
     let (points, intensity) = (values.points, &values.intensity[..n]);
     let (class, instance) = (&values.class[..n], &values.instance[..n]);
-    {
-        let data = &mut out.data.spare_capacity_mut()[..cells * D];
-        let label = &mut out.label.spare_capacity_mut()[..cells];
-        let inst = &mut out.instance.spare_capacity_mut()[..cells];
-        let mask = &mut out.mask.spare_capacity_mut()[..cells];
-        let mut valid = out
-            .rgb_valid
-            .as_mut()
-            .map(|v| &mut v.spare_capacity_mut()[..cells]);
-        let kept = proj.cell_point.iter().zip(&proj.cell_range);
-        for (c, (dst, (&pi, &range))) in data.chunks_exact_mut(D).zip(kept).enumerate() {
-            // All ones for a kept cell, zeros for an empty one: a mask, not a select, which
-            // the compiler would turn back into a branch (its operands are loads).
-            let keep = ((pi != EMPTY) as u32).wrapping_neg();
-            let i = (pi & keep) as usize;
-            debug_assert!(i < n, "a cell keeps one of the points");
-            let i = i.min(n - 1);
-            let zeroed = |v: f32| f32::from_bits(v.to_bits() & keep);
-            let p = &points[i];
-            // `range` is 0 in an empty cell already.
-            let lidar = [p.x, p.y, p.z, intensity[i], range, class[i] as f32];
-            for (d, v) in dst.iter_mut().zip(lidar) {
-                d.write(zeroed(v));
+    let kept = kept.iter().zip(ranges);
+    for (c, (dst, (&pi, &range))) in data.chunks_exact_mut(D).zip(kept).enumerate() {
+        // All ones for a kept cell, zeros for an empty one: a mask, not a select, which
+        // the compiler would turn back into a branch (its operands are loads).
+        let keep = ((pi != EMPTY) as u32).wrapping_neg();
+        let i = (pi & keep) as usize;
+        debug_assert!(i < n, "a cell keeps one of the points");
+        let i = i.min(n - 1);
+        let zeroed = |v: f32| f32::from_bits(v.to_bits() & keep);
+        let p = &points[i];
+        // `range` is 0 in an empty cell already.
+        let lidar = [p.x, p.y, p.z, intensity[i], range, class[i] as f32];
+        for (d, v) in dst.iter_mut().zip(lidar) {
+            d.write(zeroed(v));
+        }
+        label[c].write(class[i] & keep as ClassId);
+        inst[c].write(instance[i] & keep as u16);
+        mask[c].write((keep as u8) & (range > 0.0) as u8);
+        if let (Some(f), Some(valid)) = (colour, &mut rgb_valid) {
+            let rgb = if keep == 0 { None } else { f(i) };
+            for (d, v) in dst[LIDAR.len()..].iter_mut().zip(rgb.unwrap_or_default()) {
+                d.write(v);
             }
-            label[c].write(class[i] & keep as ClassId);
-            inst[c].write(instance[i] & keep as u16);
-            mask[c].write((keep as u8) & (range > 0.0) as u8);
-            if let (Some(f), Some(valid)) = (colour, &mut valid) {
-                let rgb = if keep == 0 { None } else { f(i) };
-                for (d, v) in dst[LIDAR.len()..].iter_mut().zip(rgb.unwrap_or_default()) {
-                    d.write(v);
-                }
-                valid[c].write(rgb.is_some() as u8);
-            }
+            valid[c].write(rgb.is_some() as u8);
         }
     }
-    // SAFETY: the loop wrote every cell of every output: all `D` values of a cell (six, and
-    // three more with colour, where D is nine: asserted above), and its label, instance, mask
-    // and colour validity.
-    unsafe {
-        out.data.set_len(cells * D);
-        out.label.set_len(cells);
-        out.instance.set_len(cells);
-        out.mask.set_len(cells);
-        if let Some(v) = &mut out.rgb_valid {
-            v.set_len(cells);
-        }
-    }
-    out
 }

@@ -30,8 +30,8 @@ pub mod unproject;
 
 pub use augment::Augment;
 pub use channels::{Channel, Channels};
-use claim::{claim_cells, split_keys};
-pub use cloud::{project_cloud, Cloud, CloudProjection, IntensityKind};
+use claim::{claim, Claimed};
+pub use cloud::{project_cloud, project_cloud_on, Cloud, CloudProjection, IntensityKind};
 pub(crate) use columns::Geometry;
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
 pub use frame::PgmFrame;
@@ -250,6 +250,7 @@ pub fn project(points: &[Point3], spec: &PgmSpec) -> Projection {
         PointCells::Drop,
         Rows::FromSpec,
         Geometry::plain(points),
+        1,
     )
 }
 
@@ -289,7 +290,7 @@ fn beams_impl(
         columns,
         ..Geometry::plain(points)
     };
-    project_impl(points, spec, cells, Rows::Beams(rows, beams), geometry)
+    project_impl(points, spec, cells, Rows::Beams(rows, beams), geometry, 1)
 }
 
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
@@ -301,6 +302,7 @@ pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection
         PointCells::Keep,
         Rows::FromSpec,
         Geometry::plain(points),
+        1,
     )
 }
 
@@ -320,15 +322,14 @@ pub(crate) enum PointCells {
 }
 
 /// The projection of `points` (as the map stores them) with rows from `rows` and columns and
-/// ranges from `geometry`. Two passes per block of points: the columns, ranges and (rows given)
-/// cells of the whole block, vectorised; then each point's claim on its cell, one point at a
-/// time in scan order. Both compiled with AVX2 where the CPU has it ([`crate::simd`]).
+/// ranges from `geometry`, its points split among up to `threads` threads ([`claim`]).
 pub(crate) fn project_impl(
     points: &[Point3],
     spec: &PgmSpec,
     point_cells: PointCells,
     rows: Rows<'_>,
     geometry: Geometry<'_>,
+    threads: usize,
 ) -> Projection {
     debug_assert_eq!(points.len(), geometry.base.len());
     let RowSource {
@@ -338,13 +339,18 @@ pub(crate) fn project_impl(
         fallback,
     } = row_source(points, spec, rows);
     let ring_ids = ring_ids.as_deref();
-    let (cell_key, point_cell, in_fov) = crate::simd::with_avx2(
-        #[inline(always)]
-        move || claim_cells(points, spec, point_cells, (ring_ids, beams), geometry),
-    );
-    let (cell_point, cell_range) = crate::simd::with_avx2(
-        #[inline(always)]
-        || split_keys(&cell_key),
+    let Claimed {
+        cell_point,
+        cell_range,
+        point_cell,
+        in_fov,
+    } = claim(
+        points,
+        spec,
+        point_cells,
+        (ring_ids, beams),
+        geometry,
+        threads,
     );
     Projection {
         spec: *spec,

@@ -255,3 +255,43 @@ fn both_code_paths_project_the_same() {
     }
     assert!(scans >= 3, "{scans} scans");
 }
+
+/// The same projection whatever the threads: the points' parts and the map's bands change
+/// nothing, plain and augmented, with and without the spare bands of a narrow map.
+#[test]
+fn threads_change_nothing() {
+    use kitti2pgm::project::project_cloud_on;
+    let plan = Plan::build(&raw_root(), FrameSelection::Annotated).unwrap();
+    let (d, f) = plan.jobs[0];
+    let l = load(&plan.drives[d], f, &MapParams::default(), Viz::Off).unwrap();
+    let cloud = Cloud {
+        labels: Some(&l.labels.points.class),
+        instance: Some(&l.labels.points.instance),
+        ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+    };
+    let aug = Augment {
+        rotate: -1.1,
+        scale: 0.98,
+        jitter: 0.01,
+        drop: 0.05,
+        seed: 9,
+        ..Default::default()
+    };
+    for spec in [PgmSpec::default(), spec360()] {
+        for a in [None, Some(&aug)] {
+            let one = project_cloud_on(&cloud, &spec, a, 1).unwrap();
+            assert!(
+                l.scan.points.len() > 7 * 16_384,
+                "enough points for 7 parts"
+            );
+            for threads in [0, 2, 3, 7, 64] {
+                let many = project_cloud_on(&cloud, &spec, a, threads).unwrap();
+                let what = format!("{} cols, {a:?}, {threads} threads", spec.cols);
+                assert_eq!(many.frame, one.frame, "{what}");
+                assert_eq!(many.point_cell, one.point_cell, "{what}");
+                assert_eq!(many.cell_point, one.cell_point, "{what}");
+                assert_eq!(many.stats, one.stats, "{what}");
+            }
+        }
+    }
+}

@@ -61,6 +61,7 @@ def project(
     drop: float = 0.0,
     seed: int = 0,
     point_cells: bool = True,
+    threads: int = 1,
 ) -> MapDict:
     """The map of ``preset`` (squeezeseg when None; ``PRESETS`` holds the numbers), each value
     given in its place."""

@@ -19,8 +19,8 @@ use pyo3::types::PyDict;
 
 use kitti2pgm::kitti::Layout;
 use kitti2pgm::project::{
-    project_cloud, Augment, Cloud, CloudProjection, IntensityKind, MapChoice, MapPreset, PgmSpec,
-    RowMode, EMPTY,
+    project_cloud_on, Augment, Cloud, CloudProjection, IntensityKind, MapChoice, MapPreset,
+    PgmSpec, RowMode, EMPTY,
 };
 
 use arrays::{colours_arg, points_arg, vec_arg};
@@ -146,6 +146,8 @@ fn rings<'py>(
 /// rotate_deg, scale, flip, jitter (metres), drop (probability), seed: 3D augmentation applied
 /// before projecting (rows stay the rings of the original order; a rotation by k column angles
 /// shifts the map by exactly k columns).
+/// threads: how many threads one call may use (rayon's pool; default 1, the right choice
+/// inside DataLoader workers, which run in parallel already); the same arrays whatever it is.
 ///
 /// Returns a dict: map (H, W, C) float32 with channel names in channels (x y z intensity range
 /// label [r g b]), mask (H, W) bool, label (H, W) uint8, instance (H, W) uint16, rgb_valid
@@ -156,8 +158,8 @@ fn rings<'py>(
 #[pyo3(signature = (points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None,
     fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, sensor_pose=None,
     ouster_columns=false, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=false, jitter=0.0,
-    drop=0.0, seed=0, point_cells=true),
-    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, sensor_pose=None, ouster_columns=False, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True)")]
+    drop=0.0, seed=0, point_cells=true, threads=1),
+    text_signature = "(points, *, preset=None, rows=None, cols=None, fov_deg=None, fov_up_deg=None, fov_down_deg=None, row_mode=None, rings=None, beams=None, sensor=None, sensor_pose=None, ouster_columns=False, labels=None, instance=None, rgb=None, rgb_valid=None, rotate_deg=0.0, scale=1.0, flip=False, jitter=0.0, drop=0.0, seed=0, point_cells=True, threads=1)")]
 // One Rust argument per Python keyword: the signature is the Python API.
 #[allow(clippy::too_many_arguments)]
 fn project<'py>(
@@ -186,7 +188,11 @@ fn project<'py>(
     drop: f32,
     seed: u64,
     point_cells: bool,
+    threads: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
+    if threads == 0 {
+        return Err(PyValueError::new_err("threads must be at least 1"));
+    }
     let map = MapArgs {
         preset,
         rows,
@@ -295,7 +301,7 @@ fn project<'py>(
                 colours: colours.as_deref(),
                 colour_valid: colour_valid.as_deref(),
             };
-            project_cloud(&cloud, &spec, Some(&augment))
+            project_cloud_on(&cloud, &spec, Some(&augment), threads)
         })
         .map_err(py_err)?;
     let d = map_dict(py, map, point_cells)?;
@@ -353,13 +359,18 @@ pub(crate) fn map_dict<'py>(
     }
     // `c / w` by a multiplication in double precision (the integer division and remainder of
     // every point were 7% of the call): exact, `(c + 0.5) / w` lying at least `0.5 / w` from an
-    // integer, far beyond the product's rounding for cells below 2^32.
+    // integer, far beyond the product's rounding for cells below 2^32. A map's cells are below
+    // 2^28 (4096 x 65536), so a cell is a non-negative i32, whose conversions vectorise (those of
+    // a u32 do not with AVX2); EMPTY becomes -1.
+    assert!(h * w <= 1 << 28, "a map has at most 2^28 cells");
     let inv_w = 1.0 / w as f64;
     let (row, col) = arrays::with_avx2(
         #[inline(always)]
         || {
             let row_col = point_cell.iter().map(|&c| {
-                let q = ((f64::from(c) + 0.5) * inv_w) as i32;
+                let x = (f64::from(c as i32) + 0.5) * inv_w;
+                // SAFETY: x is finite and within (-1, 2^28]: it fits an i32.
+                let q: i32 = unsafe { x.to_int_unchecked() };
                 // (wrapping: an EMPTY cell's quotient is meaningless, and discarded)
                 let rem = (c as i32).wrapping_sub(q.wrapping_mul(w as i32));
                 if c == EMPTY {

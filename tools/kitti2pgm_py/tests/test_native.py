@@ -356,6 +356,20 @@ def test_threads_get_the_same_maps():
     assert all(np.array_equal(g, want) for g in got)
 
 
+@pytest.mark.parametrize("threads", [2, 3, 8])
+def test_threads_inside_one_call_give_the_same_arrays(threads):
+    f = k2.Dataset(RAW).load(0)
+    for opts in [FULL, {}, dict(FULL, rotate_deg=30.0, jitter=0.01, drop=0.1, seed=4)]:
+        one = k2.project(f["points"], labels=f["label"], **opts)
+        many = k2.project(f["points"], labels=f["label"], threads=threads, **opts)
+        for key, v in one.items():
+            if isinstance(v, np.ndarray):
+                assert many[key].dtype == v.dtype and np.array_equal(many[key], v), (key, opts)
+        assert many["stats"] == one["stats"]
+    with pytest.raises(ValueError, match="threads must be at least 1"):
+        k2.project(f["points"], threads=0)
+
+
 def test_point_shards_project_to_the_converters_maps(tmp_path, kitti2pgm_path):
     from kitti2pgm_data import ShardDataset, ShardReader, iter_frames
 
