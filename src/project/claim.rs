@@ -12,7 +12,7 @@ use crate::geom::Point3;
 const BLOCK: usize = 512;
 
 /// The fewest points a thread of [`claim`] takes (fewer are not worth a thread's start).
-pub(super) const MIN_PART: usize = 16_384;
+const MIN_PART: usize = 16_384;
 
 /// What [`claim`] gives: the point and range each cell keeps, the cell of every point (when
 /// kept), and the points in view.
@@ -91,19 +91,22 @@ pub(super) fn claim(
     }
 }
 
-/// The point and range of every cell from the parts' keys: their minimum ([`split_keys`]), in
+/// The point and range of every cell from the parts' keys: their minimum ([`split_key`]), in
 /// up to `threads` bands of cells at once.
 fn merge_keys(mut keys: Vec<Vec<u64>>, threads: usize) -> (Vec<u32>, Vec<f32>) {
     let mut first = keys.remove(0);
+    if keys.is_empty() {
+        // One part: collected straight from its keys (no zero fill first).
+        return crate::simd::with_avx2(
+            #[inline(always)]
+            || {
+                let point = first.iter().map(|&k| split_key(k).0).collect();
+                (point, first.iter().map(|&k| split_key(k).1).collect())
+            },
+        );
+    }
     let cells = first.len();
     let (mut point, mut range) = (vec![0u32; cells], vec![0f32; cells]);
-    if keys.is_empty() {
-        crate::simd::with_avx2(
-            #[inline(always)]
-            || split_keys(&first, &mut point, &mut range),
-        );
-        return (point, range);
-    }
     let band = cells.div_ceil(threads.max(1)).max(1);
     let bands = first.par_chunks_mut(band).zip(point.par_chunks_mut(band));
     bands
@@ -118,7 +121,9 @@ fn merge_keys(mut keys: Vec<Vec<u64>>, threads: usize) -> (Vec<u32>, Vec<f32>) {
                             *k = (*k).min(*o);
                         }
                     }
-                    split_keys(k, p, r)
+                    for ((&k, p), r) in k.iter().zip(p).zip(r) {
+                        (*p, *r) = split_key(k);
+                    }
                 },
             )
         });
@@ -222,6 +227,13 @@ struct Out<'a> {
 }
 
 impl Part<'_> {
+    /// The key of the part's point `i` at `range`: range bits above the point's index in the
+    /// cloud ([`claim_cells`]).
+    #[inline(always)]
+    fn key(&self, range: f32, i: usize) -> u64 {
+        (u64::from(range.to_bits()) << 32) | (self.first + i) as u64
+    }
+
     /// The claims of the block of points from `start`, whose column codes are `code`, each
     /// point's cell as it comes (rows by elevation, or given columns); the points in view.
     #[inline(always)]
@@ -256,8 +268,7 @@ impl Part<'_> {
             }
             if let Some(c) = cell {
                 in_fov += 1;
-                let key = (u64::from(range[k].to_bits()) << 32) | (self.first + i) as u64;
-                cell_key[c] = cell_key[c].min(key);
+                cell_key[c] = cell_key[c].min(self.key(range[k], i));
             }
         }
         in_fov
@@ -309,23 +320,20 @@ impl Part<'_> {
             if !point_cell.is_empty() {
                 point_cell[i].write(if inside { c } else { EMPTY });
             }
-            let key = (u64::from(range[k].to_bits()) << 32) | (self.first + i) as u64;
             let kept = &mut cell_key[c as usize];
-            *kept = (*kept).min(key);
+            *kept = (*kept).min(self.key(range[k], i));
         }
         in_fov
     }
 }
 
-/// The point and the range of every cell from its key (range bits above point index; all ones
-/// for an empty cell, whose low half is [`EMPTY`] already).
+/// The point and the range a cell's key holds (range bits above point index; all ones for an
+/// empty cell, whose low half is [`EMPTY`] already).
 #[inline(always)]
-fn split_keys(cell_key: &[u64], point: &mut [u32], range: &mut [f32]) {
-    for ((&k, p), r) in cell_key.iter().zip(point).zip(range) {
-        *p = k as u32;
-        *r = match k {
-            u64::MAX => 0.0,
-            k => f32::from_bits((k >> 32) as u32),
-        };
-    }
+fn split_key(k: u64) -> (u32, f32) {
+    let range = match k {
+        u64::MAX => 0.0,
+        k => f32::from_bits((k >> 32) as u32),
+    };
+    (k as u32, range)
 }

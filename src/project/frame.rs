@@ -126,9 +126,9 @@ pub(crate) fn assemble_on(
         None => lidar_cells(values, proj, threads),
         Some(f) => {
             let mut out = PerCell::with_capacity::<9>(proj.cell_point.len(), true);
-            cell_values::<9>(values, proj, 0, out.slots::<9>(), Some(f));
+            cell_values::<9>(values, proj, 0, out.slots(), Some(f));
             // SAFETY: `cell_values` wrote every cell of every output.
-            unsafe { out.set_len::<9>() }
+            unsafe { out.set_len() }
         }
     };
     PgmFrame {
@@ -147,6 +147,8 @@ pub(crate) fn assemble_on(
 struct PerCell {
     /// Cells.
     cells: usize,
+    /// Channels of `data`.
+    depth: usize,
     data: Vec<f32>,
     label: Vec<ClassId>,
     instance: Vec<u16>,
@@ -168,6 +170,7 @@ impl PerCell {
     fn with_capacity<const D: usize>(cells: usize, colour: bool) -> PerCell {
         PerCell {
             cells,
+            depth: D,
             data: Vec::with_capacity(cells * D),
             label: Vec::with_capacity(cells),
             instance: Vec::with_capacity(cells),
@@ -176,11 +179,11 @@ impl PerCell {
         }
     }
 
-    /// The unwritten outputs of all the cells, `D` channels each.
-    fn slots<const D: usize>(&mut self) -> Cells<'_> {
+    /// The unwritten outputs of all the cells.
+    fn slots(&mut self) -> Cells<'_> {
         let n = self.cells;
         Cells {
-            data: &mut self.data.spare_capacity_mut()[..n * D],
+            data: &mut self.data.spare_capacity_mut()[..n * self.depth],
             label: &mut self.label.spare_capacity_mut()[..n],
             instance: &mut self.instance.spare_capacity_mut()[..n],
             mask: &mut self.mask.spare_capacity_mut()[..n],
@@ -195,11 +198,11 @@ impl PerCell {
     ///
     /// # Safety
     /// Every slot of [`PerCell::slots`] was written.
-    unsafe fn set_len<const D: usize>(mut self) -> PerCell {
+    unsafe fn set_len(mut self) -> PerCell {
         let n = self.cells;
         // SAFETY: the caller wrote them all; the capacities were asked for exactly these.
         unsafe {
-            self.data.set_len(n * D);
+            self.data.set_len(n * self.depth);
             self.label.set_len(n);
             self.instance.set_len(n);
             self.mask.set_len(n);
@@ -228,7 +231,7 @@ fn lidar_cells(values: PointValues<'_>, proj: &Projection, threads: usize) -> Pe
             move || cell_values::<6>(values, proj, first, band, None),
         )
     };
-    let all = out.slots::<6>();
+    let all = out.slots();
     if bands == 1 {
         fill(0, all);
     } else {
@@ -259,7 +262,7 @@ fn lidar_cells(values: PointValues<'_>, proj: &Projection, threads: usize) -> Pe
             });
     }
     // SAFETY: the bands cover the cells, and `cell_values` wrote every cell of its band.
-    unsafe { out.set_len::<6>() }
+    unsafe { out.set_len() }
 }
 
 /// The `D` channels ([`LIDAR`], then r, g, b where `colour` is given), the class, instance,

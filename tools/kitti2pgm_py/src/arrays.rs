@@ -6,6 +6,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use kitti2pgm::geom::Point3;
+pub use kitti2pgm::simd::with_avx2;
 
 /// "float64 array of shape (3, 4)" or the Python type of a non-array.
 fn describe(obj: &Bound<'_, PyAny>) -> String {
@@ -205,8 +206,6 @@ pub fn unzip_exact<A, B>(pairs: impl Iterator<Item = (A, B)>, n: usize) -> (Vec<
     }
     (a, b)
 }
-
-pub use kitti2pgm::simd::with_avx2;
 
 /// The range of each `C`-float row of `v` ([`with_avx2`]).
 fn ranges<const C: usize>(v: &[f32]) -> Vec<f32> {
