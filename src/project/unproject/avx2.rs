@@ -5,15 +5,21 @@
 //! the window's half-width on every side ([`Grid`]: zero-range padding voting for the padding's
 //! class, or the columns wrapped), so that no window needs a bounds test. The first point of each
 //! cell is taken eight neighbouring cells at a time, their windows read by plain vector loads; the
-//! points that share a cell with a nearer one are taken eight at a time by gathers. The `K`
-//! nearest are kept sorted per lane: a candidate, coming after every kept one in window order,
-//! goes in front of the kept ones it is strictly nearer than (ties stay with the earlier cell, the
-//! scalar rule), by compares and blends, no branch. Distances are compared as their bits
-//! (non-negative floats order as their bits; the empty slot is `i32::MAX`, above infinity).
+//! points that share a cell with a nearer one are taken eight at a time, each window row of the
+//! eight loaded whole and transposed.
+//!
+//! The nearest are found by keys: a candidate's distance bits (non-negative floats order as their
+//! bits) with the lowest [`LOW_BITS`] replaced by its window index and its class. Keys are
+//! distinct and order as (truncated distance, window order), so one minimum and one maximum per
+//! kept entry keep the `K + 1` smallest sorted, no compare, no blend. Where the truncation may
+//! have chosen otherwise than the exact distances (the `K`-th and the next key share their
+//! truncated distance, or a chosen one's truncated distance is the cutoff's: a few lanes in a
+//! thousand on real scans), the block is taken again with exact distances, kept beside their
+//! classes by compares and blends (ties stay with the earlier cell, the scalar rule).
 
 use std::arch::x86_64::*;
 
-use super::lanes::{drive, lane_ranges, store, window_starts, Block, Grid, Setup};
+use super::lanes::{drive, window_starts, Block, Grid, Setup};
 use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
 
@@ -22,9 +28,16 @@ pub(super) fn available() -> bool {
     is_x86_feature_detected!("avx2")
 }
 
+/// Bits of a key for the class (at most 31 classes, and `nobody`).
+const CLASS_BITS: u32 = 5;
+
+/// Bits of a key below the distance's: the window cell's index (6 bits, up to 64 cells) above
+/// the class.
+const LOW_BITS: u32 = 6 + CLASS_BITS;
+
 /// The kNN class of every point (`S` x `S` = `N` window, `K` nearest), into `out` (one slot per
 /// point, `None` already where the point is outside the map). The class map has at most 31
-/// classes (their "may win" set is a bit mask).
+/// classes (their "may win" set is a bit mask); `S` is at most 7.
 ///
 /// # Safety
 /// The CPU must have AVX2 ([`available`]).
@@ -37,58 +50,225 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
     out: &mut [Option<ClassId>],
 ) {
     let grid = Grid::new(m, pred, vote, S / 2, p.wrap_columns, 8);
-    let k = Kernel::<S, N, K>(Setup::new(&grid, vote, p));
-    drive::<8>(m, |block, lanes| {
+    let k = Kernel::<S, N, K>::new(Setup::new(&grid, vote, p));
+    drive::<8>(m, out, |block, ranges, used| {
         // SAFETY: this function runs with AVX2.
         unsafe {
-            let r = _mm256_loadu_ps(lane_ranges(lanes, m.point_range).as_ptr());
+            let r = _mm256_loadu_ps(ranges.as_ptr());
             let winners = match block {
-                Block::Row(at) => k.vote_row(&grid, r, grid.top_left(at, m.cols)),
-                Block::Scattered => {
-                    let starts = window_starts(&grid, m, lanes);
-                    let starts = _mm256_loadu_si256(starts.as_ptr() as *const __m256i);
-                    k.vote_cells(&grid, r, starts)
+                Block::Row(at) => k.vote(&grid, r, Row(grid.top_left(at, m.cols)), used),
+                Block::Scattered(lanes) => {
+                    k.vote(&grid, r, Cells(window_starts(&grid, m, lanes)), used)
                 }
             };
             let mut w = [0i32; 8];
             _mm256_storeu_si256(w.as_mut_ptr() as *mut __m256i, winners);
-            store(lanes, &w, out)
+            w
         }
     });
 }
 
-/// The window's shape in the type: `S` x `S` = `N` cells, `K` nearest.
-struct Kernel<const S: usize, const N: usize, const K: usize>(Setup<N>);
+/// Where the lanes' windows are.
+trait Windows: Copy {
+    /// Row `dy` of every lane's window, its first `S` cells (`S` at most 8): their ranges as
+    /// the kNN compares them, and their classes.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2; the windows lie in `grid`, with 8 cells to read from each row's
+    /// start.
+    unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]);
+}
 
-impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
-    /// Nothing kept yet: every slot farther than anything (`i32::MAX`, above infinity's bits).
+/// Side by side from one grid index: the windows of neighbouring cells of a row.
+#[derive(Clone, Copy)]
+struct Row(usize);
+
+/// Each lane's window from its own grid index.
+#[derive(Clone, Copy)]
+struct Cells([i32; 8]);
+
+impl Windows for Row {
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn empty() -> ([__m256i; K], [__m256i; K]) {
+    unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]) {
+        let at = self.0 + dy * grid.stride;
+        let (far, cls) = (grid.far.as_ptr().add(at), grid.cls.as_ptr().add(at));
         (
-            [_mm256_set1_epi32(i32::MAX); K],
-            [_mm256_setzero_si256(); K],
+            std::array::from_fn(|x| _mm256_loadu_ps(far.add(x))),
+            std::array::from_fn(|x| _mm256_loadu_si256(cls.add(x) as *const __m256i)),
         )
     }
+}
 
-    /// The distance bits of window cell `j` from its ranges `far` (the centre's weight is 0:
-    /// the point's own cell is at distance 0, its range being finite).
+impl Windows for Cells {
+    /// Each lane's row loaded whole (8 cells) and the eight transposed: plain loads and
+    /// shuffles, where gathers cost several times more.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn dist(&self, far: __m256, r: __m256, j: usize) -> __m256i {
-        let abs = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
-        let diff = _mm256_and_ps(_mm256_sub_ps(far, r), abs);
-        _mm256_castps_si256(_mm256_mul_ps(diff, _mm256_set1_ps(self.0.w[j])))
+    unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]) {
+        let rows = |base: *const f32| {
+            let lanes: [__m256; 8] = std::array::from_fn(|l| {
+                // SAFETY: the lane's window lies in the grid (the caller's promise).
+                unsafe { _mm256_loadu_ps(base.add(self.0[l] as usize + dy * grid.stride)) }
+            });
+            transpose(lanes)
+        };
+        let far = rows(grid.far.as_ptr());
+        let cls = rows(grid.cls.as_ptr() as *const f32);
+        (
+            std::array::from_fn(|x| far[x]),
+            std::array::from_fn(|x| _mm256_castps_si256(cls[x])),
+        )
+    }
+}
+
+/// Column `x` of the result holds element `x` of every input, lane `l` from input `l`.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose(r: [__m256; 8]) -> [__m256; 8] {
+    let t: [__m256; 8] = std::array::from_fn(|i| {
+        let (a, b) = (r[i / 2 * 2], r[i / 2 * 2 + 1]);
+        if i % 2 == 0 {
+            _mm256_unpacklo_ps(a, b)
+        } else {
+            _mm256_unpackhi_ps(a, b)
+        }
+    });
+    // u[4 * half + x]: element x (and x + 4) of inputs 4 * half .. 4 * half + 4.
+    let u: [__m256; 8] = std::array::from_fn(|i| {
+        let (half, x) = (i / 4, i % 4);
+        let (a, b) = (t[4 * half + x / 2], t[4 * half + x / 2 + 2]);
+        if x % 2 == 0 {
+            _mm256_shuffle_ps::<0x44>(a, b)
+        } else {
+            _mm256_shuffle_ps::<0xEE>(a, b)
+        }
+    });
+    std::array::from_fn(|x| {
+        if x < 4 {
+            _mm256_permute2f128_ps::<0x20>(u[x], u[4 + x])
+        } else {
+            _mm256_permute2f128_ps::<0x31>(u[x - 4], u[x])
+        }
+    })
+}
+
+/// The window's shape in the type: `S` x `S` = `N` cells, `K` nearest.
+struct Kernel<const S: usize, const N: usize, const K: usize> {
+    setup: Setup<N>,
+    /// Each window cell's weight in every lane (the centre's 0: the point's own cell is at
+    /// distance 0, its range being finite).
+    weight: [__m256; N],
+    /// Each window cell's index in every lane, where keys hold it (above the class).
+    index: [__m256i; N],
+}
+
+impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn new(setup: Setup<N>) -> Self {
+        Kernel {
+            weight: std::array::from_fn(|j| _mm256_set1_ps(setup.w[j])),
+            index: std::array::from_fn(|j| _mm256_set1_epi32((j as i32) << CLASS_BITS)),
+            setup,
+        }
     }
 
-    /// Keeps the candidate (distance bits `d`, class `cls`) among the `K` nearest: it goes in
-    /// front of the kept entries it is strictly nearer than (it comes after all of them in
-    /// window order).
+    /// The winner of each lane (`used`: the lanes that hold a point, a bit mask): by keys, or
+    /// by the exact distances where the keys are not sure.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn vote(&self, grid: &Grid, r: __m256, at: impl Windows, used: u32) -> __m256i {
+        let (winners, unsure) = self.vote_by_keys(grid, r, at);
+        if unsure as u32 & used == 0 {
+            winners
+        } else {
+            self.vote_exact(grid, r, at)
+        }
+    }
+
+    /// The signed difference times the weight of window cell `j`, from its ranges `far`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn weighted(&self, far: __m256, r: __m256, j: usize) -> __m256 {
+        _mm256_mul_ps(_mm256_sub_ps(far, r), self.weight[j])
+    }
+
+    /// The winner of each lane from its `K` smallest keys (see the module), and the lanes (bit
+    /// mask) where the keys may have chosen otherwise than the exact distances.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn vote_by_keys(&self, grid: &Grid, r: __m256, at: impl Windows) -> (__m256i, i32) {
+        let high = _mm256_set1_epi32(!((1 << LOW_BITS) - 1) & i32::MAX);
+        let mut keys = [_mm256_set1_epi32(i32::MAX); 8];
+        for dy in 0..S {
+            let (far, cls) = at.row::<S>(grid, dy);
+            for x in 0..S {
+                let j = dy * S + x;
+                let d = _mm256_castps_si256(self.weighted(far[x], r, j));
+                let low = _mm256_or_si256(cls[x], self.index[j]);
+                let key = _mm256_or_si256(_mm256_and_si256(d, high), low);
+                for i in (1..=K).rev() {
+                    keys[i] = _mm256_min_epi32(keys[i], _mm256_max_epi32(keys[i - 1], key));
+                }
+                keys[0] = _mm256_min_epi32(keys[0], key);
+            }
+        }
+        let truncated = |key: __m256i| _mm256_srli_epi32::<{ LOW_BITS as i32 }>(key);
+        let (kth, next) = (truncated(keys[K - 1]), truncated(keys[K]));
+        // Empty cells tie exactly: infinity's bits truncate to nothing else.
+        let inf = _mm256_set1_epi32((f32::INFINITY.to_bits() >> LOW_BITS) as i32);
+        let mut unsure =
+            _mm256_andnot_si256(_mm256_cmpeq_epi32(kth, inf), _mm256_cmpeq_epi32(kth, next));
+        let class = _mm256_set1_epi32((1 << CLASS_BITS) - 1);
+        let nobody = _mm256_set1_epi32(self.setup.nobody);
+        let mut c: [__m256i; K] = std::array::from_fn(|a| _mm256_and_si256(keys[a], class));
+        if self.setup.cutoff > 0.0 {
+            let cut = _mm256_set1_epi32((self.setup.cutoff.to_bits() >> LOW_BITS) as i32);
+            for a in 0..K {
+                let t = truncated(keys[a]);
+                unsure = _mm256_or_si256(unsure, _mm256_cmpeq_epi32(t, cut));
+                c[a] = _mm256_blendv_epi8(c[a], nobody, _mm256_cmpgt_epi32(t, cut));
+            }
+        }
+        let unsure = _mm256_movemask_ps(_mm256_castsi256_ps(unsure));
+        (self.winner(&c), unsure)
+    }
+
+    /// The winner of each lane, its `K` nearest found by exact distance (bits, compared as
+    /// integers) and class kept side by side: a candidate, coming after every kept one in
+    /// window order, goes in front of the kept ones it is strictly nearer than.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn vote_exact(&self, grid: &Grid, r: __m256, at: impl Windows) -> __m256i {
+        // Nothing kept yet: every slot farther than anything (`i32::MAX`, above infinity).
+        let mut bd = [_mm256_set1_epi32(i32::MAX); K];
+        let mut bc = [_mm256_setzero_si256(); K];
+        let abs = _mm256_set1_epi32(i32::MAX);
+        for dy in 0..S {
+            let (far, cls) = at.row::<S>(grid, dy);
+            for x in 0..S {
+                let d = _mm256_castps_si256(self.weighted(far[x], r, dy * S + x));
+                Self::insert(&mut bd, &mut bc, _mm256_and_si256(d, abs), cls[x]);
+            }
+        }
+        let nobody = _mm256_set1_epi32(self.setup.nobody);
+        if self.setup.cutoff > 0.0 {
+            let cutoff = _mm256_set1_ps(self.setup.cutoff);
+            for a in 0..K {
+                let far = _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_castsi256_ps(bd[a]), cutoff);
+                bc[a] = _mm256_blendv_epi8(bc[a], nobody, _mm256_castps_si256(far));
+            }
+        }
+        self.winner(&bc)
+    }
+
+    /// Keeps the candidate (distance bits `d`, class `cls`) among the `K` nearest: entry `i`
+    /// becomes the median of entry `i - 1`, the candidate and entry `i` (all non-negative:
+    /// signed minimum and maximum order them as their bits); classes follow the compares.
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn insert(bd: &mut [__m256i; K], bc: &mut [__m256i; K], d: __m256i, cls: __m256i) {
-        // Distances: entry i becomes the median of entry i - 1, the candidate and entry i (all
-        // non-negative: signed min and max order them as their bits); classes follow the masks.
         let mut lt = _mm256_cmpgt_epi32(bd[K - 1], d);
         for i in (1..K).rev() {
             let lt_prev = _mm256_cmpgt_epi32(bd[i - 1], d);
@@ -101,73 +281,40 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
         bc[0] = _mm256_blendv_epi8(bc[0], cls, lt);
     }
 
-    /// The winner of each lane, the lanes being neighbouring cells of a row whose windows
-    /// start at grid index `base`.
+    /// Most votes among the classes `c` of the nearest (`nobody` for those past the cutoff)
+    /// that may win, ties to the lower id; no vote: the first class that may win (the scalar
+    /// `Vote::winner`). The votes are counted for all classes at once, bit `c` of three masks
+    /// holding class `c`'s count (up to 7) in binary.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn vote_row(&self, grid: &Grid, r: __m256, base: usize) -> __m256i {
-        let (far_ptr, cls_ptr) = (grid.far.as_ptr().add(base), grid.cls.as_ptr().add(base));
-        let (mut bd, mut bc) = Self::empty();
-        for j in 0..N {
-            let o = self.0.off[j];
-            let far = _mm256_loadu_ps(far_ptr.add(o));
-            let cls = _mm256_loadu_si256(cls_ptr.add(o) as *const __m256i);
-            Self::insert(&mut bd, &mut bc, self.dist(far, r, j), cls);
-        }
-        self.winner(&bd, &bc)
-    }
-
-    /// The winner of each lane, each lane's window starting at its own grid index in
-    /// `starts`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn vote_cells(&self, grid: &Grid, r: __m256, starts: __m256i) -> __m256i {
-        let (far_ptr, cls_ptr) = (grid.far.as_ptr(), grid.cls.as_ptr());
-        let (mut bd, mut bc) = Self::empty();
-        for j in 0..N {
-            let idx = _mm256_add_epi32(starts, _mm256_set1_epi32(self.0.off[j] as i32));
-            let far = _mm256_i32gather_ps::<4>(far_ptr, idx);
-            let cls = _mm256_i32gather_epi32::<4>(cls_ptr, idx);
-            Self::insert(&mut bd, &mut bc, self.dist(far, r, j), cls);
-        }
-        self.winner(&bd, &bc)
-    }
-
-    /// Most votes among the classes that may win, ties to the lower id; no vote: the first
-    /// class that may win (the scalar `Vote::winner`).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn winner(&self, bd: &[__m256i; K], bc: &[__m256i; K]) -> __m256i {
-        let nobody = _mm256_set1_epi32(self.0.nobody);
-        let mut c = *bc;
-        if self.0.cutoff > 0.0 {
-            let cutoff = _mm256_set1_ps(self.0.cutoff);
-            for a in 0..K {
-                let far = _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_castsi256_ps(bd[a]), cutoff);
-                c[a] = _mm256_blendv_epi8(c[a], nobody, _mm256_castps_si256(far));
+    unsafe fn winner(&self, c: &[__m256i; K]) -> __m256i {
+        let zero = _mm256_setzero_si256();
+        let (one, may) = (
+            _mm256_set1_epi32(1),
+            _mm256_set1_epi32(self.setup.can_win as i32),
+        );
+        let mut count = [zero; 3];
+        for ca in c {
+            // nobody (31 at most) is not in the mask.
+            let mut carry = _mm256_and_si256(_mm256_sllv_epi32(one, *ca), may);
+            for bit in &mut count {
+                let next = _mm256_and_si256(*bit, carry);
+                *bit = _mm256_xor_si256(*bit, carry);
+                carry = next;
             }
         }
-        let one = _mm256_set1_epi32(1);
-        let mask = _mm256_set1_epi32(self.0.can_win as i32);
-        let mut winner = _mm256_set1_epi32(self.0.first_winner);
-        let mut most = _mm256_setzero_si256();
-        for a in 0..K {
-            // nobody (and any id past the map) is not in the mask: the shift gives 0.
-            let may = _mm256_and_si256(_mm256_srlv_epi32(mask, c[a]), one);
-            let valid = _mm256_cmpeq_epi32(may, one);
-            let mut count = _mm256_setzero_si256();
-            for b in 0..K {
-                count = _mm256_sub_epi32(count, _mm256_cmpeq_epi32(c[b], c[a]));
-            }
-            let more = _mm256_cmpgt_epi32(count, most);
-            let tie = _mm256_and_si256(
-                _mm256_cmpeq_epi32(count, most),
-                _mm256_cmpgt_epi32(winner, c[a]),
-            );
-            let better = _mm256_and_si256(valid, _mm256_or_si256(more, tie));
-            winner = _mm256_blendv_epi8(winner, c[a], better);
-            most = _mm256_blendv_epi8(most, count, better);
+        // The classes with most votes: from the count's highest bit down, those that have it
+        // where any does.
+        let mut best = _mm256_or_si256(_mm256_or_si256(count[0], count[1]), count[2]);
+        for bit in count.iter().rev() {
+            let have = _mm256_and_si256(best, *bit);
+            best = _mm256_blendv_epi8(have, best, _mm256_cmpeq_epi32(have, zero));
         }
-        winner
+        // The lowest of them: its bit alone, as a float, whose exponent is its position.
+        let lowest = _mm256_and_si256(best, _mm256_sub_epi32(zero, best));
+        let exponent = _mm256_srli_epi32::<23>(_mm256_castps_si256(_mm256_cvtepi32_ps(lowest)));
+        let id = _mm256_sub_epi32(exponent, _mm256_set1_epi32(127));
+        let first = _mm256_set1_epi32(self.setup.first_winner);
+        _mm256_blendv_epi8(id, first, _mm256_cmpeq_epi32(best, zero))
     }
 }

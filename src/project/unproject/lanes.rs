@@ -103,56 +103,70 @@ impl<const N: usize> Setup<N> {
 
 /// Which points a block of lanes holds.
 #[derive(Debug, Clone, Copy)]
-pub(super) enum Block {
-    /// The first points of `L` neighbouring cells of a row from this cell on: their windows
-    /// side by side.
+pub(super) enum Block<'a, const L: usize> {
+    /// The points kept in `L` neighbouring cells of a row from this cell on (their ranges the
+    /// cells'): their windows side by side.
     Row(usize),
-    /// Any points, each in its own cell.
-    Scattered,
+    /// These points (`u32::MAX`: none), each in its own cell.
+    Scattered(&'a [u32; L]),
 }
 
-/// Takes the points `L` at a time (`u32::MAX` for an empty lane): the first point of every cell
-/// by `L` neighbouring cells of a row, then the points behind a nearer one in their cell.
-pub(super) fn drive<const L: usize>(m: &PointsInMap<'_>, mut block: impl FnMut(Block, &[u32; L])) {
-    let mut first = vec![u32::MAX; m.rows * m.cols];
-    let mut others = Vec::new();
-    for (i, &c) in m.point_cell.iter().enumerate() {
-        if c == EMPTY {
-            continue;
-        }
-        match &mut first[c as usize] {
-            f if *f == u32::MAX => *f = i as u32,
-            _ => others.push(i as u32),
-        }
-    }
-    for r in 0..m.rows {
+/// Takes the points `L` at a time and writes every point's class into `out` (left as it is
+/// outside the map). `vote(block, ranges, used)`: the winners of a block's lanes, from the
+/// lanes' point ranges, `used` the lanes (bit mask) that hold a point.
+///
+/// A point's class depends on its cell and its range alone. So every cell's kept point (its
+/// range the cell's) is voted for in blocks of `L` neighbouring cells of a row, their windows
+/// read by plain loads, and a point at its cell's range takes that cell's winner; the points
+/// behind a nearer one in their cell (a few in a hundred) go `L` at a time.
+pub(super) fn drive<const L: usize>(
+    m: &PointsInMap<'_>,
+    out: &mut [Option<ClassId>],
+    mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
+) {
+    let cells = m.rows * m.cols;
+    let mut cell_class = vec![0 as ClassId; cells];
+    for at in (0..cells).step_by(m.cols.max(1)) {
         for col0 in (0..m.cols).step_by(L) {
-            let at = r * m.cols + col0;
-            let mut lanes = [u32::MAX; L];
-            let n = (m.cols - col0).min(L);
-            lanes[..n].copy_from_slice(&first[at..at + n]);
-            if lanes.iter().any(|&l| l != u32::MAX) {
-                block(Block::Row(at), &lanes);
+            let (at, n) = (at + col0, (m.cols - col0).min(L));
+            let mut ranges = [0.0f32; L];
+            ranges[..n].copy_from_slice(&m.cell_range[at..at + n]);
+            let used = (ranges.iter().enumerate())
+                .fold(0u32, |mask, (l, &r)| mask | (((r > 0.0) as u32) << l));
+            if used != 0 {
+                let winners = vote(Block::Row(at), &ranges, used);
+                for (c, &w) in cell_class[at..at + n].iter_mut().zip(&winners) {
+                    *c = w as ClassId;
+                }
             }
         }
     }
-    for chunk in others.chunks(L) {
-        let mut lanes = [u32::MAX; L];
-        lanes[..chunk.len()].copy_from_slice(chunk);
-        block(Block::Scattered, &lanes);
-    }
-}
-
-/// The ranges of the lanes' points (0 for an empty lane).
-#[inline]
-pub(super) fn lane_ranges<const L: usize>(lanes: &[u32; L], point_range: &[f32]) -> [f32; L] {
-    let mut r = [0.0f32; L];
-    for (v, &l) in r.iter_mut().zip(lanes) {
-        if l != u32::MAX {
-            *v = point_range[l as usize];
+    let mut others = Vec::new();
+    for (i, ((&c, &r), o)) in (m.point_cell.iter().zip(m.point_range))
+        .zip(out.iter_mut())
+        .enumerate()
+    {
+        if c == EMPTY {
+            continue;
+        }
+        let kept = m.cell_range[c as usize];
+        if r.to_bits() == kept.to_bits() && kept > 0.0 {
+            *o = Some(cell_class[c as usize]);
+        } else {
+            others.push(i as u32);
         }
     }
-    r
+    for chunk in others.chunks(L) {
+        let (mut lanes, mut ranges) = ([u32::MAX; L], [0.0f32; L]);
+        for ((lane, range), &i) in lanes.iter_mut().zip(&mut ranges).zip(chunk) {
+            (*lane, *range) = (i, m.point_range[i as usize]);
+        }
+        let used = (1u32 << chunk.len()).wrapping_sub(1);
+        let winners = vote(Block::Scattered(&lanes), &ranges, used);
+        for (&i, &w) in chunk.iter().zip(&winners) {
+            out[i as usize] = Some(w as ClassId);
+        }
+    }
 }
 
 /// Where each lane's window starts in `grid` (0 for an empty lane).
@@ -169,18 +183,4 @@ pub(super) fn window_starts<const L: usize>(
         }
     }
     starts
-}
-
-/// Writes each lane's winner to its point.
-#[inline]
-pub(super) fn store<const L: usize>(
-    lanes: &[u32; L],
-    winners: &[i32; L],
-    out: &mut [Option<ClassId>],
-) {
-    for (l, &c) in lanes.iter().zip(winners) {
-        if *l != u32::MAX {
-            out[*l as usize] = Some(c as ClassId);
-        }
-    }
 }
