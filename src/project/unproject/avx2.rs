@@ -35,6 +35,12 @@ const CLASS_BITS: u32 = 5;
 /// the class.
 const LOW_BITS: u32 = 6 + CLASS_BITS;
 
+#[cfg(test)]
+thread_local! {
+    /// Blocks voted for on this thread, and those of them the keys could not decide.
+    pub(super) static BLOCKS: std::cell::Cell<(usize, usize)> = const { std::cell::Cell::new((0, 0)) };
+}
+
 /// The kNN class of every point (`S` x `S` = `N` window, `K` nearest), into `out` (one slot per
 /// point, `None` already where the point is outside the map). The class map has at most 31
 /// classes (their "may win" set is a bit mask); `S` is at most 7.
@@ -180,6 +186,11 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     #[target_feature(enable = "avx2")]
     unsafe fn vote(&self, grid: &Grid, r: __m256, at: impl Windows, used: u32) -> __m256i {
         let (winners, unsure) = self.vote_by_keys(grid, r, at);
+        #[cfg(test)]
+        BLOCKS.with(|b| {
+            let (all, exact) = b.get();
+            b.set((all + 1, exact + (unsure as u32 & used != 0) as usize));
+        });
         if unsure as u32 & used == 0 {
             winners
         } else {

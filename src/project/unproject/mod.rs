@@ -211,7 +211,10 @@ pub fn unproject(
     check("the prediction", pred.len(), cells)?;
     check("the point ranges", m.point_range.len(), m.point_cell.len())?;
     check("the cell ranges", m.cell_range.len(), cells)?;
-    if let Some(i) = pred.iter().position(|&c| c as usize >= classes.len()) {
+    // Each check one branch-free pass (vectorised); the culprit looked for only when there is one.
+    let bad_class = |c: &ClassId| *c as usize >= classes.len();
+    let any_bad_class = pred.iter().fold(false, |any, c| any | bad_class(c));
+    if let Some(i) = (any_bad_class.then(|| pred.iter().position(bad_class))).flatten() {
         return Err(Error::Config(format!(
             "cell ({}, {}) is predicted as class {}, the map {:?} has {}",
             i / m.cols,
@@ -221,11 +224,9 @@ pub fn unproject(
             classes.len()
         )));
     }
-    if let Some(i) = m
-        .point_cell
-        .iter()
-        .position(|&c| c != EMPTY && c as usize >= cells)
-    {
+    let bad_cell = |c: &u32| (*c != EMPTY) & (*c as usize >= cells);
+    let any_bad_cell = m.point_cell.iter().fold(false, |any, c| any | bad_cell(c));
+    if let Some(i) = (any_bad_cell.then(|| m.point_cell.iter().position(bad_cell))).flatten() {
         return Err(Error::Config(format!(
             "point {i} is in cell {}, beyond the map's {cells}",
             m.point_cell[i]

@@ -48,8 +48,9 @@ fn cell_and_knn_on_a_tiny_map() {
 /// The scalar and the eight- and sixteen-lane kernels give the same class to every point of a real
 /// scan, for the usual windows, with and without the cutoff and the seam wrapped, for a
 /// class map whose class 0 may win and one where it may not, on a 360-degree map and on a
-/// 90-degree one (most points outside), with predictions at random and ranges rounded to
-/// whole metres (many ties among distances).
+/// 90-degree one (most points outside), with predictions at random, ranges rounded to whole
+/// metres (many ties among distances: the keys cannot decide, the exact path does), and cell
+/// ranges no point has (every point voted for on its own, none through its cell's winner).
 #[test]
 fn the_lane_kernels_are_the_scalar_one_point_for_point() {
     use crate::kitti::velodyne::Scan;
@@ -58,16 +59,18 @@ fn the_lane_kernels_are_the_scalar_one_point_for_point() {
         .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
     let scan = Scan::read(&bin).unwrap();
     let mut state = 2026u64;
-    for (preset, rounded) in [
-        (MapPreset::Full, false),
-        (MapPreset::Squeezeseg, false),
-        (MapPreset::Full, true),
+    for (preset, rounded, cells_off) in [
+        (MapPreset::Full, false, false),
+        (MapPreset::Squeezeseg, false, false),
+        (MapPreset::Full, true, false),
+        (MapPreset::Full, false, true),
     ] {
         let spec = preset.spec();
         let proj = project_with_point_cells(&scan.points, &spec);
         let round = |r: f32| if rounded { r.round() } else { r };
         let point_range: Vec<f32> = scan.points.iter().map(|p| round(norm(p))).collect();
-        let cell_range: Vec<f32> = proj.cell_range.iter().map(|&r| round(r)).collect();
+        let off = if cells_off { 1.0001 } else { 1.0 };
+        let cell_range: Vec<f32> = proj.cell_range.iter().map(|&r| round(r) * off).collect();
         let m = PointsInMap {
             rows: spec.rows,
             cols: spec.cols,
@@ -97,10 +100,39 @@ fn the_lane_kernels_are_the_scalar_one_point_for_point() {
                     let b = knn_with(&m, &pred, &p, &map, kernel);
                     assert_eq!(a.len(), b.len());
                     let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-                    let what = format!("{kernel:?}: {preset:?} rounded {rounded} {}", map.name);
+                    let what = format!("{kernel:?}: {preset:?} {rounded} {cells_off} {}", map.name);
                     assert_eq!(differ, 0, "{what} {p:?}");
                 }
             }
         }
     }
+}
+
+/// On a real scan the keys decide nearly every block (the exact path is the rare one: were it
+/// taken always, the classes would be the same and the speed gone).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_keys_decide_nearly_every_block_of_a_real_scan() {
+    use crate::kitti::velodyne::Scan;
+    use crate::project::{norm, project_with_point_cells, MapPreset};
+    if !KnnKernel::available().contains(&KnnKernel::Avx2) {
+        return;
+    }
+    let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
+    let scan = Scan::read(&bin).unwrap();
+    let spec = MapPreset::Full.spec();
+    let proj = project_with_point_cells(&scan.points, &spec);
+    let point_range: Vec<f32> = scan.points.iter().map(norm).collect();
+    let m = PointsInMap::of(&proj, &point_range);
+    let pred: Vec<ClassId> = (0..spec.rows * spec.cols)
+        .map(|i| (i % 19 + 1) as ClassId)
+        .collect();
+    avx2::BLOCKS.with(|b| b.set((0, 0)));
+    let p = KnnParams::default();
+    knn_with(&m, &pred, &p, &semantic(), KnnKernel::Avx2);
+    let (all, exact) = avx2::BLOCKS.with(|b| b.get());
+    // 64 x 2048 cells in blocks of 8, and the points behind a nearer one.
+    assert!(all > 16_000, "{all} blocks");
+    assert!(exact * 100 < all, "{exact} of {all} blocks taken exactly");
 }
