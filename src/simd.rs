@@ -31,6 +31,22 @@ pub fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// The index of the first of `values` that is `bad`: one branch-free pass over all of them
+/// ([`with_avx2`]), the search for the culprit only when there is one (a search per value does
+/// not vectorise). `bad` should not branch itself (`&` and `|`, not `&&` and `||`).
+#[inline(always)]
+pub fn first_where<T>(values: &[T], bad: impl Fn(&T) -> bool + Copy) -> Option<usize> {
+    let any = with_avx2(
+        #[inline(always)]
+        move || values.iter().fold(false, |any, v| any | bad(v)),
+    );
+    if any {
+        values.iter().position(bad)
+    } else {
+        None
+    }
+}
+
 /// Whether [`with_avx2`] takes the AVX2 path on this machine: false off x86-64, or where the
 /// environment sets `KITTI2PGM_NO_AVX2` (the baseline path of the same build, for checks).
 pub fn avx2_available() -> bool {

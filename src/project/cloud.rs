@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::geom::Point3;
 use crate::kitti::velodyne::{MAX_RANGE_M, REFLECTANCE_RANGE};
 use crate::label::ClassId;
+use crate::simd::first_where;
 
 /// A cloud to project: one entry per point in every array, in scan order.
 #[derive(Debug, Clone, Copy)]
@@ -111,8 +112,7 @@ impl Cloud<'_> {
             return Err(Error::Config("colour_valid without colours".into()));
         }
         // The converter's rules (`kitti::velodyne`): finite, within MAX_RANGE_M, reflectance
-        // in 0..1. A branch-free pass first (vectorised), the search for the culprit only on
-        // failure.
+        // in 0..1 ([`first_where`]: a branch-free pass, the culprit searched for on failure).
         let max2 = MAX_RANGE_M * MAX_RANGE_M;
         let ok_point = |p: &Point3| {
             p.x.is_finite() & p.y.is_finite() & p.z.is_finite() & (p.coords.norm_squared() <= max2)
@@ -122,24 +122,13 @@ impl Cloud<'_> {
             IntensityKind::AsStored => f32::MIN..=f32::MAX,
         };
         let ok_intensity = |v: f32| (v >= *range.start()) & (v <= *range.end());
-        let (points, intensity) = (self.points, self.intensity);
-        let all_ok = crate::simd::with_avx2(
-            #[inline(always)]
-            move || {
-                points.iter().fold(true, |ok, p| ok & ok_point(p))
-                    && intensity.iter().fold(true, |ok, v| ok & ok_intensity(*v))
-            },
-        );
-        if all_ok {
-            return self.validate_rings_and_colours();
-        }
-        if let Some(i) = self.points.iter().position(|p| !ok_point(p)) {
+        if let Some(i) = first_where(self.points, |p| !ok_point(p)) {
             return Err(Error::Config(format!(
                 "point {i} is not finite or beyond {MAX_RANGE_M} m ({:?})",
                 self.points[i].coords.as_slice()
             )));
         }
-        if let Some(i) = self.intensity.iter().position(|v| !ok_intensity(*v)) {
+        if let Some(i) = first_where(self.intensity, |v| !ok_intensity(*v)) {
             return Err(Error::Config(format!(
                 "intensity of point {i} is {:?}, outside {:?} (KITTI reflectance; another \
                  sensor's intensity is taken as stored when its beams are given)",

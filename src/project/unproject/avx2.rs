@@ -186,12 +186,13 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     #[target_feature(enable = "avx2")]
     unsafe fn vote(&self, grid: &Grid, r: __m256, at: impl Windows, used: u32) -> __m256i {
         let (winners, unsure) = self.vote_by_keys(grid, r, at);
+        let undecided = unsure & used != 0;
         #[cfg(test)]
         BLOCKS.with(|b| {
             let (all, exact) = b.get();
-            b.set((all + 1, exact + (unsure as u32 & used != 0) as usize));
+            b.set((all + 1, exact + undecided as usize));
         });
-        if unsure as u32 & used == 0 {
+        if !undecided {
             winners
         } else {
             self.vote_exact(grid, r, at)
@@ -209,7 +210,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     /// mask) where the keys may have chosen otherwise than the exact distances.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn vote_by_keys(&self, grid: &Grid, r: __m256, at: impl Windows) -> (__m256i, i32) {
+    unsafe fn vote_by_keys(&self, grid: &Grid, r: __m256, at: impl Windows) -> (__m256i, u32) {
         let high = _mm256_set1_epi32(!((1 << LOW_BITS) - 1) & i32::MAX);
         let mut keys = [_mm256_set1_epi32(i32::MAX); 8];
         for dy in 0..S {
@@ -242,7 +243,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
                 c[a] = _mm256_blendv_epi8(c[a], nobody, _mm256_cmpgt_epi32(t, cut));
             }
         }
-        let unsure = _mm256_movemask_ps(_mm256_castsi256_ps(unsure));
+        let unsure = _mm256_movemask_ps(_mm256_castsi256_ps(unsure)) as u32;
         (self.winner(&c), unsure)
     }
 

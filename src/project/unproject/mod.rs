@@ -34,6 +34,7 @@ mod scalar;
 
 use crate::error::{Error, Result};
 use crate::label::{ClassId, ClassMap};
+use crate::simd::first_where;
 
 use super::EMPTY;
 
@@ -211,10 +212,8 @@ pub fn unproject(
     check("the prediction", pred.len(), cells)?;
     check("the point ranges", m.point_range.len(), m.point_cell.len())?;
     check("the cell ranges", m.cell_range.len(), cells)?;
-    // Each check one branch-free pass (vectorised); the culprit looked for only when there is one.
-    let bad_class = |c: &ClassId| *c as usize >= classes.len();
-    let any_bad_class = pred.iter().fold(false, |any, c| any | bad_class(c));
-    if let Some(i) = (any_bad_class.then(|| pred.iter().position(bad_class))).flatten() {
+    let n_classes = classes.len();
+    if let Some(i) = first_where(pred, |&c| c as usize >= n_classes) {
         return Err(Error::Config(format!(
             "cell ({}, {}) is predicted as class {}, the map {:?} has {}",
             i / m.cols,
@@ -224,9 +223,7 @@ pub fn unproject(
             classes.len()
         )));
     }
-    let bad_cell = |c: &u32| (*c != EMPTY) & (*c as usize >= cells);
-    let any_bad_cell = m.point_cell.iter().fold(false, |any, c| any | bad_cell(c));
-    if let Some(i) = (any_bad_cell.then(|| m.point_cell.iter().position(bad_cell))).flatten() {
+    if let Some(i) = first_where(m.point_cell, |&c| (c != EMPTY) & (c as usize >= cells)) {
         return Err(Error::Config(format!(
             "point {i} is in cell {}, beyond the map's {cells}",
             m.point_cell[i]
