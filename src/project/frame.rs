@@ -322,8 +322,9 @@ fn cell_values<const D: usize>(
     let kept = kept.iter().zip(ranges);
     for (c, (dst, (&pi, &range))) in data.chunks_exact_mut(D).zip(kept).enumerate() {
         // All ones for a kept cell, zeros for an empty one: a mask, not a select, which
-        // the compiler would turn back into a branch (its operands are loads).
-        let keep = ((pi != EMPTY) as u32).wrapping_neg();
+        // the compiler would turn back into a branch (its operands are loads; and it does
+        // branch on the mask itself unless `black_box` hides where the mask comes from).
+        let keep = std::hint::black_box(((pi != EMPTY) as u32).wrapping_neg());
         let i = (pi & keep) as usize;
         debug_assert!(i < n, "a cell keeps one of the points");
         let i = i.min(n - 1);

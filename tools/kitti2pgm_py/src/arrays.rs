@@ -162,11 +162,8 @@ pub fn points_arg(
         let (pts, inten) = with_avx2(
             #[inline(always)]
             || {
-                let rows = v.chunks_exact(4);
-                unzip_exact(
-                    rows.map(|r| (Point3::new(r[0], r[1], r[2]), r[3])),
-                    v.len() / 4,
-                )
+                let (rows, _) = v.as_chunks::<4>();
+                unzip_map(rows, |r| (Point3::new(r[0], r[1], r[2]), r[3]))
             },
         );
         Ok((pts, Some(inten)))
@@ -187,22 +184,24 @@ pub fn point_ranges(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f32>> {
     })
 }
 
-/// The pairs of `pairs` (at most `n`) as two vectors, each value written once into its place:
-/// no zero fill first, no growth check per value (both passes cost a tenth of a `project` call).
+/// `f` of every value of `input`, its pairs as two vectors, each slot written once: no zero
+/// fill first, no growth check per value, one loop over three slices of one length, which the
+/// compiler vectorises (a loop over a generic iterator of pairs it did not: the row / col split
+/// ran a value at a time). Both uses cost a tenth of a `project` call.
 #[inline(always)]
-pub fn unzip_exact<A, B>(pairs: impl Iterator<Item = (A, B)>, n: usize) -> (Vec<A>, Vec<B>) {
+pub fn unzip_map<T: Copy, A, B>(input: &[T], f: impl Fn(T) -> (A, B)) -> (Vec<A>, Vec<B>) {
+    let n = input.len();
     let (mut a, mut b) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    let mut len = 0;
     let slots = a.spare_capacity_mut()[..n].iter_mut();
-    for ((sa, sb), (x, y)) in slots.zip(&mut b.spare_capacity_mut()[..n]).zip(pairs) {
+    for ((sa, sb), &x) in slots.zip(&mut b.spare_capacity_mut()[..n]).zip(input) {
+        let (x, y) = f(x);
         sa.write(x);
         sb.write(y);
-        len += 1;
     }
-    // SAFETY: the loop wrote the first `len` slots of both.
+    // SAFETY: the loop wrote the first `n` slots of both.
     unsafe {
-        a.set_len(len);
-        b.set_len(len);
+        a.set_len(n);
+        b.set_len(n);
     }
     (a, b)
 }

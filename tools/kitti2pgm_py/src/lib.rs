@@ -363,23 +363,24 @@ pub(crate) fn map_dict<'py>(
     // 2^28 (4096 x 65536), so a cell is a non-negative i32, whose conversions vectorise (those of
     // a u32 do not with AVX2); EMPTY becomes -1.
     assert!(h * w <= 1 << 28, "a map has at most 2^28 cells");
-    let inv_w = 1.0 / w as f64;
+    let (inv_w, w_i) = (1.0 / w as f64, w as i32);
     let (row, col) = arrays::with_avx2(
         #[inline(always)]
         || {
-            let row_col = point_cell.iter().map(|&c| {
+            // (`move`: by reference, the loop reloaded `w` after every store, and ran a value
+            // at a time)
+            arrays::unzip_map(&point_cell, move |c| {
                 let x = (f64::from(c as i32) + 0.5) * inv_w;
                 // SAFETY: x is finite and within (-1, 2^28]: it fits an i32.
                 let q: i32 = unsafe { x.to_int_unchecked() };
                 // (wrapping: an EMPTY cell's quotient is meaningless, and discarded)
-                let rem = (c as i32).wrapping_sub(q.wrapping_mul(w as i32));
+                let rem = (c as i32).wrapping_sub(q.wrapping_mul(w_i));
                 if c == EMPTY {
                     (-1, -1)
                 } else {
                     (q, rem)
                 }
-            });
-            arrays::unzip_exact(row_col, point_cell.len())
+            })
         },
     );
     d.set_item("row", PyArray1::from_vec(py, row))?;
