@@ -80,13 +80,7 @@ pub(crate) fn unproject<'py>(
         .map_err(py_err)?;
     let out: Vec<i16> = arrays::with_avx2(
         #[inline(always)]
-        || {
-            let mut out = vec![0i16; labels.len()];
-            for (o, l) in out.iter_mut().zip(&labels) {
-                *o = l.map_or(-1, i16::from);
-            }
-            out
-        },
+        || arrays::map_exact(&labels, |l| l.map_or(-1, i16::from)),
     );
     Ok(PyArray1::from_vec(py, out))
 }
@@ -125,6 +119,7 @@ fn point_cells_arg(row: &[i32], col: &[i32], (h, w): (usize, usize)) -> PyResult
     // One branch-free pass (with AVX2 where the CPU has it) that only notes whether a point is
     // bad; the first is looked for and named after it (a `Result` per element made this the
     // Python call's second largest cost). `&`, not `&&`: no branch, so the pass vectorises.
+    assert_eq!(row.len(), col.len(), "row and col of one length (checked)");
     let (h32, w32) = (h as u32, w as u32);
     let in_map = move |r: i32, c: i32| ((r as u32) < h32) & ((c as u32) < w32);
     let bad_point = move |r: i32, c: i32| !in_map(r, c) & !((r == -1) & (c == -1));
@@ -132,13 +127,16 @@ fn point_cells_arg(row: &[i32], col: &[i32], (h, w): (usize, usize)) -> PyResult
     let (cells, any_bad) = arrays::with_avx2(
         #[inline(always)]
         move || {
-            let mut cells = vec![EMPTY; row.len()];
+            let mut cells = Vec::with_capacity(row.len());
             let mut any_bad = false;
-            for ((cell, &r), &c) in cells.iter_mut().zip(row).zip(col) {
+            let slots = cells.spare_capacity_mut()[..row.len()].iter_mut();
+            for ((cell, &r), &c) in slots.zip(row).zip(col) {
                 any_bad |= bad_point(r, c);
                 let at = (r as u32).wrapping_mul(w32).wrapping_add(c as u32);
-                *cell = if in_map(r, c) { at } else { EMPTY };
+                cell.write(if in_map(r, c) { at } else { EMPTY });
             }
+            // SAFETY: the loop wrote every slot (`row` and `col` are of one length: asserted).
+            unsafe { cells.set_len(row.len()) };
             (cells, any_bad)
         },
     );
