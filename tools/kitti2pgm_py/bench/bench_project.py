@@ -6,7 +6,8 @@
 1. ``kitti2pgm.project`` against the numpy projection of ``../shared/bench/semantickitti_numpy_baseline.py``
    (its ``convert`` without the file I/O: the same lines on arrays already in memory), 64 x 2048
    over 360 degrees with labels, on the SemanticKITTI scans of ``../shared`` (else the fixture's);
-   one thread (the default), and ``threads=2`` (two threads inside the call).
+   one thread (the default), ``threads=2`` (two threads inside the call), and ``point_cells=False``
+   (no per-point row and col: the trainer's call).
 2. Two threads calling ``project`` at once against one (the GIL is released while Rust works).
 3. DataLoader frames/s with one worker: point shards projected on the fly with
    ``--augment rotate,scale,jitter,drop,flip`` against precomputed map shards of the same frames,
@@ -76,19 +77,24 @@ def scans():
 def bench_project(repeat):
     root, data = scans()
     print(f"1. project vs the numpy peer, 64 x 2048 over 360 deg, {len(data)} scans of {root}")
-    tot_peer = tot_ours = tot_two = 0.0
+    tot_peer = tot_ours = tot_two = tot_bare = 0.0
     for fid, raw, lab, pts, labels in data:
-        def ours(threads, pts=pts, labels=labels):
-            return kitti2pgm.project(pts, labels=labels, cols=2048, fov_deg=360.0, threads=threads)
+        def ours(threads, point_cells=True, pts=pts, labels=labels):
+            return kitti2pgm.project(pts, labels=labels, cols=2048, fov_deg=360.0, threads=threads,
+                                     point_cells=point_cells)
         peer, _ = best(lambda raw=raw, lab=lab: peer_project(raw, lab, 2048), repeat)
         one, _ = best(lambda: ours(1), repeat)
         two, _ = best(lambda: ours(2), repeat)
+        bare, _ = best(lambda: ours(1, point_cells=False), repeat)
         tot_peer += peer
         tot_ours += one
         tot_two += two
+        tot_bare += bare
         print(f"   {fid}: {len(raw)} points, numpy {peer * 1e3:.2f} ms, kitti2pgm {one * 1e3:.2f} ms: "
-              f"{peer / one:.1f}x; threads=2 {two * 1e3:.2f} ms: {peer / two:.1f}x")
-    print(f"   all: {tot_peer / tot_ours:.1f}x faster on one thread, {tot_peer / tot_two:.1f}x with threads=2 "
+              f"{peer / one:.1f}x; threads=2 {two * 1e3:.2f} ms: {peer / two:.1f}x; "
+              f"point_cells=False {bare * 1e3:.2f} ms: {peer / bare:.1f}x")
+    print(f"   all: {tot_peer / tot_ours:.1f}x faster on one thread, {tot_peer / tot_two:.1f}x with threads=2, "
+          f"{tot_peer / tot_bare:.1f}x with point_cells=False (the trainer's call) "
           f"(best of {repeat}; {os.cpu_count()} cores)")
     fid, raw, lab, pts, labels = data[0]
 
