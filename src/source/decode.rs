@@ -218,11 +218,7 @@ fn kept_rings(ring: &[f64], dropped: &[u32], path: &Path) -> Result<Vec<u16>> {
     // through u16; checked branch-free over all points, then the first bad one is looked for.
     let whole = |r: f64| (r as u16) as f64 == r;
     let out = kept(dropped, ring.len(), |i| ring[i]);
-    if !out.iter().fold(true, |ok, &r| ok & whole(r)) {
-        let bad = out
-            .iter()
-            .position(|&r| !whole(r))
-            .expect("one is not whole");
+    if let Some(bad) = crate::simd::first_where(&out, |&r| !whole(r)) {
         let i = kept_index(dropped, bad);
         return Err(Error::format(
             path,

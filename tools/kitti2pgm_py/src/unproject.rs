@@ -86,8 +86,8 @@ pub(crate) fn unproject<'py>(
 }
 
 /// `unproject`'s `cell_range`: an `h x w` float32 map's range channel, finite and >= 0 (0 in
-/// empty cells), checked in one branch-free pass; the bad value looked for only when there is
-/// one.
+/// empty cells), checked by [`kitti2pgm::simd::first_where`] (one branch-free pass; the bad
+/// value looked for only when there is one).
 fn cell_range_arg(c: &Bound<'_, PyAny>, (h, w): (usize, usize)) -> PyResult<Vec<f32>> {
     let (v, ch, cw) = arrays::grid_arg::<f32>(c, "cell_range")?;
     if (ch, cw) != (h, w) {
@@ -95,17 +95,10 @@ fn cell_range_arg(c: &Bound<'_, PyAny>, (h, w): (usize, usize)) -> PyResult<Vec<
             "cell_range is {ch}x{cw}, pred is {h}x{w}"
         )));
     }
-    let range = |r: &f32| (r.is_finite() && *r >= 0.0) as usize;
-    let ranges = arrays::with_avx2(
-        #[inline(always)]
-        || v.iter().map(range).sum::<usize>(),
-    );
-    if ranges == v.len() {
+    let Some(i) = kitti2pgm::simd::first_where(&v, |r| !(r.is_finite() & (*r >= 0.0))) else {
         return Ok(v);
-    }
-    let (i, r) = (v.iter().enumerate())
-        .find(|(_, r)| range(r) == 0)
-        .expect("one is not a range");
+    };
+    let r = v[i];
     Err(PyValueError::new_err(format!(
         "cell_range: value {r} at cell ({}, {}) is not a range (finite, >= 0)",
         i / w,
