@@ -9,31 +9,29 @@
 //! eight loaded whole and transposed.
 //!
 //! The nearest are found by keys: a candidate's distance bits (non-negative floats order as their
-//! bits) with the lowest [`LOW_BITS`] replaced by its window index and its class. Keys are
-//! distinct and order as (truncated distance, window order), so one minimum and one maximum per
-//! kept entry keep the `K + 1` smallest sorted, no compare, no blend. Where the truncation may
-//! have chosen otherwise than the exact distances (the `K`-th and the next key share their
-//! truncated distance, or a chosen one's truncated distance is the cutoff's: a few lanes in a
-//! thousand on real scans), the block is taken again with exact distances, kept beside their
-//! classes by compares and blends (ties stay with the earlier cell, the scalar rule).
+//! bits) with the lowest [`CLASS_BITS`] replaced by its class. Keys order as their truncated
+//! distances (keys of one truncated distance in any order), so one minimum and one maximum per
+//! kept entry keep the `K + 1` smallest sorted, no compare, no blend. The vote needs only the
+//! classes of the `K` nearest, which the keys give wherever the `K`-th and the next key differ
+//! in truncated distance (then every chosen one is nearer than every other, exactly). Where they
+//! share it, or a chosen one's truncated distance is the cutoff's (a few lanes in a thousand on
+//! real scans), the block is taken again with exact distances, kept beside their classes by
+//! compares and blends (ties stay with the earlier cell, the scalar rule).
 
 use std::arch::x86_64::*;
 
-use super::lanes::{drive, window_starts, Block, Grid, Setup};
+use super::lanes::{drive, point_pass, window_starts, Block, CellWinners, Grid, Setup};
 use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
+use crate::project::EMPTY;
 
 /// Whether this machine runs the AVX2 path.
 pub(super) fn available() -> bool {
     is_x86_feature_detected!("avx2")
 }
 
-/// Bits of a key for the class (at most 31 classes, and `nobody`).
+/// Bits of a key below the distance's, for the class (at most 31 classes, and `nobody`).
 const CLASS_BITS: u32 = 5;
-
-/// Bits of a key below the distance's: the window cell's index (6 bits, up to 64 cells) above
-/// the class.
-const LOW_BITS: u32 = 6 + CLASS_BITS;
 
 #[cfg(test)]
 thread_local! {
@@ -57,25 +55,111 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
 ) {
     let grid = Grid::new(m, pred, vote, S / 2, p.wrap_columns, 8);
     let k = Kernel::<S, N, K>::new(Setup::new(&grid, vote, p));
-    drive::<8>(m, out, |block, ranges, used| {
+    drive::<8>(
+        m,
+        out,
+        |block, ranges, used| {
+            // SAFETY: this function runs with AVX2.
+            unsafe {
+                let r = _mm256_loadu_ps(ranges.as_ptr());
+                let winners = match block {
+                    Block::Row(at) => k.vote(&grid, r, Row(grid.top_left(at, m.cols)), used),
+                    Block::Scattered(lanes) => {
+                        k.vote(&grid, r, Cells(window_starts(&grid, m, lanes)), used)
+                    }
+                };
+                let mut w = [0i32; 8];
+                _mm256_storeu_si256(w.as_mut_ptr() as *mut __m256i, winners);
+                w
+            }
+        },
         // SAFETY: this function runs with AVX2.
-        unsafe {
-            let r = _mm256_loadu_ps(ranges.as_ptr());
-            let winners = match block {
-                Block::Row(at) => k.vote(&grid, r, Row(grid.top_left(at, m.cols)), used),
-                Block::Scattered(lanes) => {
-                    k.vote(&grid, r, Cells(window_starts(&grid, m, lanes)), used)
-                }
-            };
-            let mut w = [0i32; 8];
-            _mm256_storeu_si256(w.as_mut_ptr() as *mut __m256i, winners);
-            w
-        }
-    });
+        |winners, out| unsafe { points(m, winners, out) },
+    );
 }
+
+/// The pass over the points ([`point_pass`]'s result) eight at a time: their cells' ranges and
+/// winners gathered, the points behind a nearer one packed to the front of a vector by a table
+/// and stored whole (their count moves on by the mask's population). No branch but for the
+/// loop's: taken by the points at random, the scalar pass's branch mispredicted.
+///
+/// # Safety
+/// The CPU must have AVX2; every point's cell is in the map or [`EMPTY`] (checked by the
+/// caller).
+#[target_feature(enable = "avx2")]
+unsafe fn points(
+    m: &PointsInMap<'_>,
+    winners: &CellWinners,
+    out: &mut [Option<ClassId>],
+) -> Vec<u32> {
+    let n = out.len();
+    let blocks = n / 8;
+    // Room for the last block's whole vector.
+    let mut others: Vec<u32> = Vec::with_capacity(n + 8);
+    let mut kept = 0usize;
+    let (cells, ranges) = (m.point_cell.as_ptr(), m.point_range.as_ptr());
+    let (cell_range, cls) = (m.cell_range.as_ptr(), winners.0.as_ptr());
+    let (empty, zero) = (_mm256_set1_epi32(EMPTY as i32), _mm256_setzero_ps());
+    let byte = _mm256_set1_epi32(0xff);
+    for b in 0..blocks {
+        let at = b * 8;
+        let c = _mm256_loadu_si256(cells.add(at) as *const __m256i);
+        let r = _mm256_loadu_ps(ranges.add(at));
+        let inside = _mm256_xor_si256(_mm256_cmpeq_epi32(c, empty), _mm256_set1_epi32(-1));
+        // SAFETY: the lanes inside the map read their cell's range and four bytes from their
+        // cell's winner (`CellWinners::PAD` beyond the last), the others nothing.
+        let kr = _mm256_mask_i32gather_ps::<4>(zero, cell_range, c, _mm256_castsi256_ps(inside));
+        let won =
+            _mm256_mask_i32gather_epi32::<1>(_mm256_setzero_si256(), cls as *const i32, c, inside);
+        let same = _mm256_and_si256(
+            _mm256_cmpeq_epi32(_mm256_castps_si256(r), _mm256_castps_si256(kr)),
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(kr, zero)),
+        );
+        let other = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_andnot_si256(same, inside)));
+        let packed = _mm256_add_epi32(
+            _mm256_set1_epi32(at as i32),
+            _mm256_loadu_si256(PACK[other as usize].as_ptr() as *const __m256i),
+        );
+        // SAFETY: `kept` <= `at`, and the vector has room for 8 from `n`.
+        _mm256_storeu_si256(others.as_mut_ptr().add(kept) as *mut __m256i, packed);
+        kept += other.count_ones() as usize;
+        let mut w = [0i32; 8];
+        _mm256_storeu_si256(w.as_mut_ptr() as *mut __m256i, _mm256_and_si256(won, byte));
+        let inside = _mm256_movemask_ps(_mm256_castsi256_ps(inside));
+        for (l, (o, &w)) in out[at..at + 8].iter_mut().zip(&w).enumerate() {
+            *o = (inside >> l & 1 == 1).then_some(w as ClassId);
+        }
+    }
+    // SAFETY: the first `kept` entries were written.
+    others.set_len(kept);
+    point_pass(m, winners, blocks * 8, out, &mut others);
+    others
+}
+
+/// For each 8-bit mask, its set lanes' indices packed to the front.
+static PACK: [[u32; 8]; 256] = {
+    let mut t = [[0u32; 8]; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let (mut lane, mut n) = (0, 0);
+        while lane < 8 {
+            if mask >> lane & 1 == 1 {
+                t[mask][n] = lane as u32;
+                n += 1;
+            }
+            lane += 1;
+        }
+        mask += 1;
+    }
+    t
+};
 
 /// Where the lanes' windows are.
 trait Windows: Copy {
+    /// Whether every lane that holds a point is its cell's kept one: its cell's range finite,
+    /// so that the centre's weight 0 puts it at distance 0 (elsewhere it is put there).
+    const CENTRE_KEPT: bool;
+
     /// Row `dy` of every lane's window, its first `S` cells (`S` at most 8): their ranges as
     /// the kNN compares them, and their classes.
     ///
@@ -94,6 +178,8 @@ struct Row(usize);
 struct Cells([i32; 8]);
 
 impl Windows for Row {
+    const CENTRE_KEPT: bool = true;
+
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]) {
@@ -107,6 +193,8 @@ impl Windows for Row {
 }
 
 impl Windows for Cells {
+    const CENTRE_KEPT: bool = false;
+
     /// Each lane's row loaded whole (8 cells) and the eight transposed: plain loads and
     /// shuffles, where gathers cost several times more.
     #[inline]
@@ -162,11 +250,8 @@ fn transpose(r: [__m256; 8]) -> [__m256; 8] {
 /// The window's shape in the type: `S` x `S` = `N` cells, `K` nearest.
 struct Kernel<const S: usize, const N: usize, const K: usize> {
     setup: Setup<N>,
-    /// Each window cell's weight in every lane (the centre's 0: the point's own cell is at
-    /// distance 0, its range being finite).
+    /// Each window cell's weight in every lane (the centre's unused: it is at distance 0).
     weight: [__m256; N],
-    /// Each window cell's index in every lane, where keys hold it (above the class).
-    index: [__m256i; N],
 }
 
 impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
@@ -175,7 +260,6 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     fn new(setup: Setup<N>) -> Self {
         Kernel {
             weight: std::array::from_fn(|j| _mm256_set1_ps(setup.w[j])),
-            index: std::array::from_fn(|j| _mm256_set1_epi32((j as i32) << CLASS_BITS)),
             setup,
         }
     }
@@ -210,33 +294,44 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     /// mask) where the keys may have chosen otherwise than the exact distances.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn vote_by_keys(&self, grid: &Grid, r: __m256, at: impl Windows) -> (__m256i, u32) {
-        let high = _mm256_set1_epi32(!((1 << LOW_BITS) - 1) & i32::MAX);
+    unsafe fn vote_by_keys<W: Windows>(&self, grid: &Grid, r: __m256, at: W) -> (__m256i, u32) {
+        let high = _mm256_set1_epi32(!((1 << CLASS_BITS) - 1) & i32::MAX);
         let mut keys = [_mm256_set1_epi32(i32::MAX); 8];
         for dy in 0..S {
             let (far, cls) = at.row::<S>(grid, dy);
             for x in 0..S {
                 let j = dy * S + x;
-                let d = _mm256_castps_si256(self.weighted(far[x], r, j));
-                let low = _mm256_or_si256(cls[x], self.index[j]);
-                let key = _mm256_or_si256(_mm256_and_si256(d, high), low);
+                let key = if j == N / 2 && !W::CENTRE_KEPT {
+                    // The centre: at distance 0 (whatever its cell's range), the class alone.
+                    // (Not written so for the kept points: the compiler's schedule of their
+                    // loop lost 4% to it.)
+                    cls[x]
+                } else {
+                    let d = _mm256_castps_si256(self.weighted(far[x], r, j));
+                    _mm256_or_si256(_mm256_and_si256(d, high), cls[x])
+                };
                 for i in (1..=K).rev() {
                     keys[i] = _mm256_min_epi32(keys[i], _mm256_max_epi32(keys[i - 1], key));
                 }
                 keys[0] = _mm256_min_epi32(keys[0], key);
             }
         }
-        let truncated = |key: __m256i| _mm256_srli_epi32::<{ LOW_BITS as i32 }>(key);
+        let truncated = |key: __m256i| _mm256_srli_epi32::<{ CLASS_BITS as i32 }>(key);
         let (kth, next) = (truncated(keys[K - 1]), truncated(keys[K]));
-        // Empty cells tie exactly: infinity's bits truncate to nothing else.
-        let inf = _mm256_set1_epi32((f32::INFINITY.to_bits() >> LOW_BITS) as i32);
+        // With a cutoff, empty cells (infinitely far) vote for nobody whichever are chosen:
+        // a tie there is no doubt. (Without one, -1: no truncated distance.)
+        let inf = _mm256_set1_epi32(if self.setup.cutoff > 0.0 {
+            (f32::INFINITY.to_bits() >> CLASS_BITS) as i32
+        } else {
+            -1
+        });
         let mut unsure =
             _mm256_andnot_si256(_mm256_cmpeq_epi32(kth, inf), _mm256_cmpeq_epi32(kth, next));
         let class = _mm256_set1_epi32((1 << CLASS_BITS) - 1);
         let nobody = _mm256_set1_epi32(self.setup.nobody);
         let mut c: [__m256i; K] = std::array::from_fn(|a| _mm256_and_si256(keys[a], class));
         if self.setup.cutoff > 0.0 {
-            let cut = _mm256_set1_epi32((self.setup.cutoff.to_bits() >> LOW_BITS) as i32);
+            let cut = _mm256_set1_epi32((self.setup.cutoff.to_bits() >> CLASS_BITS) as i32);
             for a in 0..K {
                 let t = truncated(keys[a]);
                 unsure = _mm256_or_si256(unsure, _mm256_cmpeq_epi32(t, cut));
@@ -261,7 +356,13 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
             let (far, cls) = at.row::<S>(grid, dy);
             for x in 0..S {
                 let d = _mm256_castps_si256(self.weighted(far[x], r, dy * S + x));
-                Self::insert(&mut bd, &mut bc, _mm256_and_si256(d, abs), cls[x]);
+                // The centre at distance 0, whatever its cell's range.
+                let d = if dy * S + x == N / 2 {
+                    _mm256_setzero_si256()
+                } else {
+                    _mm256_and_si256(d, abs)
+                };
+                Self::insert(&mut bd, &mut bc, d, cls[x]);
             }
         }
         let nobody = _mm256_set1_epi32(self.setup.nobody);

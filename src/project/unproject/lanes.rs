@@ -65,8 +65,9 @@ impl Grid {
     }
 }
 
-/// The numbers of a window of `N` cells: weights (the centre's 0: the point's own cell is at
-/// distance 0, its range being finite), offsets in the grid, and the vote's rules.
+/// The numbers of a window of `N` cells: weights (the centre's 0; the kernels put the centre at
+/// distance 0 themselves, as its cell's range may be 0), offsets in the grid, and the vote's
+/// rules.
 pub(super) struct Setup<const N: usize> {
     pub w: [f32; N],
     pub off: [usize; N],
@@ -113,7 +114,8 @@ pub(super) enum Block<'a, const L: usize> {
 
 /// Takes the points `L` at a time and writes every point's class into `out` (left as it is
 /// outside the map). `vote(block, ranges, used)`: the winners of a block's lanes, from the
-/// lanes' point ranges, `used` the lanes (bit mask) that hold a point.
+/// lanes' point ranges, `used` the lanes (bit mask) that hold a point. `pass`: the pass over
+/// the points ([`point_pass`], or a vector one that does the same).
 ///
 /// A point's class depends on its cell and its range alone. So every cell's kept point (its
 /// range the cell's) is voted for in blocks of `L` neighbouring cells of a row, their windows
@@ -123,9 +125,10 @@ pub(super) fn drive<const L: usize>(
     m: &PointsInMap<'_>,
     out: &mut [Option<ClassId>],
     mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
+    pass: impl FnOnce(&CellWinners, &mut [Option<ClassId>]) -> Vec<u32>,
 ) {
     let cells = m.rows * m.cols;
-    let mut cell_class = vec![0 as ClassId; cells];
+    let mut winners = CellWinners(vec![0 as ClassId; cells + CellWinners::PAD]);
     for at in (0..cells).step_by(m.cols.max(1)) {
         for col0 in (0..m.cols).step_by(L) {
             let (at, n) = (at + col0, (m.cols - col0).min(L));
@@ -134,37 +137,55 @@ pub(super) fn drive<const L: usize>(
             let used = (ranges.iter().enumerate())
                 .fold(0u32, |mask, (l, &r)| mask | (((r > 0.0) as u32) << l));
             if used != 0 {
-                let winners = vote(Block::Row(at), &ranges, used);
-                for (c, &w) in cell_class[at..at + n].iter_mut().zip(&winners) {
+                let won = vote(Block::Row(at), &ranges, used);
+                for (c, &w) in winners.0[at..at + n].iter_mut().zip(&won) {
                     *c = w as ClassId;
                 }
             }
         }
     }
-    let mut others = Vec::new();
-    for (i, ((&c, &r), o)) in (m.point_cell.iter().zip(m.point_range))
-        .zip(out.iter_mut())
-        .enumerate()
-    {
-        if c == EMPTY {
-            continue;
-        }
-        let kept = m.cell_range[c as usize];
-        if r.to_bits() == kept.to_bits() && kept > 0.0 {
-            *o = Some(cell_class[c as usize]);
-        } else {
-            others.push(i as u32);
-        }
-    }
+    let others = pass(&winners, out);
     for chunk in others.chunks(L) {
         let (mut lanes, mut ranges) = ([u32::MAX; L], [0.0f32; L]);
         for ((lane, range), &i) in lanes.iter_mut().zip(&mut ranges).zip(chunk) {
             (*lane, *range) = (i, m.point_range[i as usize]);
         }
         let used = (1u32 << chunk.len()).wrapping_sub(1);
-        let winners = vote(Block::Scattered(&lanes), &ranges, used);
-        for (&i, &w) in chunk.iter().zip(&winners) {
+        let won = vote(Block::Scattered(&lanes), &ranges, used);
+        for (&i, &w) in chunk.iter().zip(&won) {
             out[i as usize] = Some(w as ClassId);
+        }
+    }
+}
+
+/// The winner of every cell's kept point (row-major), and [`CellWinners::PAD`] more entries, so
+/// that four bytes can be read from any cell's.
+pub(super) struct CellWinners(pub Vec<ClassId>);
+
+impl CellWinners {
+    pub const PAD: usize = 3;
+}
+
+/// The pass over the points `from..` (the scalar one): a point at its cell's range takes the
+/// cell's winner (into `out`); the others (their index, into `others`) are voted for on their
+/// own.
+pub(super) fn point_pass(
+    m: &PointsInMap<'_>,
+    winners: &CellWinners,
+    from: usize,
+    out: &mut [Option<ClassId>],
+    others: &mut Vec<u32>,
+) {
+    let points = (m.point_cell[from..].iter().zip(&m.point_range[from..])).zip(&mut out[from..]);
+    for (i, ((&c, &r), o)) in (from..).zip(points) {
+        if c == EMPTY {
+            continue;
+        }
+        let kept = m.cell_range[c as usize];
+        if r.to_bits() == kept.to_bits() && kept > 0.0 {
+            *o = Some(winners.0[c as usize]);
+        } else {
+            others.push(i as u32);
         }
     }
 }

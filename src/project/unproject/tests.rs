@@ -50,9 +50,17 @@ fn cell_and_knn_on_a_tiny_map() {
 /// class map whose class 0 may win and one where it may not, on a 360-degree map and on a
 /// 90-degree one (most points outside), with predictions at random, ranges rounded to whole
 /// metres (many ties among distances: the keys cannot decide, the exact path does), and cell
-/// ranges no point has (every point voted for on its own, none through its cell's winner).
+/// ranges no point has (every point voted for on its own, none through its cell's winner), and
+/// with cells emptied under their points.
 #[test]
 fn the_lane_kernels_are_the_scalar_one_point_for_point() {
+    /// How the cell ranges differ from the map's.
+    #[derive(Debug, Clone, Copy)]
+    enum Off {
+        No,
+        Scaled,
+        Emptied,
+    }
     use crate::kitti::velodyne::Scan;
     use crate::project::{norm, project_with_point_cells, MapPreset};
     let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -60,17 +68,25 @@ fn the_lane_kernels_are_the_scalar_one_point_for_point() {
     let scan = Scan::read(&bin).unwrap();
     let mut state = 2026u64;
     for (preset, rounded, cells_off) in [
-        (MapPreset::Full, false, false),
-        (MapPreset::Squeezeseg, false, false),
-        (MapPreset::Full, true, false),
-        (MapPreset::Full, false, true),
+        (MapPreset::Full, false, Off::No),
+        (MapPreset::Squeezeseg, false, Off::No),
+        (MapPreset::Full, true, Off::No),
+        (MapPreset::Full, false, Off::Scaled),
+        (MapPreset::Full, false, Off::Emptied),
     ] {
         let spec = preset.spec();
         let proj = project_with_point_cells(&scan.points, &spec);
         let round = |r: f32| if rounded { r.round() } else { r };
         let point_range: Vec<f32> = scan.points.iter().map(|p| round(norm(p))).collect();
-        let off = if cells_off { 1.0001 } else { 1.0 };
-        let cell_range: Vec<f32> = proj.cell_range.iter().map(|&r| round(r) * off).collect();
+        let cell_range: Vec<f32> = (proj.cell_range.iter().enumerate())
+            .map(|(i, &r)| match cells_off {
+                Off::No => round(r),
+                Off::Scaled => r * 1.0001,
+                // Every seventh cell empty, its points kept (the centre of their windows
+                // infinitely far, yet at distance 0).
+                Off::Emptied => r * (i % 7 != 0) as u8 as f32,
+            })
+            .collect();
         let m = PointsInMap {
             rows: spec.rows,
             cols: spec.cols,
@@ -100,7 +116,10 @@ fn the_lane_kernels_are_the_scalar_one_point_for_point() {
                     let b = knn_with(&m, &pred, &p, &map, kernel);
                     assert_eq!(a.len(), b.len());
                     let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-                    let what = format!("{kernel:?}: {preset:?} {rounded} {cells_off} {}", map.name);
+                    let what = format!(
+                        "{kernel:?}: {preset:?} {rounded} {cells_off:?} {}",
+                        map.name
+                    );
                     assert_eq!(differ, 0, "{what} {p:?}");
                 }
             }
