@@ -20,7 +20,7 @@
 
 use std::arch::x86_64::*;
 
-use super::lanes::{drive, point_pass, window_starts, Block, CellWinners, Grid, Setup};
+use super::lanes::{point_pass, scattered, window_starts, Block, CellWinners, Grid, Setup};
 use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
 use crate::project::EMPTY;
@@ -55,27 +55,61 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
 ) {
     let grid = Grid::new(m, pred, vote, S / 2, p.wrap_columns, 8);
     let k = Kernel::<S, N, K>::new(Setup::new(&grid, vote, p));
-    drive::<8>(
-        m,
-        out,
-        |block, ranges, used| {
-            // SAFETY: this function runs with AVX2.
-            unsafe {
-                let r = _mm256_loadu_ps(ranges.as_ptr());
-                let winners = match block {
-                    Block::Row(at) => k.vote(&grid, r, Row(grid.top_left(at, m.cols)), used),
-                    Block::Scattered(lanes) => {
-                        k.vote(&grid, r, Cells(window_starts(&grid, m, lanes)), used)
-                    }
-                };
-                let mut w = [0i32; 8];
-                _mm256_storeu_si256(w.as_mut_ptr() as *mut __m256i, winners);
-                w
-            }
-        },
+    let winners = cell_winners(&k, &grid, m);
+    let others = points(m, &winners, out);
+    scattered::<8>(m, &others, out, |block, ranges, used| {
+        let Block::Scattered(lanes) = block else {
+            unreachable!("the points behind a nearer one")
+        };
         // SAFETY: this function runs with AVX2.
-        |winners, out| unsafe { points(m, winners, out) },
-    );
+        unsafe {
+            let r = _mm256_loadu_ps(ranges.as_ptr());
+            let winners = k.vote(&grid, r, Cells(window_starts(&grid, m, lanes)), used);
+            let mut w = [0i32; 8];
+            _mm256_storeu_si256(w.as_mut_ptr() as *mut __m256i, winners);
+            w
+        }
+    });
+}
+
+/// The winner of every cell's kept point ([`super::lanes::cell_winners`]'s result), eight
+/// neighbouring cells of a row at a time, their ranges read from the padded grid. The lanes
+/// past a row's end hold the padding: their winners land on the next row's first cells (each
+/// of them written again after, where it holds a point) or in [`CellWinners::PAD`].
+///
+/// # Safety
+/// The CPU must have AVX2; `grid` is `m`'s, padded by `S / 2` and 8 columns.
+#[target_feature(enable = "avx2")]
+unsafe fn cell_winners<const S: usize, const N: usize, const K: usize>(
+    k: &Kernel<S, N, K>,
+    grid: &Grid,
+    m: &PointsInMap<'_>,
+) -> CellWinners {
+    let mut winners = vec![0 as ClassId; m.rows * m.cols + CellWinners::PAD];
+    let (far, centre) = (grid.far.as_ptr(), S / 2 * grid.stride + S / 2);
+    let inf = _mm256_set1_ps(f32::INFINITY);
+    for row in 0..m.rows {
+        for col0 in (0..m.cols).step_by(8) {
+            let top = row * grid.stride + col0;
+            // SAFETY: the grid has the centre's row and 8 columns from it (`grid`'s padding).
+            let r = _mm256_loadu_ps(far.add(top + centre));
+            let lanes = (1u32 << (m.cols - col0).min(8)) - 1;
+            let used = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(r, inf)) as u32 & lanes;
+            if used == 0 {
+                continue;
+            }
+            let won = k.vote(grid, r, Row(top), used);
+            // 8 classes (0 to 31) to 8 bytes: 4 in each 128-bit half, then together.
+            let bytes =
+                _mm256_packus_epi16(_mm256_packus_epi32(won, won), _mm256_packus_epi32(won, won));
+            let eight = (_mm256_cvtsi256_si32(bytes) as u32 as u64)
+                | ((_mm256_extract_epi32::<4>(bytes) as u32 as u64) << 32);
+            let at = row * m.cols + col0;
+            // SAFETY: 8 bytes from a cell's lie in the winners (`CellWinners::PAD`).
+            (winners.as_mut_ptr().add(at) as *mut u64).write_unaligned(eight.to_le());
+        }
+    }
+    CellWinners(winners)
 }
 
 /// The pass over the points ([`point_pass`]'s result) eight at a time: their cells' ranges and

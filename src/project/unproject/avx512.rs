@@ -4,7 +4,7 @@
 
 use std::arch::x86_64::*;
 
-use super::lanes::{drive, point_pass, window_starts, Block, Grid, Setup};
+use super::lanes::{drive, window_starts, Block, Grid, Setup};
 use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
 
@@ -29,31 +29,22 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
 ) {
     let grid = Grid::new(m, pred, vote, S / 2, p.wrap_columns, 16);
     let k = Kernel::<S, N, K>(Setup::new(&grid, vote, p));
-    drive::<16>(
-        m,
-        out,
-        |block, ranges, _| {
-            // SAFETY: this function runs with AVX-512F.
-            unsafe {
-                let r = _mm512_loadu_ps(ranges.as_ptr());
-                let winners = match block {
-                    Block::Row(at) => k.vote_row(&grid, r, grid.top_left(at, m.cols)),
-                    Block::Scattered(lanes) => {
-                        let starts = window_starts(&grid, m, lanes);
-                        k.vote_cells(&grid, r, _mm512_loadu_si512(starts.as_ptr() as *const _))
-                    }
-                };
-                let mut w = [0i32; 16];
-                _mm512_storeu_si512(w.as_mut_ptr() as *mut _, winners);
-                w
-            }
-        },
-        |winners, out| {
-            let mut others = Vec::new();
-            point_pass(m, winners, 0, out, &mut others);
-            others
-        },
-    );
+    drive::<16>(m, out, |block, ranges, _| {
+        // SAFETY: this function runs with AVX-512F.
+        unsafe {
+            let r = _mm512_loadu_ps(ranges.as_ptr());
+            let winners = match block {
+                Block::Row(at) => k.vote_row(&grid, r, grid.top_left(at, m.cols)),
+                Block::Scattered(lanes) => {
+                    let starts = window_starts(&grid, m, lanes);
+                    k.vote_cells(&grid, r, _mm512_loadu_si512(starts.as_ptr() as *const _))
+                }
+            };
+            let mut w = [0i32; 16];
+            _mm512_storeu_si512(w.as_mut_ptr() as *mut _, winners);
+            w
+        }
+    });
 }
 
 /// The window's shape in the type: `S` x `S` = `N` cells, `K` nearest.

@@ -114,19 +114,29 @@ pub(super) enum Block<'a, const L: usize> {
 
 /// Takes the points `L` at a time and writes every point's class into `out` (left as it is
 /// outside the map). `vote(block, ranges, used)`: the winners of a block's lanes, from the
-/// lanes' point ranges, `used` the lanes (bit mask) that hold a point. `pass`: the pass over
-/// the points ([`point_pass`], or a vector one that does the same).
+/// lanes' point ranges, `used` the lanes (bit mask) that hold a point.
 ///
 /// A point's class depends on its cell and its range alone. So every cell's kept point (its
 /// range the cell's) is voted for in blocks of `L` neighbouring cells of a row, their windows
-/// read by plain loads, and a point at its cell's range takes that cell's winner; the points
-/// behind a nearer one in their cell (a few in a hundred) go `L` at a time.
+/// read by plain loads ([`cell_winners`]), and a point at its cell's range takes that cell's
+/// winner ([`point_pass`]); the points behind a nearer one in their cell (a few in a hundred)
+/// go `L` at a time ([`scattered`]). A kernel may run its own of the first two.
 pub(super) fn drive<const L: usize>(
     m: &PointsInMap<'_>,
     out: &mut [Option<ClassId>],
     mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
-    pass: impl FnOnce(&CellWinners, &mut [Option<ClassId>]) -> Vec<u32>,
 ) {
+    let winners = cell_winners(m, &mut vote);
+    let mut others = Vec::new();
+    point_pass(m, &winners, 0, out, &mut others);
+    scattered(m, &others, out, vote);
+}
+
+/// The winner of every cell's kept point, `L` neighbouring cells of a row at a time.
+pub(super) fn cell_winners<const L: usize>(
+    m: &PointsInMap<'_>,
+    mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
+) -> CellWinners {
     let cells = m.rows * m.cols;
     let mut winners = CellWinners(vec![0 as ClassId; cells + CellWinners::PAD]);
     for at in (0..cells).step_by(m.cols.max(1)) {
@@ -144,7 +154,17 @@ pub(super) fn drive<const L: usize>(
             }
         }
     }
-    let others = pass(&winners, out);
+    winners
+}
+
+/// The points `others` (behind a nearer one in their cell), `L` at a time, each in its own
+/// window: their classes into `out`.
+pub(super) fn scattered<const L: usize>(
+    m: &PointsInMap<'_>,
+    others: &[u32],
+    out: &mut [Option<ClassId>],
+    mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
+) {
     for chunk in others.chunks(L) {
         let (mut lanes, mut ranges) = ([u32::MAX; L], [0.0f32; L]);
         for ((lane, range), &i) in lanes.iter_mut().zip(&mut ranges).zip(chunk) {
@@ -159,11 +179,11 @@ pub(super) fn drive<const L: usize>(
 }
 
 /// The winner of every cell's kept point (row-major), and [`CellWinners::PAD`] more entries, so
-/// that four bytes can be read from any cell's.
+/// that eight bytes can be read or written from any cell's on.
 pub(super) struct CellWinners(pub Vec<ClassId>);
 
 impl CellWinners {
-    pub const PAD: usize = 3;
+    pub const PAD: usize = 7;
 }
 
 /// The pass over the points `from..` (the scalar one): a point at its cell's range takes the
