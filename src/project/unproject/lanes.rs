@@ -26,31 +26,47 @@ impl Grid {
     ) -> Grid {
         let stride = m.cols + 2 * h + lanes;
         let rows = m.rows + 2 * h;
-        let mut grid_far = vec![0.0f32; rows * stride];
-        let mut cls = vec![vote.pad_vote as i32; rows * stride];
+        // Written once, row by row (a fill of the whole grid first, then the map over it, cost
+        // a few percent of a call).
+        let (pad_far, pad_cls) = (0.0f32, vote.pad_vote as i32);
+        let mut grid_far = Vec::with_capacity(rows * stride);
+        let mut cls = Vec::with_capacity(rows * stride);
+        grid_far.resize(h * stride, pad_far);
+        cls.resize(h * stride, pad_cls);
         for r in 0..m.rows {
             let (src_range, src_cls) = (
                 &m.cell_range[r * m.cols..(r + 1) * m.cols],
                 &pred[r * m.cols..(r + 1) * m.cols],
             );
-            let at = (r + h) * stride + h;
-            for (d, &s) in grid_far[at..at + m.cols].iter_mut().zip(src_range) {
-                *d = far(s);
+            // The h columns left of the map: the last ones wrapped, or padding.
+            for c in (1..=h).rev() {
+                let left = (m.cols - c % m.cols.max(1)) % m.cols.max(1);
+                let (f, k) = if wrap {
+                    (far(src_range[left]), src_cls[left] as i32)
+                } else {
+                    (pad_far, pad_cls)
+                };
+                grid_far.push(f);
+                cls.push(k);
             }
-            for (d, &s) in cls[at..at + m.cols].iter_mut().zip(src_cls) {
-                *d = s as i32;
+            grid_far.extend(src_range.iter().map(|&s| far(s)));
+            cls.extend(src_cls.iter().map(|&s| s as i32));
+            // The h right of it: the first ones wrapped, or padding; then the lanes' columns.
+            for c in 1..=h {
+                let right = (c - 1) % m.cols.max(1);
+                let (f, k) = if wrap {
+                    (far(src_range[right]), src_cls[right] as i32)
+                } else {
+                    (pad_far, pad_cls)
+                };
+                grid_far.push(f);
+                cls.push(k);
             }
-            if wrap {
-                // The h columns beyond each side, taken from the other side.
-                for c in 1..=h {
-                    let (left, right) = (m.cols - c % m.cols.max(1), (c - 1) % m.cols);
-                    grid_far[at - c] = far(src_range[left % m.cols]);
-                    cls[at - c] = src_cls[left % m.cols] as i32;
-                    grid_far[at + m.cols - 1 + c] = far(src_range[right]);
-                    cls[at + m.cols - 1 + c] = src_cls[right] as i32;
-                }
-            }
+            grid_far.resize(grid_far.len() + lanes, pad_far);
+            cls.resize(cls.len() + lanes, pad_cls);
         }
+        grid_far.resize(rows * stride, pad_far);
+        cls.resize(rows * stride, pad_cls);
         Grid {
             far: grid_far,
             cls,
