@@ -11,12 +11,15 @@
 //! The nearest are found by keys: a candidate's distance bits (non-negative floats order as their
 //! bits) with the lowest [`CLASS_BITS`] replaced by its class. Keys order as their truncated
 //! distances (keys of one truncated distance in any order), so one minimum and one maximum per
-//! kept entry keep the `K + 1` smallest sorted, no compare, no blend. The vote needs only the
-//! classes of the `K` nearest, which the keys give wherever the `K`-th and the next key differ
-//! in truncated distance (then every chosen one is nearer than every other, exactly). Where they
-//! share it, or a chosen one's truncated distance is the cutoff's (a few lanes in a thousand on
-//! real scans), the block is taken again with exact distances, kept beside their classes by
-//! compares and blends (ties stay with the earlier cell, the scalar rule).
+//! kept entry keep the smallest sorted, no compare, no blend. The centre (the point's own cell,
+//! at distance 0) is one of the `K` nearest, with the `K - 1` smallest keys of the other cells;
+//! the next key is kept too. The vote needs only the classes of the `K` nearest, which the keys
+//! give wherever the last chosen key and the next differ in truncated distance (then every
+//! chosen one is nearer than every other, exactly; and fewer than `K` others tie with the
+//! centre). Where they share it, or a chosen one's truncated distance is the cutoff's (a few
+//! lanes in a thousand on real scans), the block is taken again with exact distances, kept
+//! beside their classes by compares and blends (ties stay with the earlier cell, the scalar
+//! rule).
 
 use std::arch::x86_64::*;
 
@@ -190,10 +193,6 @@ static PACK: [[u32; 8]; 256] = {
 
 /// Where the lanes' windows are.
 trait Windows: Copy {
-    /// Whether every lane that holds a point is its cell's kept one: its cell's range finite,
-    /// so that the centre's weight 0 puts it at distance 0 (elsewhere it is put there).
-    const CENTRE_KEPT: bool;
-
     /// Row `dy` of every lane's window, its first `S` cells (`S` at most 8): their ranges as
     /// the kNN compares them, and their classes.
     ///
@@ -212,8 +211,6 @@ struct Row(usize);
 struct Cells([i32; 8]);
 
 impl Windows for Row {
-    const CENTRE_KEPT: bool = true;
-
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]) {
@@ -227,8 +224,6 @@ impl Windows for Row {
 }
 
 impl Windows for Cells {
-    const CENTRE_KEPT: bool = false;
-
     /// Each lane's row loaded whole (8 cells) and the eight transposed: plain loads and
     /// shuffles, where gathers cost several times more.
     #[inline]
@@ -328,30 +323,31 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     /// mask) where the keys may have chosen otherwise than the exact distances.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn vote_by_keys<W: Windows>(&self, grid: &Grid, r: __m256, at: W) -> (__m256i, u32) {
+    unsafe fn vote_by_keys(&self, grid: &Grid, r: __m256, at: impl Windows) -> (__m256i, u32) {
         let high = _mm256_set1_epi32(!((1 << CLASS_BITS) - 1) & i32::MAX);
-        let mut keys = [_mm256_set1_epi32(i32::MAX); 8];
+        // The `K - 1` nearest of the other cells and the next, sorted: the centre (at distance
+        // 0, whatever its cell's range) is one of the `K` nearest unless `K` others tie with
+        // it, which the doubt below covers (the next then ties with the last chosen).
+        let mut keys = [_mm256_set1_epi32(i32::MAX); K];
+        let mut centre = _mm256_setzero_si256();
         for dy in 0..S {
             let (far, cls) = at.row::<S>(grid, dy);
             for x in 0..S {
                 let j = dy * S + x;
-                let key = if j == N / 2 && !W::CENTRE_KEPT {
-                    // The centre: at distance 0 (whatever its cell's range), the class alone.
-                    // (Not written so for the kept points: the compiler's schedule of their
-                    // loop lost 4% to it.)
-                    cls[x]
-                } else {
-                    let d = _mm256_castps_si256(self.weighted(far[x], r, j));
-                    _mm256_or_si256(_mm256_and_si256(d, high), cls[x])
-                };
-                for i in (1..=K).rev() {
+                if j == N / 2 {
+                    centre = cls[x];
+                    continue;
+                }
+                let d = _mm256_castps_si256(self.weighted(far[x], r, j));
+                let key = _mm256_or_si256(_mm256_and_si256(d, high), cls[x]);
+                for i in (1..K).rev() {
                     keys[i] = _mm256_min_epi32(keys[i], _mm256_max_epi32(keys[i - 1], key));
                 }
                 keys[0] = _mm256_min_epi32(keys[0], key);
             }
         }
         let truncated = |key: __m256i| _mm256_srli_epi32::<{ CLASS_BITS as i32 }>(key);
-        let (kth, next) = (truncated(keys[K - 1]), truncated(keys[K]));
+        let (kth, next) = (truncated(keys[K - 2]), truncated(keys[K - 1]));
         // With a cutoff, empty cells (infinitely far) vote for nobody whichever are chosen:
         // a tie there is no doubt. (Without one, -1: no truncated distance.)
         let inf = _mm256_set1_epi32(if self.setup.cutoff > 0.0 {
@@ -363,11 +359,15 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
             _mm256_andnot_si256(_mm256_cmpeq_epi32(kth, inf), _mm256_cmpeq_epi32(kth, next));
         let class = _mm256_set1_epi32((1 << CLASS_BITS) - 1);
         let nobody = _mm256_set1_epi32(self.setup.nobody);
-        let mut c: [__m256i; K] = std::array::from_fn(|a| _mm256_and_si256(keys[a], class));
+        // The centre's class (within any cutoff), then the others'.
+        let mut c: [__m256i; K] = std::array::from_fn(|a| match a {
+            0 => centre,
+            _ => _mm256_and_si256(keys[a - 1], class),
+        });
         if self.setup.cutoff > 0.0 {
             let cut = _mm256_set1_epi32((self.setup.cutoff.to_bits() >> CLASS_BITS) as i32);
-            for a in 0..K {
-                let t = truncated(keys[a]);
+            for a in 1..K {
+                let t = truncated(keys[a - 1]);
                 unsure = _mm256_or_si256(unsure, _mm256_cmpeq_epi32(t, cut));
                 c[a] = _mm256_blendv_epi8(c[a], nobody, _mm256_cmpgt_epi32(t, cut));
             }
