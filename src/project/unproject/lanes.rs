@@ -38,27 +38,23 @@ impl Grid {
                 &m.cell_range[r * m.cols..(r + 1) * m.cols],
                 &pred[r * m.cols..(r + 1) * m.cols],
             );
-            // The h columns left of the map: the last ones wrapped, or padding.
-            for c in (1..=h).rev() {
-                let left = (m.cols - c % m.cols.max(1)) % m.cols.max(1);
-                let (f, k) = if wrap {
-                    (far(src_range[left]), src_cls[left] as i32)
-                } else {
-                    (pad_far, pad_cls)
-                };
+            // Source column `i` where the columns wrap, padding where they do not.
+            let edge = |i: usize| match wrap {
+                true => (far(src_range[i]), src_cls[i] as i32),
+                false => (pad_far, pad_cls),
+            };
+            let cols = m.cols.max(1);
+            // The h columns left of the map (the last ones), the map's, the h right of it (the
+            // first ones), then the lanes' columns.
+            let left = (1..=h).rev().map(|c| edge((cols - c % cols) % cols));
+            let right = (1..=h).map(|c| edge((c - 1) % cols));
+            for (f, k) in left {
                 grid_far.push(f);
                 cls.push(k);
             }
             grid_far.extend(src_range.iter().map(|&s| far(s)));
             cls.extend(src_cls.iter().map(|&s| s as i32));
-            // The h right of it: the first ones wrapped, or padding; then the lanes' columns.
-            for c in 1..=h {
-                let right = (c - 1) % m.cols.max(1);
-                let (f, k) = if wrap {
-                    (far(src_range[right]), src_cls[right] as i32)
-                } else {
-                    (pad_far, pad_cls)
-                };
+            for (f, k) in right {
                 grid_far.push(f);
                 cls.push(k);
             }
