@@ -285,6 +285,11 @@ pub fn knn_with(
     classes: &ClassMap,
     kernel: KnnKernel,
 ) -> Vec<Option<ClassId>> {
+    if m.rows * m.cols == 0 {
+        // No cell, so no point in the map (the cells are checked): nothing to vote on (and no
+        // column to wrap the seam with).
+        return vec![None; m.point_cell.len()];
+    }
     #[cfg(target_arch = "x86_64")]
     if kernel != KnnKernel::Scalar
         && KnnKernel::available().contains(&kernel)

@@ -45,6 +45,32 @@ fn cell_and_knn_on_a_tiny_map() {
     assert!(unproject(&m, &pred, &Method::Knn(even), &map).is_err());
 }
 
+/// A map without columns (or rows) holds no point: every kernel says so, the seam wrapped or
+/// not (the padded grid once indexed its first column there).
+#[test]
+fn an_empty_map_holds_no_point() {
+    for (rows, cols) in [(4, 0), (0, 8)] {
+        let m = PointsInMap {
+            rows,
+            cols,
+            point_cell: &[EMPTY, EMPTY],
+            point_range: &[3.0, 4.0],
+            cell_range: &[],
+        };
+        for wrap_columns in [false, true] {
+            let p = KnnParams {
+                wrap_columns,
+                ..Default::default()
+            };
+            for kernel in KnnKernel::available() {
+                assert_eq!(knn_with(&m, &[], &p, &semantic(), kernel), vec![None, None]);
+            }
+            let knn = unproject(&m, &[], &Method::Knn(p), &semantic()).unwrap();
+            assert_eq!(knn, vec![None, None]);
+        }
+    }
+}
+
 /// The scalar and the eight- and sixteen-lane kernels give the same class to every point of a real
 /// scan, for the usual windows, with and without the cutoff and the seam wrapped, for a
 /// class map whose class 0 may win and one where it may not, on a 360-degree map and on a

@@ -133,3 +133,25 @@ def test_bad_inputs_are_named(scan):
         k2.unproject(pred, m["row"][:-1], m["col"], pts)
     with pytest.raises(ValueError, match="method must be"):
         k2.unproject(pred, m["row"], m["col"], pts, method="nearest")
+
+
+def test_cells_emptied_under_their_points_and_an_empty_map(scan):
+    """A range channel that is not the map's own (every seventh cell emptied under its points)
+    still puts each point's own cell at distance 0, as the reference does (the lane kernels put
+    it at NaN once); a map without columns holds no point, the seam wrapped or not."""
+    pts = scan["points"]
+    m = k2.project(pts, labels=scan["label"], cols=2048, fov_deg=360)
+    pred = noisy(m["label"], 0.3, seed=7)
+    cell_range = np.ascontiguousarray(m["map"][..., 4])
+    cell_range.reshape(-1)[::7] = 0.0
+    got = k2.unproject(pred, m["row"], m["col"], pts, cell_range, method="knn")
+    inside = m["row"] >= 0
+    proj_range = np.where(cell_range > 0, cell_range, -1.0).astype(np.float32)
+    rng = np.sqrt(pts[:, 0] * pts[:, 0] + pts[:, 1] * pts[:, 1] + pts[:, 2] * pts[:, 2])
+    want = knn_reference(proj_range, rng[inside], pred, m["col"][inside], m["row"][inside], 5, 5, 1.0, 1.0, 20)
+    assert np.array_equal(got[inside], want)
+    none = np.full(3, -1, np.int32)
+    for wrap in (False, True):
+        got = k2.unproject(np.zeros((4, 0), np.uint8), none, none, pts[:3], np.zeros((4, 0), np.float32),
+                           method="knn", wrap_columns=wrap)
+        assert (got == -1).all()
