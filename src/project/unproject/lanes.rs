@@ -191,7 +191,7 @@ pub(super) fn scattered<const L: usize>(
 }
 
 /// The winner of every cell's kept point (row-major), and [`CellWinners::PAD`] more entries, so
-/// that eight bytes can be read or written from any cell's on.
+/// that eight bytes can be written from any cell's on.
 pub(super) struct CellWinners(pub Vec<ClassId>);
 
 impl CellWinners {

@@ -237,7 +237,7 @@ pub fn unproject(
             .collect()),
         Method::Knn(p) => {
             p.validate()?;
-            Ok(knn_with(m, pred, p, classes, KnnKernel::best()))
+            Ok(knn_unchecked(m, pred, p, classes, KnnKernel::best()))
         }
     }
 }
@@ -278,7 +278,28 @@ impl KnnKernel {
 }
 
 /// The kNN vote of every point by `kernel` (the parameters validated).
+///
+/// # Panics
+/// Where the lengths do not match the map or a point's cell is outside it ([`unproject`] says
+/// so as an error): the lane kernels read the map without bounds tests.
 pub fn knn_with(
+    m: &PointsInMap<'_>,
+    pred: &[ClassId],
+    p: &KnnParams,
+    classes: &ClassMap,
+    kernel: KnnKernel,
+) -> Vec<Option<ClassId>> {
+    let cells = m.rows * m.cols;
+    assert_eq!(pred.len(), cells, "the prediction's cells");
+    assert_eq!(m.cell_range.len(), cells, "the cell ranges");
+    assert_eq!(m.point_range.len(), m.point_cell.len(), "the point ranges");
+    let bad = first_where(m.point_cell, |&c| (c != EMPTY) & (c as usize >= cells));
+    assert!(bad.is_none(), "point {bad:?} is outside the map");
+    knn_unchecked(m, pred, p, classes, kernel)
+}
+
+/// [`knn_with`] of inputs checked by the caller.
+fn knn_unchecked(
     m: &PointsInMap<'_>,
     pred: &[ClassId],
     p: &KnnParams,

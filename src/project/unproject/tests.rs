@@ -71,6 +71,27 @@ fn an_empty_map_holds_no_point() {
     }
 }
 
+/// The kernels read the map without bounds tests, so `knn_with` (public, for the benches)
+/// refuses a point outside the map rather than read past it.
+#[test]
+#[should_panic(expected = "outside the map")]
+fn knn_with_refuses_a_point_outside_the_map() {
+    let m = PointsInMap {
+        rows: 1,
+        cols: 2,
+        point_cell: &[0, 2],
+        point_range: &[3.0, 4.0],
+        cell_range: &[3.0, 0.0],
+    };
+    knn_with(
+        &m,
+        &[1, 1],
+        &KnnParams::default(),
+        &semantic(),
+        KnnKernel::best(),
+    );
+}
+
 /// The scalar and the eight- and sixteen-lane kernels give the same class to every point of a real
 /// scan, for the usual windows, with and without the cutoff and the seam wrapped, for a
 /// class map whose class 0 may win and one where it may not, on a 360-degree map and on a
