@@ -199,6 +199,23 @@ pub fn unproject(
     method: &Method,
     classes: &ClassMap,
 ) -> Result<Vec<Option<ClassId>>> {
+    check_inputs(m, pred, classes)?;
+    match method {
+        Method::Cell => Ok(m
+            .point_cell
+            .iter()
+            .map(|&c| (c != EMPTY).then(|| pred[c as usize]))
+            .collect()),
+        Method::Knn(p) => {
+            p.validate()?;
+            Ok(knn_unchecked(m, pred, p, classes, KnnKernel::best()))
+        }
+    }
+}
+
+/// The inputs' lengths against the map, the predicted classes against the class map, and the
+/// points' cells against the map (the lane kernels read without bounds tests).
+fn check_inputs(m: &PointsInMap<'_>, pred: &[ClassId], classes: &ClassMap) -> Result<()> {
     let cells = m.rows * m.cols;
     let check = |what: &str, n: usize, want: usize| {
         if n == want {
@@ -229,17 +246,7 @@ pub fn unproject(
             m.point_cell[i]
         )));
     }
-    match method {
-        Method::Cell => Ok(m
-            .point_cell
-            .iter()
-            .map(|&c| (c != EMPTY).then(|| pred[c as usize]))
-            .collect()),
-        Method::Knn(p) => {
-            p.validate()?;
-            Ok(knn_unchecked(m, pred, p, classes, KnnKernel::best()))
-        }
-    }
+    Ok(())
 }
 
 /// Which code runs the kNN: the scalar code, or several points at a time where the CPU can (the
@@ -280,8 +287,8 @@ impl KnnKernel {
 /// The kNN vote of every point by `kernel` (the parameters validated).
 ///
 /// # Panics
-/// Where the lengths do not match the map or a point's cell is outside it ([`unproject`] says
-/// so as an error): the lane kernels read the map without bounds tests.
+/// Where [`unproject`] says the inputs are wrong (lengths, classes, cells), with its message:
+/// the lane kernels read the map without bounds tests.
 pub fn knn_with(
     m: &PointsInMap<'_>,
     pred: &[ClassId],
@@ -289,12 +296,9 @@ pub fn knn_with(
     classes: &ClassMap,
     kernel: KnnKernel,
 ) -> Vec<Option<ClassId>> {
-    let cells = m.rows * m.cols;
-    assert_eq!(pred.len(), cells, "the prediction's cells");
-    assert_eq!(m.cell_range.len(), cells, "the cell ranges");
-    assert_eq!(m.point_range.len(), m.point_cell.len(), "the point ranges");
-    let bad = first_where(m.point_cell, |&c| (c != EMPTY) & (c as usize >= cells));
-    assert!(bad.is_none(), "point {bad:?} is outside the map");
+    if let Err(e) = check_inputs(m, pred, classes) {
+        panic!("knn_with: {e}");
+    }
     knn_unchecked(m, pred, p, classes, kernel)
 }
 

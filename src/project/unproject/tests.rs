@@ -74,7 +74,7 @@ fn an_empty_map_holds_no_point() {
 /// The kernels read the map without bounds tests, so `knn_with` (public, for the benches)
 /// refuses a point outside the map rather than read past it.
 #[test]
-#[should_panic(expected = "outside the map")]
+#[should_panic(expected = "point 1 is in cell 2, beyond the map's 2")]
 fn knn_with_refuses_a_point_outside_the_map() {
     let m = PointsInMap {
         rows: 1,
