@@ -10,8 +10,9 @@
 //!
 //! The nearest are found by keys: a candidate's distance bits (non-negative floats order as their
 //! bits) with the lowest [`CLASS_BITS`] replaced by its class. Keys order as their truncated
-//! distances (keys of one truncated distance in any order), so one minimum and one maximum per
-//! kept entry keep the smallest sorted, no compare, no blend. The centre (the point's own cell,
+//! distances (keys of one truncated distance in any order), so minima and maxima sort them, no
+//! compare, no blend: each window row's keys by an optimal sorting network, merged into the
+//! kept ones by a bitonic merge (fewer operations than inserting the keys one by one). The centre (the point's own cell,
 //! at distance 0) is one of the `K` nearest, with the `K - 1` smallest keys of the other cells;
 //! the next key is kept too. The vote needs only the classes of the `K` nearest, which the keys
 //! give wherever the last chosen key and the next differ in truncated distance (then every
@@ -196,6 +197,86 @@ static PACK: [[u32; 8]; 256] = {
     t
 };
 
+/// Sorts the first `n` keys of `v` (in every lane, signed order) by an optimal sorting network.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn sort<const S: usize>(v: &mut [__m256i; S], n: usize) {
+    for &(i, j) in network(n) {
+        let (a, b) = (v[i as usize], v[j as usize]);
+        v[i as usize] = _mm256_min_epi32(a, b);
+        v[j as usize] = _mm256_max_epi32(a, b);
+    }
+}
+
+/// The `K` smallest of the sorted `kept` and the first `n` of `add` (sorted), sorted, into
+/// `kept`: the smaller of each kept key and the added key opposite it (`add` reversed) are the
+/// `K` smallest, in an order rising then falling, which a bitonic sorter orders.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn merge<const K: usize, const S: usize>(kept: &mut [__m256i; K], add: &[__m256i; S], n: usize) {
+    for (i, k) in kept.iter_mut().enumerate() {
+        if K - 1 - i < n {
+            *k = _mm256_min_epi32(*k, add[K - 1 - i]);
+        }
+    }
+    for &(i, j) in bitonic(K) {
+        let (a, b) = (kept[i as usize], kept[j as usize]);
+        kept[i as usize] = _mm256_min_epi32(a, b);
+        kept[j as usize] = _mm256_max_epi32(a, b);
+    }
+}
+
+/// The comparators of an optimal sorting network of `n` inputs, 0 to 8 (Knuth, TAOCP 5.3.4;
+/// the tests check each on every 0-1 input).
+#[rustfmt::skip]
+pub(super) const fn network(n: usize) -> &'static [(u8, u8)] {
+    match n {
+        0 | 1 => &[],
+        2 => &[(0, 1)],
+        3 => &[(1, 2), (0, 2), (0, 1)],
+        4 => &[(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)],
+        5 => &[
+            (0, 1), (3, 4), (2, 4), (2, 3), (0, 3), (0, 2), (1, 4), (1, 3), (1, 2),
+        ],
+        6 => &[
+            (1, 2), (4, 5), (0, 2), (3, 5), (0, 1), (3, 4), (2, 5), (0, 3), (1, 4), (2, 4),
+            (1, 3), (2, 3),
+        ],
+        7 => &[
+            (1, 2), (3, 4), (5, 6), (0, 2), (3, 5), (4, 6), (0, 1), (4, 5), (2, 6), (0, 4),
+            (1, 5), (0, 3), (2, 5), (1, 3), (2, 4), (2, 3),
+        ],
+        8 => &[
+            (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7), (0, 1), (2, 3),
+            (4, 5), (6, 7), (2, 4), (3, 5), (1, 4), (3, 6), (1, 2), (3, 4), (5, 6),
+        ],
+        _ => panic!("sorting networks of at most 8 inputs"),
+    }
+}
+
+/// The comparators that sort `n` keys (0 to 8) rising, then falling: a bitonic sorter of the
+/// next power of two inputs, its first ones below every key (they stay in front, so their
+/// compares are dropped; the tests check each on every such 0-1 input).
+#[rustfmt::skip]
+pub(super) const fn bitonic(n: usize) -> &'static [(u8, u8)] {
+    match n {
+        0 | 1 => &[],
+        2 => &[(0, 1)],
+        3 => &[(0, 2), (1, 2)],
+        4 => &[(0, 2), (1, 3), (0, 1), (2, 3)],
+        5 => &[(0, 4), (1, 3), (2, 4), (1, 2), (3, 4)],
+        6 => &[(0, 4), (1, 5), (2, 4), (3, 5), (0, 1), (2, 3), (4, 5)],
+        7 => &[
+            (0, 4), (1, 5), (2, 6), (0, 2), (3, 5), (4, 6), (1, 2), (3, 4), (5, 6),
+        ],
+        8 => &[
+            (0, 4), (1, 5), (2, 6), (3, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 1), (2, 3),
+            (4, 5), (6, 7),
+        ],
+        _ => panic!("bitonic sorters of at most 8 inputs"),
+    }
+}
+
 /// Where the lanes' windows are.
 trait Windows: Copy {
     /// Row `dy` of every lane's window, its first `S` cells (`S` at most 8): their ranges as
@@ -324,6 +405,27 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
         _mm256_mul_ps(_mm256_sub_ps(far, r), self.weight[j])
     }
 
+    /// The keys of row `dy` of every lane's window (see the module), and the classes of its
+    /// middle cell (the centre's, in the centre's row).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn row_keys(
+        &self,
+        grid: &Grid,
+        r: __m256,
+        at: impl Windows,
+        dy: usize,
+        high: __m256i,
+    ) -> ([__m256i; S], __m256i) {
+        let (far, cls) = at.row::<S>(grid, dy);
+        let mut keys = [high; S];
+        for (x, key) in keys.iter_mut().enumerate() {
+            let d = _mm256_castps_si256(self.weighted(far[x], r, dy * S + x));
+            *key = _mm256_or_si256(_mm256_and_si256(d, high), cls[x]);
+        }
+        (keys, cls[S / 2])
+    }
+
     /// The winner of each lane from its `K` smallest keys (see the module), and the lanes (bit
     /// mask) where the keys may have chosen otherwise than the exact distances.
     #[inline]
@@ -333,24 +435,25 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
         // The `K - 1` nearest of the other cells and the next, sorted: the centre (at distance
         // 0, whatever its cell's range) is one of the `K` nearest unless `K` others tie with
         // it, which the doubt below covers (the next then ties with the last chosen).
+        // Each row's keys sorted, then merged into the kept ones (the first row's are the first
+        // kept); the centre's row last, without the centre.
         let mut keys = [_mm256_set1_epi32(i32::MAX); K];
-        let mut centre = _mm256_setzero_si256();
-        for dy in 0..S {
-            let (far, cls) = at.row::<S>(grid, dy);
-            for x in 0..S {
-                let j = dy * S + x;
-                if j == N / 2 {
-                    centre = cls[x];
-                    continue;
-                }
-                let d = _mm256_castps_si256(self.weighted(far[x], r, j));
-                let key = _mm256_or_si256(_mm256_and_si256(d, high), cls[x]);
-                for i in (1..K).rev() {
-                    keys[i] = _mm256_min_epi32(keys[i], _mm256_max_epi32(keys[i - 1], key));
-                }
-                keys[0] = _mm256_min_epi32(keys[0], key);
-            }
+        let (mut row, _) = self.row_keys(grid, r, at, 0, high);
+        sort(&mut row, S);
+        for (kept, &k) in keys.iter_mut().zip(&row) {
+            *kept = k;
         }
+        for dy in (1..S).filter(|&dy| dy != S / 2) {
+            let (mut row, _) = self.row_keys(grid, r, at, dy, high);
+            sort(&mut row, S);
+            merge(&mut keys, &row, S);
+        }
+        let (mut row, centre) = self.row_keys(grid, r, at, S / 2, high);
+        for x in S / 2..S - 1 {
+            row[x] = row[x + 1];
+        }
+        sort(&mut row, S - 1);
+        merge(&mut keys, &row, S - 1);
         let truncated = |key: __m256i| _mm256_srli_epi32::<{ CLASS_BITS as i32 }>(key);
         let (kth, next) = (truncated(keys[K - 2]), truncated(keys[K - 1]));
         // With a cutoff, empty cells (infinitely far) vote for nobody whichever are chosen:

@@ -202,3 +202,59 @@ fn the_keys_decide_nearly_every_block_of_a_real_scan() {
     assert!(all > 16_000, "{all} blocks");
     assert!(exact * 100 < all, "{exact} of {all} blocks taken exactly");
 }
+
+/// The AVX2 kernel's sorting networks sort every 0-1 input (so every input: the 0-1
+/// principle), and its merge (the smaller of each kept key and the added one opposite it, then
+/// the bitonic sorter) gives the `k` smallest of both, sorted, on random keys with ties.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_kernels_networks_sort_and_merge() {
+    let run = |net: &[(u8, u8)], v: &mut [i32]| {
+        for &(i, j) in net {
+            let (a, b) = (v[i as usize], v[j as usize]);
+            (v[i as usize], v[j as usize]) = (a.min(b), a.max(b));
+        }
+    };
+    for n in 0..=8usize {
+        for bits in 0..1u32 << n {
+            let mut v: Vec<i32> = (0..n).map(|i| (bits >> i & 1) as i32).collect();
+            run(avx2::network(n), &mut v);
+            assert!(v.is_sorted(), "network({n}) leaves {v:?} from {bits:b}");
+        }
+        // Rising then falling: 0s, 1s, 0s.
+        for a in 0..=n {
+            for b in 0..=n - a {
+                let mut v: Vec<i32> = (0..n).map(|i| (i >= a && i < a + b) as i32).collect();
+                run(avx2::bitonic(n), &mut v);
+                assert!(v.is_sorted(), "bitonic({n}) leaves {v:?}");
+            }
+        }
+    }
+    let mut seed = 7u64;
+    let mut next = move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 59) as i32
+    };
+    for k in [3usize, 5, 7] {
+        for add_n in [k - 1, k] {
+            for _ in 0..2000 {
+                let mut kept: Vec<i32> = (0..k).map(|_| next()).collect();
+                let mut add: Vec<i32> = (0..add_n).map(|_| next()).collect();
+                kept.sort();
+                add.sort();
+                let mut want: Vec<i32> = kept.iter().chain(&add).copied().collect();
+                want.sort();
+                want.truncate(k);
+                for (i, slot) in kept.iter_mut().enumerate() {
+                    if k - 1 - i < add_n {
+                        *slot = (*slot).min(add[k - 1 - i]);
+                    }
+                }
+                run(avx2::bitonic(k), &mut kept);
+                assert_eq!(kept, want, "merge of {k} and {add_n}");
+            }
+        }
+    }
+}
