@@ -170,13 +170,35 @@ pub fn points_arg(
     })
 }
 
-/// The range of every point of an (N, 3) or (N, 4) float32 array (`norm`, as the converter
-/// computes it), read in place.
-pub fn point_ranges(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f32>> {
+/// The rows of an (N, 3) or (N, 4) float32 array of points (x, y, z first).
+#[derive(Clone, Copy)]
+pub enum PointRows<'a> {
+    /// x, y, z.
+    Three(&'a [[f32; 3]]),
+    /// x, y, z and a fourth value (intensity).
+    Four(&'a [[f32; 4]]),
+}
+
+impl PointRows<'_> {
+    /// The points.
+    pub fn len(&self) -> usize {
+        match self {
+            PointRows::Three(r) => r.len(),
+            PointRows::Four(r) => r.len(),
+        }
+    }
+}
+
+/// `f` of the rows of an (N, 3) or (N, 4) float32 array of points, read in place.
+pub fn with_point_rows<R>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    f: impl FnOnce(PointRows<'_>) -> PyResult<R>,
+) -> PyResult<R> {
     let want = "a float32 array of shape (N, 3) or (N, 4)";
     with_values(obj, name, want, |v: &[f32], shape| match shape[..] {
-        [_, 3] => Ok(ranges::<3>(v)),
-        [_, 4] => Ok(ranges::<4>(v)),
+        [_, 3] => f(PointRows::Three(v.as_chunks::<3>().0)),
+        [_, 4] => f(PointRows::Four(v.as_chunks::<4>().0)),
         _ => Err(PyValueError::new_err(format!(
             "{name} must be {want}, got {}",
             describe(obj)
@@ -218,19 +240,6 @@ pub fn map_exact<T: Copy, A>(input: &[T], mut f: impl FnMut(T) -> A) -> Vec<A> {
     // SAFETY: the loop wrote the first `n` slots.
     unsafe { out.set_len(n) };
     out
-}
-
-/// The range of each `C`-float row of `v` ([`with_avx2`]).
-fn ranges<const C: usize>(v: &[f32]) -> Vec<f32> {
-    with_avx2(
-        #[inline(always)]
-        || {
-            let (rows, _) = v.as_chunks::<C>();
-            map_exact(rows, |r| {
-                kitti2pgm::project::norm(&Point3::new(r[0], r[1], r[2]))
-            })
-        },
-    )
 }
 
 /// A one-dimensional array of `n` entries of type `T` (`dtype` names it in the message).

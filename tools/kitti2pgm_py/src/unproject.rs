@@ -4,9 +4,11 @@ use numpy::PyArray1;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use kitti2pgm::project::EMPTY;
+use kitti2pgm::geom::Point3;
+use kitti2pgm::project::{norm, EMPTY};
 
-use crate::{arrays, named, py_err, readers};
+use crate::arrays::{self, PointRows};
+use crate::{named, py_err, readers};
 
 /// Carries a map prediction back to every point of the scan it was projected from.
 ///
@@ -43,11 +45,15 @@ pub(crate) fn unproject<'py>(
 ) -> PyResult<Bound<'py, PyArray1<i16>>> {
     use kitti2pgm::project::unproject::{unproject as run, KnnParams, MethodKind, PointsInMap};
     let (pred, h, w) = arrays::grid_arg::<u8>(pred, "pred")?;
-    let point_range = arrays::point_ranges(points, "points")?;
-    let n = point_range.len();
-    // The cells straight from the row and col arrays, read in place.
-    let point_cell = arrays::with_vec::<i32, _>(row, "row", n, |row| {
-        arrays::with_vec::<i32, _>(col, "col", n, |col| point_cells_arg(row, col, (h, w)))
+    // Each point's range and cell in one pass over the points, row and col, read in place.
+    let (point_range, point_cell) = arrays::with_point_rows(points, "points", |rows| {
+        let n = rows.len();
+        arrays::with_vec::<i32, _>(row, "row", n, |row| {
+            arrays::with_vec::<i32, _>(col, "col", n, |col| match rows {
+                PointRows::Three(p) => ranges_and_cells(p, row, col, (h, w)),
+                PointRows::Four(p) => ranges_and_cells(p, row, col, (h, w)),
+            })
+        })
     })?;
     let method = named::<MethodKind>("method", method)?.with(KnnParams {
         k,
@@ -106,35 +112,50 @@ fn cell_range_arg(c: &Bound<'_, PyAny>, (h, w): (usize, usize)) -> PyResult<Vec<
     )))
 }
 
-/// The cell (`row * w + col`) of every point from `project`'s row and col arrays (-1, -1:
-/// outside the map); an error for a cell outside the `h x w` prediction.
-fn point_cells_arg(row: &[i32], col: &[i32], (h, w): (usize, usize)) -> PyResult<Vec<u32>> {
+/// The range of every point ([`kitti2pgm::project::norm`], as the map's) and its cell
+/// (`row * w + col`) from `project`'s row and col arrays (-1, -1: outside the map); an error
+/// for a cell outside the `h x w` prediction.
+fn ranges_and_cells<const C: usize>(
+    points: &[[f32; C]],
+    row: &[i32],
+    col: &[i32],
+    (h, w): (usize, usize),
+) -> PyResult<(Vec<f32>, Vec<u32>)> {
     // One branch-free pass (with AVX2 where the CPU has it) that only notes whether a point is
     // bad; the first is looked for and named after it (a `Result` per element made this the
     // Python call's second largest cost). `&`, not `&&`: no branch, so the pass vectorises.
-    assert_eq!(row.len(), col.len(), "row and col of one length (checked)");
+    let n = points.len();
+    assert!(
+        row.len() == n && col.len() == n,
+        "one row and col a point (checked)"
+    );
     let (h32, w32) = (h as u32, w as u32);
     let in_map = move |r: i32, c: i32| ((r as u32) < h32) & ((c as u32) < w32);
     let bad_point = move |r: i32, c: i32| !in_map(r, c) & !((r == -1) & (c == -1));
     // (`move`: the bounds are the pass's own values, which no store of it can change)
-    let (cells, any_bad) = arrays::with_avx2(
+    let (ranges, cells, any_bad) = arrays::with_avx2(
         #[inline(always)]
         move || {
-            let mut cells = Vec::with_capacity(row.len());
+            let (mut ranges, mut cells) = (Vec::with_capacity(n), Vec::with_capacity(n));
             let mut any_bad = false;
-            let slots = cells.spare_capacity_mut()[..row.len()].iter_mut();
-            for ((cell, &r), &c) in slots.zip(row).zip(col) {
+            let slots = (ranges.spare_capacity_mut()[..n].iter_mut())
+                .zip(&mut cells.spare_capacity_mut()[..n]);
+            for ((((range, cell), p), &r), &c) in slots.zip(points).zip(row).zip(col) {
+                range.write(norm(&Point3::new(p[0], p[1], p[2])));
                 any_bad |= bad_point(r, c);
                 let at = (r as u32).wrapping_mul(w32).wrapping_add(c as u32);
                 cell.write(if in_map(r, c) { at } else { EMPTY });
             }
-            // SAFETY: the loop wrote every slot (`row` and `col` are of one length: asserted).
-            unsafe { cells.set_len(row.len()) };
-            (cells, any_bad)
+            // SAFETY: the loop wrote the first `n` slots of both (the four of one length).
+            unsafe {
+                ranges.set_len(n);
+                cells.set_len(n);
+            }
+            (ranges, cells, any_bad)
         },
     );
     if !any_bad {
-        return Ok(cells);
+        return Ok((ranges, cells));
     }
     let (i, (&r, &c)) = (row.iter().zip(col).enumerate())
         .find(|(_, (&r, &c))| bad_point(r, c))
