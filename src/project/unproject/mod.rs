@@ -229,8 +229,10 @@ fn check_inputs(m: &PointsInMap<'_>, pred: &[ClassId], classes: &ClassMap) -> Re
     check("the prediction", pred.len(), cells)?;
     check("the point ranges", m.point_range.len(), m.point_cell.len())?;
     check("the cell ranges", m.cell_range.len(), cells)?;
-    let n_classes = classes.len();
-    if let Some(i) = first_where(pred, |&c| c as usize >= n_classes) {
+    // Compares at the values' own width (as `usize` they took four lanes a vector, not 32).
+    let n_classes = u8::try_from(classes.len()).unwrap_or(u8::MAX);
+    let past_classes = classes.len() <= u8::MAX as usize;
+    if let Some(i) = first_where(pred, |&c| past_classes & (c >= n_classes)) {
         return Err(Error::Config(format!(
             "cell ({}, {}) is predicted as class {}, the map {:?} has {}",
             i / m.cols,
@@ -240,7 +242,9 @@ fn check_inputs(m: &PointsInMap<'_>, pred: &[ClassId], classes: &ClassMap) -> Re
             classes.len()
         )));
     }
-    if let Some(i) = first_where(m.point_cell, |&c| (c != EMPTY) & (c as usize >= cells)) {
+    // (`EMPTY` is `u32::MAX`, which no more cells than that make a cell.)
+    let cells32 = u32::try_from(cells).unwrap_or(u32::MAX);
+    if let Some(i) = first_where(m.point_cell, |&c| (c != EMPTY) & (c >= cells32)) {
         return Err(Error::Config(format!(
             "point {i} is in cell {}, beyond the map's {cells}",
             m.point_cell[i]
