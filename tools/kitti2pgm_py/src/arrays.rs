@@ -365,13 +365,22 @@ pub fn grid_arg<T: Element + Copy + DtypeName>(
     obj: &Bound<'_, PyAny>,
     name: &str,
 ) -> PyResult<(Vec<T>, usize, usize)> {
+    with_grid(obj, name, |v: &[T], h, w| Ok((v.to_vec(), h, w)))
+}
+
+/// `f` of a two-dimensional array of type `T`, row-major, and its shape (rows, cols): read in
+/// place where it can be (as [`grid_arg`] checks it, without the copy).
+pub fn with_grid<T: Element + Copy + DtypeName, R>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    f: impl FnOnce(&[T], usize, usize) -> PyResult<R>,
+) -> PyResult<R> {
     let want = format!("a {} array of shape (H, W)", T::NAME);
-    let (v, shape) = values::<T>(obj, name, &want)?;
-    match shape[..] {
-        [h, w] => Ok((v, h, w)),
+    with_values(obj, name, &want, |v: &[T], shape| match shape[..] {
+        [h, w] => f(v, h, w),
         _ => Err(PyValueError::new_err(format!(
             "{name} must be {want}, got {}",
             describe(obj)
         ))),
-    }
+    })
 }

@@ -92,24 +92,39 @@ pub(crate) fn unproject<'py>(
 }
 
 /// `unproject`'s `cell_range`: an `h x w` float32 map's range channel, finite and >= 0 (0 in
-/// empty cells), checked by [`kitti2pgm::simd::first_where`] (one branch-free pass; the bad
-/// value looked for only when there is one).
+/// empty cells), copied and checked in one branch-free pass (the bad value looked for only
+/// when there is one).
 fn cell_range_arg(c: &Bound<'_, PyAny>, (h, w): (usize, usize)) -> PyResult<Vec<f32>> {
-    let (v, ch, cw) = arrays::grid_arg::<f32>(c, "cell_range")?;
-    if (ch, cw) != (h, w) {
-        return Err(PyValueError::new_err(format!(
-            "cell_range is {ch}x{cw}, pred is {h}x{w}"
-        )));
-    }
-    let Some(i) = kitti2pgm::simd::first_where(&v, |r| !(r.is_finite() & (*r >= 0.0))) else {
-        return Ok(v);
-    };
-    let r = v[i];
-    Err(PyValueError::new_err(format!(
-        "cell_range: value {r} at cell ({}, {}) is not a range (finite, >= 0)",
-        i / w,
-        i % w
-    )))
+    arrays::with_grid::<f32, _>(c, "cell_range", |v, ch, cw| {
+        if (ch, cw) != (h, w) {
+            return Err(PyValueError::new_err(format!(
+                "cell_range is {ch}x{cw}, pred is {h}x{w}"
+            )));
+        }
+        // Copied and checked in one pass.
+        let bad = |r: f32| !(r.is_finite() & (r >= 0.0));
+        let (copy, any_bad) = arrays::with_avx2(
+            #[inline(always)]
+            || {
+                let mut any_bad = false;
+                let copy = arrays::map_exact(v, |r| {
+                    any_bad |= bad(r);
+                    r
+                });
+                (copy, any_bad)
+            },
+        );
+        if !any_bad {
+            return Ok(copy);
+        }
+        let i = v.iter().position(|&r| bad(r)).expect("one value is bad");
+        Err(PyValueError::new_err(format!(
+            "cell_range: value {} at cell ({}, {}) is not a range (finite, >= 0)",
+            v[i],
+            i / w,
+            i % w
+        )))
+    })
 }
 
 /// The range of every point ([`kitti2pgm::project::norm`], as the map's) and its cell
