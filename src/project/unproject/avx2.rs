@@ -57,7 +57,7 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
     vote: &Vote,
     out: &mut [Option<ClassId>],
 ) {
-    let grid = Grid::new(m, pred, vote, S / 2, p.wrap_columns, 8);
+    let grid = Grid::<u8>::new(m, pred, vote, S / 2, p.wrap_columns, 8);
     let k = Kernel::<S, N, K>::new(Setup::new(&grid, vote, p));
     let winners = cell_winners(&k, &grid, m);
     let others = points(m, &winners, out);
@@ -86,7 +86,7 @@ pub(super) unsafe fn knn<const S: usize, const N: usize, const K: usize>(
 #[target_feature(enable = "avx2")]
 unsafe fn cell_winners<const S: usize, const N: usize, const K: usize>(
     k: &Kernel<S, N, K>,
-    grid: &Grid,
+    grid: &Grid<u8>,
     m: &PointsInMap<'_>,
 ) -> CellWinners {
     let mut winners = vec![0 as ClassId; m.rows * m.cols + CellWinners::PAD];
@@ -285,7 +285,7 @@ trait Windows: Copy {
     /// # Safety
     /// The CPU must have AVX2; the windows lie in `grid`, with 8 cells to read from each row's
     /// start.
-    unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]);
+    unsafe fn row<const S: usize>(self, grid: &Grid<u8>, dy: usize) -> ([__m256; S], [__m256i; S]);
 }
 
 /// Side by side from one grid index: the windows of neighbouring cells of a row.
@@ -299,12 +299,12 @@ struct Cells([i32; 8]);
 impl Windows for Row {
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]) {
+    unsafe fn row<const S: usize>(self, grid: &Grid<u8>, dy: usize) -> ([__m256; S], [__m256i; S]) {
         let at = self.0 + dy * grid.stride;
         let (far, cls) = (grid.far.as_ptr().add(at), grid.cls.as_ptr().add(at));
         (
             std::array::from_fn(|x| _mm256_loadu_ps(far.add(x))),
-            std::array::from_fn(|x| _mm256_loadu_si256(cls.add(x) as *const __m256i)),
+            std::array::from_fn(|x| widen(cls.add(x))),
         )
     }
 }
@@ -314,21 +314,30 @@ impl Windows for Cells {
     /// shuffles, where gathers cost several times more.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn row<const S: usize>(self, grid: &Grid, dy: usize) -> ([__m256; S], [__m256i; S]) {
-        let rows = |base: *const f32| {
-            let lanes: [__m256; 8] = std::array::from_fn(|l| {
-                // SAFETY: the lane's window lies in the grid (the caller's promise).
-                unsafe { _mm256_loadu_ps(base.add(self.0[l] as usize + dy * grid.stride)) }
-            });
-            transpose(lanes)
-        };
-        let far = rows(grid.far.as_ptr());
-        let cls = rows(grid.cls.as_ptr() as *const f32);
+    unsafe fn row<const S: usize>(self, grid: &Grid<u8>, dy: usize) -> ([__m256; S], [__m256i; S]) {
+        let at = |l: usize| self.0[l] as usize + dy * grid.stride;
+        // SAFETY (both): the lane's window lies in the grid (the caller's promise).
+        let far = transpose(std::array::from_fn(|l| unsafe {
+            _mm256_loadu_ps(grid.far.as_ptr().add(at(l)))
+        }));
+        let cls = transpose(std::array::from_fn(|l| unsafe {
+            _mm256_castsi256_ps(widen(grid.cls.as_ptr().add(at(l))))
+        }));
         (
             std::array::from_fn(|x| far[x]),
             std::array::from_fn(|x| _mm256_castps_si256(cls[x])),
         )
     }
+}
+
+/// The eight classes (bytes) from `at`, one a lane.
+///
+/// # Safety
+/// The CPU must have AVX2; eight bytes from `at` are readable.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn widen(at: *const u8) -> __m256i {
+    _mm256_cvtepu8_epi32(_mm_loadl_epi64(at as *const __m128i))
 }
 
 /// Column `x` of the result holds element `x` of every input, lane `l` from input `l`.
@@ -383,7 +392,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     /// by the exact distances where the keys are not sure.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn vote(&self, grid: &Grid, r: __m256, at: impl Windows, used: u32) -> __m256i {
+    unsafe fn vote(&self, grid: &Grid<u8>, r: __m256, at: impl Windows, used: u32) -> __m256i {
         let (winners, unsure) = self.vote_by_keys(grid, r, at);
         let undecided = unsure & used != 0;
         #[cfg(test)]
@@ -411,7 +420,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     #[target_feature(enable = "avx2")]
     unsafe fn row_keys(
         &self,
-        grid: &Grid,
+        grid: &Grid<u8>,
         r: __m256,
         at: impl Windows,
         dy: usize,
@@ -430,7 +439,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     /// mask) where the keys may have chosen otherwise than the exact distances.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn vote_by_keys(&self, grid: &Grid, r: __m256, at: impl Windows) -> (__m256i, u32) {
+    unsafe fn vote_by_keys(&self, grid: &Grid<u8>, r: __m256, at: impl Windows) -> (__m256i, u32) {
         let high = _mm256_set1_epi32(!((1 << CLASS_BITS) - 1) & i32::MAX);
         // The `K - 1` nearest of the other cells and the next, sorted: the centre (at distance
         // 0, whatever its cell's range) is one of the `K` nearest unless `K` others tie with
@@ -489,7 +498,7 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
     /// window order, goes in front of the kept ones it is strictly nearer than.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn vote_exact(&self, grid: &Grid, r: __m256, at: impl Windows) -> __m256i {
+    unsafe fn vote_exact(&self, grid: &Grid<u8>, r: __m256, at: impl Windows) -> __m256i {
         // Nothing kept yet: every slot farther than anything (`i32::MAX`, above infinity).
         let mut bd = [_mm256_set1_epi32(i32::MAX); K];
         let mut bc = [_mm256_setzero_si256(); K];

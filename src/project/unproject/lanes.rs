@@ -9,13 +9,31 @@ use crate::project::EMPTY;
 /// with `h` cells of padding on every side (zero range, the padding's vote; or the columns
 /// wrapped) and `lanes` more columns on the right, so that no window needs a bounds test and a
 /// block of lanes starting at any column stays inside.
-pub(super) struct Grid {
+pub(super) struct Grid<C = i32> {
     pub far: Vec<f32>,
-    pub cls: Vec<i32>,
+    pub cls: Vec<C>,
     pub stride: usize,
 }
 
-impl Grid {
+/// A class as a grid holds it: `i32` where a kernel loads a vector of classes whole, `u8` where
+/// it widens them on the way (a quarter of the memory to write and read).
+pub(super) trait GridClass: Copy {
+    fn of(class: usize) -> Self;
+}
+
+impl GridClass for i32 {
+    fn of(class: usize) -> Self {
+        class as i32
+    }
+}
+
+impl GridClass for u8 {
+    fn of(class: usize) -> Self {
+        class as u8
+    }
+}
+
+impl<C: GridClass> Grid<C> {
     pub fn new(
         m: &PointsInMap<'_>,
         pred: &[ClassId],
@@ -23,12 +41,12 @@ impl Grid {
         h: usize,
         wrap: bool,
         lanes: usize,
-    ) -> Grid {
+    ) -> Grid<C> {
         let stride = m.cols + 2 * h + lanes;
         let rows = m.rows + 2 * h;
         // Written once, row by row (a fill of the whole grid first, then the map over it, cost
         // a few percent of a call).
-        let (pad_far, pad_cls) = (0.0f32, vote.pad_vote as i32);
+        let (pad_far, pad_cls) = (0.0f32, C::of(vote.pad_vote));
         let mut grid_far = Vec::with_capacity(rows * stride);
         let mut cls = Vec::with_capacity(rows * stride);
         grid_far.resize(h * stride, pad_far);
@@ -40,7 +58,7 @@ impl Grid {
             );
             // Source column `i` where the columns wrap, padding where they do not.
             let edge = |i: usize| match wrap {
-                true => (far(src_range[i]), src_cls[i] as i32),
+                true => (far(src_range[i]), C::of(src_cls[i] as usize)),
                 false => (pad_far, pad_cls),
             };
             let cols = m.cols.max(1);
@@ -53,7 +71,7 @@ impl Grid {
                 cls.push(k);
             }
             grid_far.extend(src_range.iter().map(|&s| far(s)));
-            cls.extend(src_cls.iter().map(|&s| s as i32));
+            cls.extend(src_cls.iter().map(|&s| C::of(s as usize)));
             for (f, k) in right {
                 grid_far.push(f);
                 cls.push(k);
@@ -69,7 +87,9 @@ impl Grid {
             stride,
         }
     }
+}
 
+impl<C> Grid<C> {
     /// Where the window of the cell `cell` (`row * cols + col`) starts (its top-left cell).
     pub fn top_left(&self, cell: usize, cols: usize) -> usize {
         let (row, col) = (cell / cols, cell % cols);
@@ -91,7 +111,7 @@ pub(super) struct Setup<const N: usize> {
 }
 
 impl<const N: usize> Setup<N> {
-    pub fn new(grid: &Grid, vote: &Vote, p: &KnnParams) -> Setup<N> {
+    pub fn new<C>(grid: &Grid<C>, vote: &Vote, p: &KnnParams) -> Setup<N> {
         let s = p.window;
         let mut w: [f32; N] = vote.weights[..].try_into().expect("S x S weights");
         w[N / 2] = 0.0;
@@ -224,8 +244,8 @@ pub(super) fn point_pass(
 
 /// Where each lane's window starts in `grid` (0 for an empty lane).
 #[inline]
-pub(super) fn window_starts<const L: usize>(
-    grid: &Grid,
+pub(super) fn window_starts<const L: usize, C>(
+    grid: &Grid<C>,
     m: &PointsInMap<'_>,
     lanes: &[u32; L],
 ) -> [i32; L] {
