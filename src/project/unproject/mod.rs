@@ -31,6 +31,8 @@ mod avx512;
 #[cfg(target_arch = "x86_64")]
 mod lanes;
 mod scalar;
+#[cfg(target_arch = "x86_64")]
+mod vectors;
 
 use crate::error::{Error, Result};
 use crate::label::{ClassId, ClassMap};

@@ -218,14 +218,14 @@ fn the_kernels_networks_sort_and_merge() {
     for n in 0..=8usize {
         for bits in 0..1u32 << n {
             let mut v: Vec<i32> = (0..n).map(|i| (bits >> i & 1) as i32).collect();
-            run(avx2::network(n), &mut v);
+            run(vectors::network(n), &mut v);
             assert!(v.is_sorted(), "network({n}) leaves {v:?} from {bits:b}");
         }
         // Rising then falling: 0s, 1s, 0s.
         for a in 0..=n {
             for b in 0..=n - a {
                 let mut v: Vec<i32> = (0..n).map(|i| (i >= a && i < a + b) as i32).collect();
-                run(avx2::bitonic(n), &mut v);
+                run(vectors::bitonic(n), &mut v);
                 assert!(v.is_sorted(), "bitonic({n}) leaves {v:?}");
             }
         }
@@ -252,7 +252,7 @@ fn the_kernels_networks_sort_and_merge() {
                         *slot = (*slot).min(add[k - 1 - i]);
                     }
                 }
-                run(avx2::bitonic(k), &mut kept);
+                run(vectors::bitonic(k), &mut kept);
                 assert_eq!(kept, want, "merge of {k} and {add_n}");
             }
         }
