@@ -12,9 +12,9 @@
 //! bits) with the lowest [`CLASS_BITS`] replaced by its class. Keys order as their truncated
 //! distances (keys of one truncated distance in any order), so minima and maxima sort them, no
 //! compare, no blend: each window row's keys by an optimal sorting network, merged into the
-//! kept ones by a bitonic merge (fewer operations than inserting the keys one by one). The centre (the point's own cell,
-//! at distance 0) is one of the `K` nearest, with the `K - 1` smallest keys of the other cells;
-//! the next key is kept too. The vote needs only the classes of the `K` nearest, which the keys
+//! kept ones by a bitonic merge (fewer operations than inserting the keys one by one). The
+//! centre (the point's own cell, at distance 0) is one of the `K` nearest, with the `K - 1`
+//! smallest keys of the other cells; the next key is kept too. The vote needs only the classes of the `K` nearest, which the keys
 //! give wherever the last chosen key and the next differ in truncated distance (then every
 //! chosen one is nearer than every other, exactly; and fewer than `K` others tie with the
 //! centre). Where they share it, or a chosen one's truncated distance is the cutoff's (a few
@@ -323,9 +323,9 @@ impl<const S: usize, const N: usize, const K: usize> Kernel<S, N, K> {
         let high = _mm256_set1_epi32(!((1 << CLASS_BITS) - 1) & i32::MAX);
         // The `K - 1` nearest of the other cells and the next, sorted: the centre (at distance
         // 0, whatever its cell's range) is one of the `K` nearest unless `K` others tie with
-        // it, which the doubt below covers (the next then ties with the last chosen).
-        // Each row's keys sorted, then merged into the kept ones (the first row's are the first
-        // kept); the centre's row last, without the centre.
+        // it, which the doubt below covers (the next then ties with the last chosen). Each
+        // row's keys are sorted, then merged into the kept ones (the first row's are the first
+        // kept); the centre's row comes last, without the centre.
         let mut keys = [_mm256_set1_epi32(i32::MAX); K];
         let (mut row, _) = self.row_keys(grid, r, at, 0, high);
         sort(&mut row, S);
