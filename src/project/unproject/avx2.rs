@@ -14,13 +14,13 @@
 //! compare, no blend: each window row's keys by an optimal sorting network, merged into the
 //! kept ones by a bitonic merge (fewer operations than inserting the keys one by one). The
 //! centre (the point's own cell, at distance 0) is one of the `K` nearest, with the `K - 1`
-//! smallest keys of the other cells; the next key is kept too. The vote needs only the classes of the `K` nearest, which the keys
-//! give wherever the last chosen key and the next differ in truncated distance (then every
-//! chosen one is nearer than every other, exactly; and fewer than `K` others tie with the
-//! centre). Where they share it, or a chosen one's truncated distance is the cutoff's (a few
-//! lanes in a thousand on real scans), the block is taken again with exact distances, kept
-//! beside their classes by compares and blends (ties stay with the earlier cell, the scalar
-//! rule).
+//! smallest keys of the other cells; the next key is kept too. The vote needs only the classes
+//! of the `K` nearest, which the keys give wherever the last chosen key and the next differ in
+//! truncated distance (then every chosen one is nearer than every other, exactly; and fewer
+//! than `K` others tie with the centre). Where they share it, or a chosen one's truncated
+//! distance is the cutoff's (a few lanes in a thousand on real scans), the block is taken again
+//! with exact distances, kept beside their classes by compares and blends (ties stay with the
+//! earlier cell, the scalar rule).
 
 use std::arch::x86_64::*;
 
