@@ -1,5 +1,11 @@
 //! What the kernels that take several points at a time share: the padded map ([`Grid`]), the
-//! numbers of the window ([`Setup`]), and the order the points are taken in ([`drive`]).
+//! numbers of the window ([`Setup`]), and the order the points are taken in.
+//!
+//! A point's class depends on its cell and its range alone. So every cell's kept point (its
+//! range the cell's) is voted for in blocks of `L` neighbouring cells of a row, their windows
+//! read by plain loads ([`super::keys::Kernel::cell_winners`]), and a point at its cell's range
+//! takes that cell's winner ([`point_pass`]); the points behind a nearer one in their cell (a
+//! few in a hundred) go `L` at a time ([`scattered`]).
 
 use super::{far, KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
@@ -9,31 +15,15 @@ use crate::project::EMPTY;
 /// with `h` cells of padding on every side (zero range, the padding's vote; or the columns
 /// wrapped) and `lanes` more columns on the right, so that no window needs a bounds test and a
 /// block of lanes starting at any column stays inside.
-pub(super) struct Grid<C = i32> {
+pub(super) struct Grid {
     pub far: Vec<f32>,
-    pub cls: Vec<C>,
+    /// Classes as bytes (a quarter of the memory of `i32`s to write and read), widened to
+    /// lanes by the kernels.
+    pub cls: Vec<u8>,
     pub stride: usize,
 }
 
-/// A class as a grid holds it: `i32` where a kernel loads a vector of classes whole, `u8` where
-/// it widens them on the way (a quarter of the memory to write and read).
-pub(super) trait GridClass: Copy {
-    fn of(class: usize) -> Self;
-}
-
-impl GridClass for i32 {
-    fn of(class: usize) -> Self {
-        class as i32
-    }
-}
-
-impl GridClass for u8 {
-    fn of(class: usize) -> Self {
-        class as u8
-    }
-}
-
-impl<C: GridClass> Grid<C> {
+impl Grid {
     pub fn new(
         m: &PointsInMap<'_>,
         pred: &[ClassId],
@@ -41,12 +31,12 @@ impl<C: GridClass> Grid<C> {
         h: usize,
         wrap: bool,
         lanes: usize,
-    ) -> Grid<C> {
+    ) -> Grid {
         let stride = m.cols + 2 * h + lanes;
         let rows = m.rows + 2 * h;
         // Written once, row by row (a fill of the whole grid first, then the map over it, cost
         // a few percent of a call).
-        let (pad_far, pad_cls) = (0.0f32, C::of(vote.pad_vote));
+        let (pad_far, pad_cls) = (0.0f32, vote.pad_vote as u8);
         let mut grid_far = Vec::with_capacity(rows * stride);
         let mut cls = Vec::with_capacity(rows * stride);
         grid_far.resize(h * stride, pad_far);
@@ -58,7 +48,7 @@ impl<C: GridClass> Grid<C> {
             );
             // Source column `i` where the columns wrap, padding where they do not.
             let edge = |i: usize| match wrap {
-                true => (far(src_range[i]), C::of(src_cls[i] as usize)),
+                true => (far(src_range[i]), src_cls[i]),
                 false => (pad_far, pad_cls),
             };
             let cols = m.cols.max(1);
@@ -71,7 +61,7 @@ impl<C: GridClass> Grid<C> {
                 cls.push(k);
             }
             grid_far.extend(src_range.iter().map(|&s| far(s)));
-            cls.extend(src_cls.iter().map(|&s| C::of(s as usize)));
+            cls.extend_from_slice(src_cls);
             for (f, k) in right {
                 grid_far.push(f);
                 cls.push(k);
@@ -89,7 +79,7 @@ impl<C: GridClass> Grid<C> {
     }
 }
 
-impl<C> Grid<C> {
+impl Grid {
     /// Where the window of the cell `cell` (`row * cols + col`) starts (its top-left cell).
     pub fn top_left(&self, cell: usize, cols: usize) -> usize {
         let (row, col) = (cell / cols, cell % cols);
@@ -98,11 +88,9 @@ impl<C> Grid<C> {
 }
 
 /// The numbers of a window of `N` cells: weights (the centre's 0; the kernels put the centre at
-/// distance 0 themselves, as its cell's range may be 0), offsets in the grid, and the vote's
-/// rules.
+/// distance 0 themselves, as its cell's range may be 0) and the vote's rules.
 pub(super) struct Setup<const N: usize> {
     pub w: [f32; N],
-    pub off: [usize; N],
     /// Bit `c`: class `c` may win (at most 31 classes).
     pub can_win: u32,
     pub nobody: i32,
@@ -111,17 +99,11 @@ pub(super) struct Setup<const N: usize> {
 }
 
 impl<const N: usize> Setup<N> {
-    pub fn new<C>(grid: &Grid<C>, vote: &Vote, p: &KnnParams) -> Setup<N> {
-        let s = p.window;
+    pub fn new(vote: &Vote, p: &KnnParams) -> Setup<N> {
         let mut w: [f32; N] = vote.weights[..].try_into().expect("S x S weights");
         w[N / 2] = 0.0;
-        let mut off = [0usize; N];
-        for (j, o) in off.iter_mut().enumerate() {
-            *o = (j / s) * grid.stride + j % s;
-        }
         Setup {
             w,
-            off,
             can_win: vote
                 .can_win
                 .iter()
@@ -134,68 +116,14 @@ impl<const N: usize> Setup<N> {
     }
 }
 
-/// Which points a block of lanes holds.
-#[derive(Debug, Clone, Copy)]
-pub(super) enum Block<'a, const L: usize> {
-    /// The points kept in `L` neighbouring cells of a row from this cell on (their ranges the
-    /// cells'): their windows side by side.
-    Row(usize),
-    /// These points (`u32::MAX`: none), each in its own cell.
-    Scattered(&'a [u32; L]),
-}
-
-/// Takes the points `L` at a time and writes every point's class into `out` (left as it is
-/// outside the map). `vote(block, ranges, used)`: the winners of a block's lanes, from the
-/// lanes' point ranges, `used` the lanes (bit mask) that hold a point.
-///
-/// A point's class depends on its cell and its range alone. So every cell's kept point (its
-/// range the cell's) is voted for in blocks of `L` neighbouring cells of a row, their windows
-/// read by plain loads ([`cell_winners`]), and a point at its cell's range takes that cell's
-/// winner ([`point_pass`]); the points behind a nearer one in their cell (a few in a hundred)
-/// go `L` at a time ([`scattered`]). A kernel may run its own of the first two.
-pub(super) fn drive<const L: usize>(
-    m: &PointsInMap<'_>,
-    out: &mut [Option<ClassId>],
-    mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
-) {
-    let winners = cell_winners(m, &mut vote);
-    let mut others = Vec::new();
-    point_pass(m, &winners, 0, out, &mut others);
-    scattered(m, &others, out, vote);
-}
-
-/// The winner of every cell's kept point, `L` neighbouring cells of a row at a time.
-pub(super) fn cell_winners<const L: usize>(
-    m: &PointsInMap<'_>,
-    mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
-) -> CellWinners {
-    let cells = m.rows * m.cols;
-    let mut winners = CellWinners(vec![0 as ClassId; cells + CellWinners::PAD]);
-    for at in (0..cells).step_by(m.cols.max(1)) {
-        for col0 in (0..m.cols).step_by(L) {
-            let (at, n) = (at + col0, (m.cols - col0).min(L));
-            let mut ranges = [0.0f32; L];
-            ranges[..n].copy_from_slice(&m.cell_range[at..at + n]);
-            let used = (ranges.iter().enumerate())
-                .fold(0u32, |mask, (l, &r)| mask | (((r > 0.0) as u32) << l));
-            if used != 0 {
-                let won = vote(Block::Row(at), &ranges, used);
-                for (c, &w) in winners.0[at..at + n].iter_mut().zip(&won) {
-                    *c = w as ClassId;
-                }
-            }
-        }
-    }
-    winners
-}
-
 /// The points `others` (behind a nearer one in their cell), `L` at a time, each in its own
-/// window: their classes into `out`.
+/// window: their classes into `out`. `vote(lanes, ranges, used)`: the winners of a block's
+/// points (`u32::MAX`: none), from their ranges, `used` the lanes (bit mask) that hold a point.
 pub(super) fn scattered<const L: usize>(
     m: &PointsInMap<'_>,
     others: &[u32],
     out: &mut [Option<ClassId>],
-    mut vote: impl FnMut(Block<'_, L>, &[f32; L], u32) -> [i32; L],
+    mut vote: impl FnMut(&[u32; L], &[f32; L], u32) -> [i32; L],
 ) {
     for chunk in others.chunks(L) {
         let (mut lanes, mut ranges) = ([u32::MAX; L], [0.0f32; L]);
@@ -203,7 +131,7 @@ pub(super) fn scattered<const L: usize>(
             (*lane, *range) = (i, m.point_range[i as usize]);
         }
         let used = (1u32 << chunk.len()).wrapping_sub(1);
-        let won = vote(Block::Scattered(&lanes), &ranges, used);
+        let won = vote(&lanes, &ranges, used);
         for (&i, &w) in chunk.iter().zip(&won) {
             out[i as usize] = Some(w as ClassId);
         }
@@ -211,11 +139,11 @@ pub(super) fn scattered<const L: usize>(
 }
 
 /// The winner of every cell's kept point (row-major), and [`CellWinners::PAD`] more entries, so
-/// that eight bytes can be written from any cell's on.
+/// that a vector's lanes (sixteen bytes at most) can be written from any cell's on.
 pub(super) struct CellWinners(pub Vec<ClassId>);
 
 impl CellWinners {
-    pub const PAD: usize = 7;
+    pub const PAD: usize = 15;
 }
 
 /// The pass over the points `from..` (the scalar one): a point at its cell's range takes the
@@ -244,8 +172,8 @@ pub(super) fn point_pass(
 
 /// Where each lane's window starts in `grid` (0 for an empty lane).
 #[inline]
-pub(super) fn window_starts<const L: usize, C>(
-    grid: &Grid<C>,
+pub(super) fn window_starts<const L: usize>(
+    grid: &Grid,
     m: &PointsInMap<'_>,
     lanes: &[u32; L],
 ) -> [i32; L] {

@@ -194,10 +194,10 @@ fn the_keys_decide_nearly_every_block_of_a_real_scan() {
     let pred: Vec<ClassId> = (0..spec.rows * spec.cols)
         .map(|i| (i % 19 + 1) as ClassId)
         .collect();
-    avx2::BLOCKS.with(|b| b.set((0, 0)));
+    keys::BLOCKS.with(|b| b.set((0, 0)));
     let p = KnnParams::default();
     knn_with(&m, &pred, &p, &semantic(), KnnKernel::Avx2);
-    let (all, exact) = avx2::BLOCKS.with(|b| b.get());
+    let (all, exact) = keys::BLOCKS.with(|b| b.get());
     // 64 x 2048 cells in blocks of 8, and the points behind a nearer one.
     assert!(all > 16_000, "{all} blocks");
     assert!(exact * 100 < all, "{exact} of {all} blocks taken exactly");

@@ -1,40 +1,61 @@
-//! The AVX2 kernel's building blocks on whole vectors, every lane its own point: sorting
-//! networks on keys (a row of the kNN's window sorted, and merged into the kept keys, the `K`
-//! smallest so far), bytes widened to lanes, and eight vectors transposed.
+//! What the kNN's lane kernels are written in: [`Simd`], the lane operations of one instruction
+//! set (AVX2's eight lanes, AVX-512's sixteen), and the sorting networks the kernel runs on keys
+//! (a row of the window sorted, and merged into the kept keys, the `K` smallest so far).
 
-use std::arch::x86_64::*;
-
-/// Sorts the first `n` keys of `v` (in every lane, signed order) by an optimal sorting network.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(super) fn sort<const S: usize>(v: &mut [__m256i; S], n: usize) {
-    for &(i, j) in network(n) {
-        let (a, b) = (v[i as usize], v[j as usize]);
-        v[i as usize] = _mm256_min_epi32(a, b);
-        v[j as usize] = _mm256_max_epi32(a, b);
-    }
-}
-
-/// The `K` smallest of the sorted `kept` and the first `n` of `add` (sorted), sorted, into
-/// `kept`: the smaller of each kept key and the added key opposite it (`add` reversed) are the
-/// `K` smallest, in an order rising then falling, which a bitonic sorter orders.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(super) fn merge<const K: usize, const S: usize>(
-    kept: &mut [__m256i; K],
-    add: &[__m256i; S],
-    n: usize,
-) {
-    for (i, k) in kept.iter_mut().enumerate() {
-        if K - 1 - i < n {
-            *k = _mm256_min_epi32(*k, add[K - 1 - i]);
-        }
-    }
-    for &(i, j) in bitonic(K) {
-        let (a, b) = (kept[i as usize], kept[j as usize]);
-        kept[i as usize] = _mm256_min_epi32(a, b);
-        kept[j as usize] = _mm256_max_epi32(a, b);
-    }
+/// The lane operations of an instruction set, `L` points at a time: floats `F`, 32-bit integers
+/// `I` (keys, classes) and lane masks `M`. The kernel ([`super::keys`]) is written once in them.
+///
+/// Every method is `unsafe`: the CPU must have the instruction set. Each implementation enables
+/// its instruction set on its methods (`#[target_feature]`), and so does the kernel built on it
+/// ([`super::keys::kernel`]), so that every operation is inlined to its instruction.
+pub(super) trait Simd: Copy {
+    /// Lanes.
+    const L: usize;
+    type F: Copy;
+    type I: Copy;
+    type M: Copy;
+    unsafe fn splat_f(x: f32) -> Self::F;
+    unsafe fn splat(x: i32) -> Self::I;
+    /// `L` floats from `p`.
+    unsafe fn load_f(p: *const f32) -> Self::F;
+    /// `L` bytes from `p`, one a lane.
+    unsafe fn load_bytes(p: *const u8) -> Self::I;
+    /// Each lane's lowest byte (its value below 256) to `p`, `L` bytes.
+    unsafe fn store_bytes(v: Self::I, p: *mut u8);
+    /// The lanes to `p`, `L` integers.
+    unsafe fn store(v: Self::I, p: *mut i32);
+    unsafe fn sub_f(a: Self::F, b: Self::F) -> Self::F;
+    unsafe fn mul_f(a: Self::F, b: Self::F) -> Self::F;
+    /// The floats' bits.
+    unsafe fn bits(a: Self::F) -> Self::I;
+    /// The floats of these bits.
+    unsafe fn from_bits(a: Self::I) -> Self::F;
+    /// The integers as floats (rounded).
+    unsafe fn to_f(a: Self::I) -> Self::F;
+    unsafe fn and(a: Self::I, b: Self::I) -> Self::I;
+    unsafe fn or(a: Self::I, b: Self::I) -> Self::I;
+    unsafe fn xor(a: Self::I, b: Self::I) -> Self::I;
+    unsafe fn sub(a: Self::I, b: Self::I) -> Self::I;
+    /// Signed minimum.
+    unsafe fn min(a: Self::I, b: Self::I) -> Self::I;
+    /// Signed maximum.
+    unsafe fn max(a: Self::I, b: Self::I) -> Self::I;
+    /// `a` shifted left by each lane's `n` (0 from 32 on).
+    unsafe fn sllv(a: Self::I, n: Self::I) -> Self::I;
+    /// `a` shifted right by `N`, zeros in.
+    unsafe fn srli<const N: i32>(a: Self::I) -> Self::I;
+    unsafe fn eq(a: Self::I, b: Self::I) -> Self::M;
+    /// Signed `a > b`.
+    unsafe fn gt(a: Self::I, b: Self::I) -> Self::M;
+    /// `a > b`, false where either is NaN.
+    unsafe fn gt_f(a: Self::F, b: Self::F) -> Self::M;
+    /// `b` in the lanes of `m`, `a` in the others.
+    unsafe fn select(m: Self::M, a: Self::I, b: Self::I) -> Self::I;
+    unsafe fn mask_or(a: Self::M, b: Self::M) -> Self::M;
+    /// `b` and not `a`.
+    unsafe fn mask_andnot(a: Self::M, b: Self::M) -> Self::M;
+    /// Bit `l` set for lane `l` in the mask.
+    unsafe fn mask_bits(m: Self::M) -> u32;
 }
 
 /// The comparators of an optimal sorting network of `n` inputs, 0 to 8 (Knuth, TAOCP 5.3.4;
@@ -86,45 +107,4 @@ pub(super) const fn bitonic(n: usize) -> &'static [(u8, u8)] {
         ],
         _ => panic!("bitonic sorters of at most 8 inputs"),
     }
-}
-
-/// The eight classes (bytes) from `at`, one a lane.
-///
-/// # Safety
-/// The CPU must have AVX2; eight bytes from `at` are readable.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(super) unsafe fn widen(at: *const u8) -> __m256i {
-    _mm256_cvtepu8_epi32(_mm_loadl_epi64(at as *const __m128i))
-}
-
-/// Column `x` of the result holds element `x` of every input, lane `l` from input `l`.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(super) fn transpose(r: [__m256; 8]) -> [__m256; 8] {
-    let t: [__m256; 8] = std::array::from_fn(|i| {
-        let (a, b) = (r[i / 2 * 2], r[i / 2 * 2 + 1]);
-        if i % 2 == 0 {
-            _mm256_unpacklo_ps(a, b)
-        } else {
-            _mm256_unpackhi_ps(a, b)
-        }
-    });
-    // u[4 * half + x]: element x (and x + 4) of inputs 4 * half .. 4 * half + 4.
-    let u: [__m256; 8] = std::array::from_fn(|i| {
-        let (half, x) = (i / 4, i % 4);
-        let (a, b) = (t[4 * half + x / 2], t[4 * half + x / 2 + 2]);
-        if x % 2 == 0 {
-            _mm256_shuffle_ps::<0x44>(a, b)
-        } else {
-            _mm256_shuffle_ps::<0xEE>(a, b)
-        }
-    });
-    std::array::from_fn(|x| {
-        if x < 4 {
-            _mm256_permute2f128_ps::<0x20>(u[x], u[4 + x])
-        } else {
-            _mm256_permute2f128_ps::<0x31>(u[x - 4], u[x])
-        }
-    })
 }
