@@ -169,7 +169,8 @@ fn stages(c: &mut Criterion) {
 }
 
 /// RangeNet++'s kNN on a real SemanticKITTI scan (64 x 2048 over 360 degrees, predictions at
-/// random), one thread: the scalar kernel and the eight-lane one (the same classes).
+/// random), one thread: the scalar kernel and the lane kernels this machine runs (the same
+/// classes).
 fn knn(c: &mut Criterion) {
     kitti2pgm::alloc::tune_mimalloc();
     use kitti2pgm::project::unproject::{knn_with, KnnKernel, KnnParams, PointsInMap};

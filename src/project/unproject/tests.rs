@@ -174,16 +174,13 @@ fn the_lane_kernels_are_the_scalar_one_point_for_point() {
     }
 }
 
-/// On a real scan the keys decide nearly every block (the exact path is the rare one: were it
-/// taken always, the classes would be the same and the speed gone).
+/// On a real scan the keys decide nearly every block, in every lane kernel (the exact path is
+/// the rare one: were it taken always, the classes would be the same and the speed gone).
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn the_keys_decide_nearly_every_block_of_a_real_scan() {
     use crate::kitti::velodyne::Scan;
     use crate::project::{norm, project_with_point_cells, MapPreset};
-    if !KnnKernel::available().contains(&KnnKernel::Avx2) {
-        return;
-    }
     let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
     let scan = Scan::read(&bin).unwrap();
@@ -194,16 +191,25 @@ fn the_keys_decide_nearly_every_block_of_a_real_scan() {
     let pred: Vec<ClassId> = (0..spec.rows * spec.cols)
         .map(|i| (i % 19 + 1) as ClassId)
         .collect();
-    keys::BLOCKS.with(|b| b.set((0, 0)));
     let p = KnnParams::default();
-    knn_with(&m, &pred, &p, &semantic(), KnnKernel::Avx2);
-    let (all, exact) = keys::BLOCKS.with(|b| b.get());
-    // 64 x 2048 cells in blocks of 8, and the points behind a nearer one.
-    assert!(all > 16_000, "{all} blocks");
-    assert!(exact * 100 < all, "{exact} of {all} blocks taken exactly");
+    let lanes = [(KnnKernel::Avx2, 8), (KnnKernel::Avx512, 16)];
+    for (kernel, lanes) in lanes
+        .into_iter()
+        .filter(|(k, _)| KnnKernel::available().contains(k))
+    {
+        keys::BLOCKS.with(|b| b.set((0, 0)));
+        knn_with(&m, &pred, &p, &semantic(), kernel);
+        let (all, exact) = keys::BLOCKS.with(|b| b.get());
+        // 64 x 2048 cells in blocks of `lanes`, and the points behind a nearer one.
+        assert!(all > 64 * 2048 / lanes, "{kernel:?}: {all} blocks");
+        assert!(
+            exact * 100 < all,
+            "{kernel:?}: {exact} of {all} blocks taken exactly"
+        );
+    }
 }
 
-/// The AVX2 kernel's sorting networks sort every 0-1 input (so every input: the 0-1
+/// The lane kernels' sorting networks sort every 0-1 input (so every input: the 0-1
 /// principle), and its merge (the smaller of each kept key and the added one opposite it, then
 /// the bitonic sorter) gives the `k` smallest of both, sorted, on random keys with ties.
 #[cfg(target_arch = "x86_64")]
