@@ -1,42 +1,98 @@
-//! Runtime dispatch to AVX2 for the passes over every point.
+//! Runtime dispatch to wider vectors for the passes over every point.
 //!
 //! The library is built for baseline x86-64, whose SSE2 leaves four lanes (or none: no `floor`,
-//! no blends) to the loops over every point. [`with_avx2`] runs a closure compiled with AVX2
-//! where the CPU has it; the results are the same bit for bit, since Rust never fuses a multiply
-//! and an add and these loops are exact integer and IEEE operations (tested: both paths on real
-//! scans, and the binary's pinned output hashes with `KITTI2PGM_NO_AVX2=1`).
+//! no blends) to the loops over every point. [`with_simd`] runs a closure compiled for the widest
+//! [`Level`] the CPU has (AVX-512, else AVX2); the results are the same bit for bit, since Rust
+//! never fuses a multiply and an add and these loops are exact integer and IEEE operations
+//! (tested: every path on real scans, and the binary's pinned output hashes on each path, chosen
+//! by `KITTI2PGM_NO_AVX512=1` and `KITTI2PGM_NO_AVX2=1`).
 
 use std::cell::Cell;
 
-thread_local! {
-    static BASELINE: Cell<bool> = const { Cell::new(false) };
+/// The instruction sets [`with_simd`] compiles its closure for, narrowest first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Level {
+    /// The build's own (SSE2 on x86-64).
+    Baseline,
+    /// AVX2.
+    Avx2,
+    /// AVX-512 (F, BW, VL and DQ).
+    Avx512,
 }
 
-/// Runs `f` compiled with AVX2 where the CPU has it, else as built. Give it an
+impl Level {
+    /// The widest this process runs: what the CPU has, narrowed by `KITTI2PGM_NO_AVX512`
+    /// (AVX2 at most) or `KITTI2PGM_NO_AVX2` (the baseline).
+    pub fn widest() -> Level {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::sync::OnceLock;
+            static WIDEST: OnceLock<Level> = OnceLock::new();
+            *WIDEST.get_or_init(|| {
+                let off = |var: &str| std::env::var_os(var).is_some();
+                let avx512 = std::is_x86_feature_detected!("avx512f")
+                    && std::is_x86_feature_detected!("avx512bw")
+                    && std::is_x86_feature_detected!("avx512vl")
+                    && std::is_x86_feature_detected!("avx512dq");
+                if !std::is_x86_feature_detected!("avx2") || off("KITTI2PGM_NO_AVX2") {
+                    Level::Baseline
+                } else if avx512 && !off("KITTI2PGM_NO_AVX512") {
+                    Level::Avx512
+                } else {
+                    Level::Avx2
+                }
+            })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Level::Baseline
+    }
+
+    /// The levels this process runs, narrowest first (the tests compare them).
+    pub fn available() -> Vec<Level> {
+        [Level::Baseline, Level::Avx2, Level::Avx512]
+            .into_iter()
+            .filter(|&l| l <= Level::widest())
+            .collect()
+    }
+}
+
+thread_local! {
+    /// The widest level [`with_simd`] takes on this thread ([`at_most`]).
+    static LIMIT: Cell<Level> = const { Cell::new(Level::Avx512) };
+}
+
+/// Runs `f` compiled for the widest [`Level`] the CPU has, else as built. Give it an
 /// `#[inline(always)]` closure whose captures are by value (`move`), or references that the
-/// loop only reads, so that the closure's body is compiled inside the AVX2 function.
+/// loop only reads, so that the closure's body is compiled inside the wider function.
 #[inline(always)]
-pub fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
+pub fn with_simd<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
     {
         #[target_feature(enable = "avx2")]
         fn avx2<R>(f: impl FnOnce() -> R) -> R {
             f()
         }
-        if avx2_available() && !BASELINE.with(Cell::get) {
-            // SAFETY: the CPU has AVX2.
-            return unsafe { avx2(f) };
+        #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
+        fn avx512<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        match Level::widest().min(LIMIT.with(Cell::get)) {
+            // SAFETY: the CPU has AVX-512 (`Level::widest`).
+            Level::Avx512 => return unsafe { avx512(f) },
+            // SAFETY: the CPU has AVX2 (`Level::widest`).
+            Level::Avx2 => return unsafe { avx2(f) },
+            Level::Baseline => {}
         }
     }
     f()
 }
 
 /// The index of the first of `values` that is `bad`: one branch-free pass over all of them
-/// ([`with_avx2`]), the search for the culprit only when there is one (a search per value does
+/// ([`with_simd`]), the search for the culprit only when there is one (a search per value does
 /// not vectorise). `bad` should not branch itself (`&` and `|`, not `&&` and `||`).
 #[inline(always)]
 pub fn first_where<T>(values: &[T], bad: impl Fn(&T) -> bool + Copy) -> Option<usize> {
-    let any = with_avx2(
+    let any = with_simd(
         #[inline(always)]
         move || values.iter().fold(false, |any, v| any | bad(v)),
     );
@@ -47,30 +103,20 @@ pub fn first_where<T>(values: &[T], bad: impl Fn(&T) -> bool + Copy) -> Option<u
     }
 }
 
-/// Whether [`with_avx2`] takes the AVX2 path on this machine: false off x86-64, or where the
-/// environment sets `KITTI2PGM_NO_AVX2` (the baseline path of the same build, for checks).
-pub fn avx2_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::sync::OnceLock;
-        static AVAILABLE: OnceLock<bool> = OnceLock::new();
-        *AVAILABLE.get_or_init(|| {
-            std::is_x86_feature_detected!("avx2") && std::env::var_os("KITTI2PGM_NO_AVX2").is_none()
-        })
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
-/// Runs `f` with every [`with_avx2`] on this thread taking the baseline path (tests compare
-/// the two paths with it).
-pub fn baseline<R>(f: impl FnOnce() -> R) -> R {
-    struct Restore(bool);
+/// Runs `f` with every [`with_simd`] on this thread taking `level` at most (tests compare the
+/// paths with it).
+pub fn at_most<R>(level: Level, f: impl FnOnce() -> R) -> R {
+    struct Restore(Level);
     impl Drop for Restore {
         fn drop(&mut self) {
-            BASELINE.with(|b| b.set(self.0));
+            LIMIT.with(|l| l.set(self.0));
         }
     }
-    let _restore = Restore(BASELINE.with(|b| b.replace(true)));
+    let _restore = Restore(LIMIT.with(|l| l.replace(level)));
     f()
+}
+
+/// Runs `f` with every [`with_simd`] on this thread taking the baseline path.
+pub fn baseline<R>(f: impl FnOnce() -> R) -> R {
+    at_most(Level::Baseline, f)
 }

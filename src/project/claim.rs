@@ -51,7 +51,7 @@ pub(super) fn claim(
         let mut key = vec![u64::MAX; cells + 1];
         let (pts, geometry) = (&points[range.clone()], geometry.part(range.clone()));
         let rings = ring_ids.map(|r| &r[range.clone()]);
-        let in_fov = crate::simd::with_avx2(
+        let in_fov = crate::simd::with_simd(
             #[inline(always)]
             || {
                 claim_cells(
@@ -97,7 +97,7 @@ fn merge_keys(mut keys: Vec<Vec<u64>>, threads: usize) -> (Vec<u32>, Vec<f32>) {
     let mut first = keys.remove(0);
     if keys.is_empty() {
         // One part: collected straight from its keys (no zero fill first).
-        return crate::simd::with_avx2(
+        return crate::simd::with_simd(
             #[inline(always)]
             || {
                 let point = first.iter().map(|&k| split_key(k).0).collect();
@@ -113,7 +113,7 @@ fn merge_keys(mut keys: Vec<Vec<u64>>, threads: usize) -> (Vec<u32>, Vec<f32>) {
         .zip(range.par_chunks_mut(band))
         .enumerate()
         .for_each(|(b, ((k, p), r))| {
-            crate::simd::with_avx2(
+            crate::simd::with_simd(
                 #[inline(always)]
                 || {
                     for other in &keys {

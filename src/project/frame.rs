@@ -218,7 +218,7 @@ impl PerCell {
 const MIN_BAND: usize = 16_384;
 
 /// The six [`LIDAR`] channels, class, instance and mask of every cell, in up to `threads`
-/// bands of cells at once, each pass compiled with AVX2 where the CPU has it.
+/// bands of cells at once, each pass compiled for the widest vectors the CPU has.
 fn lidar_cells(values: PointValues<'_>, proj: &Projection, threads: usize) -> PerCell {
     use rayon::prelude::*;
     let cells = proj.cell_point.len();
@@ -226,7 +226,7 @@ fn lidar_cells(values: PointValues<'_>, proj: &Projection, threads: usize) -> Pe
     let bands = threads.min(cells / MIN_BAND).max(1);
     let band = cells.div_ceil(bands).max(1);
     let fill = |first: usize, band: Cells<'_>| {
-        crate::simd::with_avx2(
+        crate::simd::with_simd(
             #[inline(always)]
             move || cell_values::<6>(values, proj, first, band, None),
         )

@@ -15,7 +15,7 @@ use crate::geom::Point3;
 /// The ring must also have reached the rear half (`x < 0`) since it started, so that jitter of
 /// the azimuth around zero does not split a ring.
 pub fn rings(points: &[Point3]) -> (Option<Vec<u8>>, usize) {
-    crate::simd::with_avx2(
+    crate::simd::with_simd(
         #[inline(always)]
         move || rings_by_flags(points),
     )
@@ -151,16 +151,17 @@ mod tests {
         ((found == LASERS).then_some(ring), found)
     }
 
-    /// Both paths (AVX2 and baseline) equal the reference on `points` and on every prefix
-    /// length around the block and chunk edges.
+    /// Every path (AVX-512, AVX2 and baseline, where the CPU has them) equals the reference on
+    /// `points` and on every prefix length around the block and chunk edges.
     fn check(points: &[Point3], what: &str) {
         let mut lens: Vec<usize> = vec![0, 1, 2, 7, 8, 9, 511, 512, 513, 1025, points.len()];
         lens.retain(|&l| l <= points.len());
         for l in lens {
             let want = rings_one_by_one(&points[..l]);
-            assert_eq!(rings(&points[..l]), want, "{what}, {l} points");
-            let baseline = crate::simd::baseline(|| rings(&points[..l]));
-            assert_eq!(baseline, want, "{what}, {l} points, baseline path");
+            for level in crate::simd::Level::available() {
+                let got = crate::simd::at_most(level, || rings(&points[..l]));
+                assert_eq!(got, want, "{what}, {l} points, {level:?} path");
+            }
         }
     }
 

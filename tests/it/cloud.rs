@@ -6,6 +6,7 @@ use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Augment, Cloud, CloudProjection, PgmSpec, EMPTY};
+use kitti2pgm::simd::Level;
 
 use crate::util::*;
 
@@ -229,12 +230,18 @@ fn both_code_paths_project_the_same() {
         for spec in [narrow, spec360(), elevation] {
             for aug in [None, Some(all)] {
                 let run = || cloud_map(&l, &spec, aug.as_ref());
-                let (fast, base) = (run(), kitti2pgm::simd::baseline(run));
-                let what = format!("{} {} cols {:?} {aug:?}", l.id, spec.cols, spec.row_mode);
-                assert_eq!(fast.frame, base.frame, "{what}");
-                assert_eq!(fast.point_cell, base.point_cell, "{what}");
-                assert_eq!(fast.cell_point, base.cell_point, "{what}");
-                assert_eq!(fast.stats, base.stats, "{what}");
+                let base = kitti2pgm::simd::baseline(run);
+                for level in Level::available() {
+                    let fast = kitti2pgm::simd::at_most(level, run);
+                    let what = format!(
+                        "{} {} cols {:?} {aug:?} {level:?}",
+                        l.id, spec.cols, spec.row_mode
+                    );
+                    assert_eq!(fast.frame, base.frame, "{what}");
+                    assert_eq!(fast.point_cell, base.point_cell, "{what}");
+                    assert_eq!(fast.cell_point, base.cell_point, "{what}");
+                    assert_eq!(fast.stats, base.stats, "{what}");
+                }
             }
         }
         // Given beams (the recovered rings, scaled to 32 rows).
@@ -248,9 +255,16 @@ fn both_code_paths_project_the_same() {
             ..spec360()
         };
         let run = || project_cloud(&given, &half, None).unwrap();
-        let (fast, base) = (run(), kitti2pgm::simd::baseline(run));
-        assert_eq!(fast.frame, base.frame, "{} given rings", l.id);
-        assert_eq!(fast.point_cell, base.point_cell, "{} given rings", l.id);
+        let base = kitti2pgm::simd::baseline(run);
+        for level in Level::available() {
+            let fast = kitti2pgm::simd::at_most(level, run);
+            assert_eq!(fast.frame, base.frame, "{} given rings {level:?}", l.id);
+            assert_eq!(
+                fast.point_cell, base.point_cell,
+                "{} given rings {level:?}",
+                l.id
+            );
+        }
         scans += 1;
     }
     assert!(scans >= 3, "{scans} scans");

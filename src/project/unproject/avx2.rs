@@ -11,9 +11,10 @@ use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
 use crate::project::EMPTY;
 
-/// Whether this machine runs the AVX2 path.
+/// Whether this machine runs the AVX2 path (as the passes over every point do: not where the
+/// environment narrows them, [`crate::simd::Level::widest`]).
 pub(super) fn available() -> bool {
-    is_x86_feature_detected!("avx2")
+    crate::simd::Level::widest() >= crate::simd::Level::Avx2
 }
 
 super::keys::kernel!(Avx2, "avx2");

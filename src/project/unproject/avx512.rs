@@ -11,9 +11,10 @@ use super::vectors::Simd;
 use super::{KnnParams, PointsInMap, Vote};
 use crate::label::ClassId;
 
-/// Whether this machine runs the AVX-512 path.
+/// Whether this machine runs the AVX-512 path (as the passes over every point do: not where the
+/// environment narrows them, [`crate::simd::Level::widest`]).
 pub(super) fn available() -> bool {
-    is_x86_feature_detected!("avx512f")
+    crate::simd::Level::widest() >= crate::simd::Level::Avx512
 }
 
 super::keys::kernel!(Avx512, "avx512f");

@@ -6,7 +6,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use kitti2pgm::geom::Point3;
-pub use kitti2pgm::simd::with_avx2;
+pub use kitti2pgm::simd::with_simd;
 
 /// "float64 array of shape (3, 4)" or the Python type of a non-array.
 fn describe(obj: &Bound<'_, PyAny>) -> String {
@@ -159,7 +159,7 @@ pub fn points_arg(
             return Ok((pts.collect(), None));
         }
         // One pass for both.
-        let (pts, inten) = with_avx2(
+        let (pts, inten) = with_simd(
             #[inline(always)]
             || {
                 let (rows, _) = v.as_chunks::<4>();

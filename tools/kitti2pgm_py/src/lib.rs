@@ -364,7 +364,7 @@ pub(crate) fn map_dict<'py>(
     // a u32 do not with AVX2); EMPTY becomes -1.
     assert!(h * w <= 1 << 28, "a map has at most 2^28 cells");
     let (inv_w, w_i) = (1.0 / w as f64, w as i32);
-    let (row, col) = arrays::with_avx2(
+    let (row, col) = arrays::with_simd(
         #[inline(always)]
         || {
             // (`move`: by reference, the loop reloaded `w` after every store, and ran a value

@@ -84,7 +84,7 @@ pub(crate) fn unproject<'py>(
             run(&m, &pred, &method, &classes)
         })
         .map_err(py_err)?;
-    let out: Vec<i16> = arrays::with_avx2(
+    let out: Vec<i16> = arrays::with_simd(
         #[inline(always)]
         || arrays::map_exact(&labels, |l| l.map_or(-1, i16::from)),
     );
@@ -103,7 +103,7 @@ fn cell_range_arg(c: &Bound<'_, PyAny>, (h, w): (usize, usize)) -> PyResult<Vec<
         }
         // Copied and checked in one pass.
         let bad = |r: f32| !(r.is_finite() & (r >= 0.0));
-        let (copy, any_bad) = arrays::with_avx2(
+        let (copy, any_bad) = arrays::with_simd(
             #[inline(always)]
             || {
                 let mut any_bad = false;
@@ -136,7 +136,7 @@ fn ranges_and_cells<const C: usize>(
     col: &[i32],
     (h, w): (usize, usize),
 ) -> PyResult<(Vec<f32>, Vec<u32>)> {
-    // One branch-free pass (with AVX2 where the CPU has it) that only notes whether a point is
+    // One branch-free pass (the widest vectors the CPU has) that only notes whether a point is
     // bad; the first is looked for and named after it (a `Result` per element made this the
     // Python call's second largest cost). `&`, not `&&`: no branch, so the pass vectorises.
     let n = points.len();
@@ -148,7 +148,7 @@ fn ranges_and_cells<const C: usize>(
     let in_map = move |r: i32, c: i32| ((r as u32) < h32) & ((c as u32) < w32);
     let bad_point = move |r: i32, c: i32| !in_map(r, c) & !((r == -1) & (c == -1));
     // (`move`: the bounds are the pass's own values, which no store of it can change)
-    let (ranges, cells, any_bad) = arrays::with_avx2(
+    let (ranges, cells, any_bad) = arrays::with_simd(
         #[inline(always)]
         move || {
             let (mut ranges, mut cells) = (Vec::with_capacity(n), Vec::with_capacity(n));
