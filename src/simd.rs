@@ -66,6 +66,19 @@ thread_local! {
 /// loop only reads, so that the closure's body is compiled inside the wider function.
 #[inline(always)]
 pub fn with_simd<R>(f: impl FnOnce() -> R) -> R {
+    run_at_most(Level::Avx512, f)
+}
+
+/// [`with_simd`] with AVX2 at most: for the loops that AVX-512 runs slower (measured: where the
+/// compiler builds a mask register bit by bit, as for `Option<u8>` tags or byte-wide cell
+/// indices).
+#[inline(always)]
+pub fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
+    run_at_most(Level::Avx2, f)
+}
+
+#[inline(always)]
+fn run_at_most<R>(most: Level, f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
     {
         #[target_feature(enable = "avx2")]
@@ -76,7 +89,7 @@ pub fn with_simd<R>(f: impl FnOnce() -> R) -> R {
         fn avx512<R>(f: impl FnOnce() -> R) -> R {
             f()
         }
-        match Level::widest().min(LIMIT.with(Cell::get)) {
+        match Level::widest().min(LIMIT.with(Cell::get)).min(most) {
             // SAFETY: the CPU has AVX-512 (`Level::widest`).
             Level::Avx512 => return unsafe { avx512(f) },
             // SAFETY: the CPU has AVX2 (`Level::widest`).

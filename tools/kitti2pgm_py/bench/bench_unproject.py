@@ -7,6 +7,9 @@ Usage: bench_unproject.py [SCAN.bin ...] [--repeat N] [--warm N]   (default: the
 Prints the medians and their ratio, measured in one run; checks the two agree point for point.
 --warm N: also the best of N back-to-back kitti2pgm calls on each scan (a warm cache: the
 benchmark's own calls each follow a PyTorch call).
+--floor: also the floor, reading the call's input arrays (numpy sums over each) right after a
+PyTorch call, as the benchmark's calls come (then another PyTorch call, so that the floor's read
+warms nothing for kitti2pgm): the least any implementation's call takes here.
 """
 import glob
 import math
@@ -56,6 +59,8 @@ def main():
         i = argv.index("--repeat")
         repeat = int(argv[i + 1])
         argv = argv[:i] + argv[i + 2:]
+    floor = "--floor" in argv
+    argv = [a for a in argv if a != "--floor"]
     if "--warm" in argv:
         i = argv.index("--warm")
         warm = int(argv[i + 1])
@@ -64,7 +69,7 @@ def main():
     scans = args or sorted(glob.glob(str(REPO / "fixtures/semantickitti/sequences/*/velodyne/*.bin"))
                            + glob.glob(str(REPO / "../shared/semantickitti/sequences/*/velodyne/*.bin")))
     torch.set_num_threads(1)
-    t_rust, t_torch, t_warm, agree, total = [], [], [], 0, 0
+    t_rust, t_torch, t_warm, t_floor, agree, total = [], [], [], [], 0, 0
     for path in scans:
         pts = k2.read_scan(path)
         m = k2.project(pts, cols=2048, fov_deg=360)
@@ -85,6 +90,14 @@ def main():
             t2 = time.perf_counter()
             t_rust.append(t1 - t0)
             t_torch.append(t2 - t1)
+        inputs = (pred, m["row"], m["col"], pts, cell_range)
+        for _ in range(repeat if floor else 0):
+            torch_knn(pr, ur, pa, px, py)
+            t0 = time.perf_counter()
+            for a in inputs:
+                a.sum()
+            t_floor.append(time.perf_counter() - t0)
+            torch_knn(pr, ur, pa, px, py)
         for _ in range(warm):
             t0 = time.perf_counter()
             k2.unproject(pred, m["row"], m["col"], pts, cell_range, method="knn")
@@ -95,6 +108,10 @@ def main():
     print(f"{len(scans)} scans (64 x 2048, {total // len(scans)} points each), {repeat} runs each, 1 thread")
     print(f"PyTorch reference  median {mt:8.2f} ms/scan")
     print(f"kitti2pgm knn      median {mr:8.2f} ms/scan   speed-up {mt / mr:.0f}x")
+    if t_floor:
+        mf = statistics.median(t_floor) * 1e3
+        print(f"floor: the inputs read  median {mf:8.2f} ms/scan   {mt / mf:.0f}x the reference's speed;"
+              f" kitti2pgm takes {mr / mf:.1f}x its time")
     if t_warm:
         print(f"kitti2pgm knn      warm, best of {warm} calls a scan {min(t_warm) * 1e3:.2f} ms")
     print(f"agreement with torch.topk's tie order: {agree}/{total} points ({100 * agree / total:.3f}%)")

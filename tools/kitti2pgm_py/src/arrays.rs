@@ -6,7 +6,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use kitti2pgm::geom::Point3;
-pub use kitti2pgm::simd::with_simd;
+pub use kitti2pgm::simd::{with_avx2, with_simd};
 
 /// "float64 array of shape (3, 4)" or the Python type of a non-array.
 fn describe(obj: &Bound<'_, PyAny>) -> String {
