@@ -133,3 +133,43 @@ pub fn at_most<R>(level: Level, f: impl FnOnce() -> R) -> R {
 pub fn baseline<R>(f: impl FnOnce() -> R) -> R {
     at_most(Level::Baseline, f)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The limit in force inside `with_simd` on this thread.
+    fn limit() -> Level {
+        LIMIT.with(Cell::get)
+    }
+
+    #[test]
+    fn the_levels_run_narrowest_first_up_to_the_widest() {
+        let levels = Level::available();
+        assert_eq!(levels.first(), Some(&Level::Baseline));
+        assert_eq!(levels.last(), Some(&Level::widest()));
+        assert!(levels.is_sorted());
+    }
+
+    /// `at_most` narrows for the closure alone, nested or unwinding, and every path computes
+    /// the same bits (a sum of square roots: no multiply-add fused, whatever the vectors).
+    #[test]
+    fn at_most_narrows_for_its_closure_and_restores() {
+        let values: Vec<f32> = (0..1000).map(|i| i as f32 * 0.37).collect();
+        let sum = || with_simd(|| values.iter().map(|v| v.sqrt() * 1.5 + 0.25).sum::<f32>());
+        let want = baseline(sum);
+        for level in Level::available() {
+            at_most(level, || {
+                assert_eq!(limit(), level);
+                assert_eq!(sum().to_bits(), want.to_bits(), "{level:?}");
+                assert_eq!(with_avx2(sum).to_bits(), want.to_bits(), "{level:?}");
+                baseline(|| assert_eq!(limit(), Level::Baseline));
+                assert_eq!(limit(), level);
+            });
+        }
+        assert_eq!(limit(), Level::Avx512);
+        let unwound = std::panic::catch_unwind(|| baseline(|| panic!("inside")));
+        assert!(unwound.is_err());
+        assert_eq!(limit(), Level::Avx512, "restored after a panic");
+    }
+}
