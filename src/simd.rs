@@ -70,8 +70,7 @@ pub fn with_simd<R>(f: impl FnOnce() -> R) -> R {
 }
 
 /// [`with_simd`] with AVX2 at most: for the loops that AVX-512 runs slower (measured: where the
-/// compiler builds a mask register bit by bit, as for `Option<u8>` tags or byte-wide cell
-/// indices).
+/// compiler builds a mask register bit by bit, as from `Option<u8>` tags).
 #[inline(always)]
 pub fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
     run_at_most(Level::Avx2, f)
