@@ -1,6 +1,7 @@
 //! PROJECT: each point's claim on its cell, the nearest point keeping it ([`super::project_impl`]).
 
 use std::mem::MaybeUninit;
+use std::ops::Range;
 
 use rayon::prelude::*;
 
@@ -21,11 +22,14 @@ pub(super) struct Claimed {
     pub cell_range: Vec<f32>,
     pub point_cell: Vec<u32>,
     pub in_fov: u64,
+    /// Cells that keep a point.
+    pub filled: u64,
 }
 
 /// Every point's claim on its cell ([`claim_cells`]), the points split among up to `threads`
-/// threads (each part claims cells of its own, the parts' keys merged by their minimum: the
-/// same result, the keys holding each point's index in the whole cloud).
+/// threads: in parts of disjoint rows where the rows allow it ([`row_bands`]: one parallel
+/// step, no merge), else each part claims cells of its own and the parts' keys are merged by
+/// their minimum (the same result, the keys holding each point's index in the whole cloud).
 pub(super) fn claim(
     points: &[Point3],
     spec: &PgmSpec,
@@ -37,6 +41,16 @@ pub(super) fn claim(
     let (n, cells) = (points.len(), spec.cells());
     let keep = point_cells == PointCells::Keep;
     let parts = threads.min(n / MIN_PART).max(1);
+    if let Some(bands) = row_bands(spec, (ring_ids, beams), geometry, parts) {
+        return claim_banded(
+            points,
+            spec,
+            point_cells,
+            (ring_ids, beams),
+            geometry,
+            bands,
+        );
+    }
     let chunk = n.div_ceil(parts).max(1);
     // Every point's cell is written by its part (no fill first).
     let mut point_cell = Vec::with_capacity(if keep { n } else { 0 });
@@ -59,7 +73,7 @@ pub(super) fn claim(
                     spec,
                     (rings, beams),
                     geometry,
-                    range.start,
+                    (range.start, 0),
                     &mut key,
                     out,
                 )
@@ -82,57 +96,185 @@ pub(super) fn claim(
     }
     let in_fov = claimed.iter().map(|(_, f)| f).sum();
     let keys: Vec<Vec<u64>> = claimed.into_iter().map(|(k, _)| k).collect();
-    let (cell_point, cell_range) = merge_keys(keys, threads);
+    let (cell_point, cell_range, filled) = merge_keys(keys, threads);
     Claimed {
         cell_point,
         cell_range,
         point_cell,
         in_fov,
+        filled,
+    }
+}
+
+/// A part of [`claim_banded`]: its points and the cells they can claim (whole rows).
+struct Band {
+    points: Range<usize>,
+    cells: Range<usize>,
+}
+
+/// The points split into `parts` parts whose rows do not overlap, where the rows are known
+/// (rings or beams, columns by azimuth) and never go back up along the points (the scan order's
+/// rings always): each part then claims the cells of its own rows, and no keys need merging.
+/// `None` for one part, or where the rows allow no such split.
+fn row_bands(
+    spec: &PgmSpec,
+    (rings, beams): (Option<&[u8]>, usize),
+    geometry: Geometry<'_>,
+    parts: usize,
+) -> Option<Vec<Band>> {
+    let rings = rings.filter(|r| parts > 1 && geometry.columns.is_none() && r.is_sorted())?;
+    let (n, cols) = (rings.len(), spec.cols);
+    let row = |ring: u8| spec.beam_row(ring, beams);
+    // (first point, first row) of each part; a part may be empty.
+    let mut starts = vec![(0, 0)];
+    for p in 1..parts {
+        let prev = starts[p - 1].1;
+        let r = row(rings[p * n / parts]).max(prev);
+        starts.push((rings.partition_point(|&g| row(g) < r), r));
+    }
+    starts.push((n, spec.rows));
+    let bands = starts.windows(2).map(|w| Band {
+        points: w[0].0..w[1].0,
+        cells: w[0].1 * cols..w[1].1 * cols,
+    });
+    Some(bands.collect())
+}
+
+/// [`claim`] in parts of disjoint rows ([`row_bands`]), all at once: each part keeps the keys
+/// of its own cells (and a spare one), and splits them into their cells' points and ranges.
+fn claim_banded(
+    points: &[Point3],
+    spec: &PgmSpec,
+    point_cells: PointCells,
+    (ring_ids, beams): (Option<&[u8]>, usize),
+    geometry: Geometry<'_>,
+    bands: Vec<Band>,
+) -> Claimed {
+    let (n, cells) = (points.len(), spec.cells());
+    let keep = point_cells == PointCells::Keep;
+    let mut point_cell = Vec::with_capacity(if keep { n } else { 0 });
+    let (mut cell_point, mut cell_range) = (Vec::with_capacity(cells), Vec::with_capacity(cells));
+    let mut out_cell = &mut point_cell.spare_capacity_mut()[..if keep { n } else { 0 }];
+    let mut out_point = &mut cell_point.spare_capacity_mut()[..cells];
+    let mut out_range = &mut cell_range.spare_capacity_mut()[..cells];
+    let mut jobs = Vec::with_capacity(bands.len());
+    for band in bands {
+        let (p, rest) = std::mem::take(&mut out_point).split_at_mut(band.cells.len());
+        out_point = rest;
+        let (r, rest) = std::mem::take(&mut out_range).split_at_mut(band.cells.len());
+        out_range = rest;
+        let (c, rest) =
+            std::mem::take(&mut out_cell).split_at_mut(if keep { band.points.len() } else { 0 });
+        out_cell = rest;
+        jobs.push((band, p, r, c));
+    }
+    let (in_fov, filled) = jobs
+        .into_par_iter()
+        .map(|(band, point, range, cell)| {
+            let pts = band.points.clone();
+            let mut key = vec![u64::MAX; band.cells.len() + 1];
+            crate::simd::with_simd(
+                #[inline(always)]
+                || {
+                    let in_fov = claim_cells(
+                        &points[pts.clone()],
+                        spec,
+                        (ring_ids.map(|r| &r[pts.clone()]), beams),
+                        geometry.part(pts.clone()),
+                        (pts.start, band.cells.start),
+                        &mut key,
+                        cell,
+                    );
+                    (in_fov, split_keys(&key, point, range))
+                },
+            )
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    // SAFETY: the bands cover the cells and the points, and each wrote all of its own.
+    unsafe {
+        cell_point.set_len(cells);
+        cell_range.set_len(cells);
+        if keep {
+            point_cell.set_len(n);
+        }
+    }
+    Claimed {
+        cell_point,
+        cell_range,
+        point_cell,
+        in_fov,
+        filled,
     }
 }
 
 /// The point and range of every cell from the parts' keys: their minimum ([`split_key`]), in
-/// up to `threads` bands of cells at once.
-fn merge_keys(mut keys: Vec<Vec<u64>>, threads: usize) -> (Vec<u32>, Vec<f32>) {
+/// up to `threads` bands of cells at once; and the cells that keep a point.
+fn merge_keys(mut keys: Vec<Vec<u64>>, threads: usize) -> (Vec<u32>, Vec<f32>, u64) {
     let mut first = keys.remove(0);
-    if keys.is_empty() {
-        // One part: collected straight from its keys (no zero fill first).
-        return crate::simd::with_simd(
-            #[inline(always)]
-            || {
-                let point = first.iter().map(|&k| split_key(k).0).collect();
-                (point, first.iter().map(|&k| split_key(k).1).collect())
-            },
-        );
-    }
     let cells = first.len();
-    let (mut point, mut range) = (vec![0u32; cells], vec![0f32; cells]);
-    let band = cells.div_ceil(threads.max(1)).max(1);
-    let bands = first.par_chunks_mut(band).zip(point.par_chunks_mut(band));
-    bands
-        .zip(range.par_chunks_mut(band))
-        .enumerate()
-        .for_each(|(b, ((k, p), r))| {
-            crate::simd::with_simd(
-                #[inline(always)]
-                || {
-                    for other in &keys {
-                        for (k, o) in k.iter_mut().zip(&other[b * band..]) {
-                            *k = (*k).min(*o);
+    // Every cell's point and range written once (no zero fill first).
+    let (mut point, mut range) = (Vec::with_capacity(cells), Vec::with_capacity(cells));
+    let (out_point, out_range) = (
+        &mut point.spare_capacity_mut()[..cells],
+        &mut range.spare_capacity_mut()[..cells],
+    );
+    let filled = if keys.is_empty() {
+        crate::simd::with_simd(
+            #[inline(always)]
+            || split_keys(&first, out_point, out_range),
+        )
+    } else {
+        let band = cells.div_ceil(threads.max(1)).max(1);
+        let bands = first
+            .par_chunks_mut(band)
+            .zip(out_point.par_chunks_mut(band));
+        bands
+            .zip(out_range.par_chunks_mut(band))
+            .enumerate()
+            .map(|(b, ((k, p), r))| {
+                crate::simd::with_simd(
+                    #[inline(always)]
+                    || {
+                        for other in &keys {
+                            for (k, o) in k.iter_mut().zip(&other[b * band..]) {
+                                *k = (*k).min(*o);
+                            }
                         }
-                    }
-                    for ((&k, p), r) in k.iter().zip(p).zip(r) {
-                        (*p, *r) = split_key(k);
-                    }
-                },
-            )
-        });
-    (point, range)
+                        split_keys(k, p, r)
+                    },
+                )
+            })
+            .sum()
+    };
+    // SAFETY: `split_keys` wrote every cell's point and range (the bands cover the cells).
+    unsafe {
+        point.set_len(cells);
+        range.set_len(cells);
+    }
+    (point, range, filled)
+}
+
+/// The point and range of the cells whose keys are `keys` into `point` and `range` (as many as
+/// they hold; a spare key past them is left out), in one pass; returns the cells that keep a
+/// point.
+#[inline(always)]
+fn split_keys(keys: &[u64], point: &mut [MaybeUninit<u32>], range: &mut [MaybeUninit<f32>]) -> u64 {
+    assert!(point.len() == range.len() && keys.len() >= point.len());
+    let mut filled = 0;
+    for ((&k, p), r) in keys.iter().zip(point).zip(range) {
+        let (i, v) = split_key(k);
+        filled += u64::from(k != u64::MAX);
+        p.write(i);
+        r.write(v);
+    }
+    filled
 }
 
 /// Every point's claim on its cell: the key of the point each cell keeps into `cell_key` (the
-/// map's cells and a spare one), the cell of every point into `point_cell_out` (when not
-/// empty); returns the points in view. `first` is the index of `points[0]` in the cloud.
+/// cells from `offset` on, and a spare one), the cell of every point into `point_cell` (when
+/// not empty); returns the points in view. `first` is the index of `points[0]` in the cloud;
+/// the cells from `offset` on hold every cell the points can claim (all of the map's, with
+/// `offset` 0, unless the rows are known and the columns by azimuth: [`row_bands`]).
 ///
 /// The point kept in each cell as one key, range bits above index: the smallest key is the
 /// nearest point, the first of equally near ones (ranges are finite and >= 0, whose bits order
@@ -148,14 +290,18 @@ fn claim_cells(
     spec: &PgmSpec,
     (rings, beams): (Option<&[u8]>, usize),
     geometry: Geometry<'_>,
-    first: usize,
+    (first, offset): (usize, usize),
     cell_key: &mut [u64],
     point_cell: &mut [MaybeUninit<u32>],
 ) -> u64 {
-    assert_eq!(
-        cell_key.len(),
-        spec.cells() + 1,
-        "the map's cells and a spare one"
+    assert!(
+        offset + cell_key.len() - 1 <= spec.cells(),
+        "some of the map's cells and a spare one"
+    );
+    let by_rows = rings.is_some() && geometry.columns.is_none();
+    assert!(
+        by_rows || (offset, cell_key.len()) == (0, spec.cells() + 1),
+        "all of the map's cells, where the rows are not known"
     );
     // The cell of every point is written, or none.
     assert!(point_cell.is_empty() || point_cell.len() == points.len());
@@ -169,15 +315,16 @@ fn claim_cells(
         rings,
         beams,
         first,
-        // The first cell of each beam's row, by beam, where the first pass gives the cells.
-        row_start: match (rings, geometry.columns) {
-            (Some(_), None) => Some(std::array::from_fn(|b| {
+        offset: offset as u32,
+        // The first cell of each beam's row in `cell_key`, by beam, where the first pass gives
+        // the cells (a beam outside the part's cells is never looked up).
+        row_start: by_rows.then(|| {
+            std::array::from_fn(|b| {
                 let first = spec.beam_row(b as u8, beams) * spec.cols;
                 // (a beam past the sensor's is never looked up: the rings are checked)
-                first.min(u32::MAX as usize / 2) as u32
-            })),
-            _ => None,
-        },
+                (first.min(u32::MAX as usize / 2) as u32).wrapping_sub(offset as u32)
+            })
+        }),
     };
     // Cheap reject for maps narrower than 180 degrees: a point outside the front wedge.
     let wedge = spec.front_wedge().filter(|_| geometry.columns.is_none());
@@ -215,6 +362,8 @@ struct Part<'a> {
     beams: usize,
     /// The index of the part's first point in the cloud.
     first: usize,
+    /// The map's cell of `cell_key[0]`.
+    offset: u32,
     /// The first cell of each beam's row, with rows known and columns by azimuth.
     row_start: Option<[u32; 256]>,
 }
@@ -297,9 +446,9 @@ impl Part<'_> {
         };
         if self.spec.rows == self.beams {
             // One row per beam (the common case): the first cell by a product, vectorised.
-            let cols = self.spec.cols as u32;
+            let (cols, offset) = (self.spec.cols as u32, self.offset);
             for ((c, &code), &ring) in cell.iter_mut().zip(code).zip(rings) {
-                *c = at(code, u32::from(ring) * cols);
+                *c = at(code, (u32::from(ring) * cols).wrapping_sub(offset));
             }
         } else {
             for ((c, &code), &ring) in cell.iter_mut().zip(code).zip(rings) {
@@ -318,7 +467,7 @@ impl Part<'_> {
             let inside = c != spare;
             in_fov += u64::from(inside);
             if !point_cell.is_empty() {
-                point_cell[i].write(if inside { c } else { EMPTY });
+                point_cell[i].write(if inside { c + self.offset } else { EMPTY });
             }
             // A select, not the branch the compiler makes of `min` (mispredicted where a
             // point shares its cell with a nearer one).

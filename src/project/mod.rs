@@ -344,6 +344,7 @@ pub(crate) fn project_impl(
         cell_range,
         point_cell,
         in_fov,
+        filled,
     } = claim(
         points,
         spec,
@@ -354,7 +355,7 @@ pub(crate) fn project_impl(
     );
     Projection {
         spec: *spec,
-        stats: ProjectionStats::count(&cell_point, in_fov, fallback),
+        stats: ProjectionStats::count((filled, cell_point.len()), in_fov, fallback),
         cell_point,
         cell_range,
         point_cell,
@@ -363,13 +364,12 @@ pub(crate) fn project_impl(
 }
 
 impl ProjectionStats {
-    /// The statistics of a projection that put `in_fov` points into the cells `cell_point`.
-    fn count(cell_point: &[u32], in_fov: u64, ring_fallback: bool) -> ProjectionStats {
-        let filled = cell_point.iter().filter(|&&c| c != EMPTY).count() as u64;
+    /// The statistics of a projection that put `in_fov` points into `filled` of `cells` cells.
+    fn count((filled, cells): (u64, usize), in_fov: u64, ring_fallback: bool) -> ProjectionStats {
         ProjectionStats {
             in_fov,
             filled_cells: filled,
-            total_cells: cell_point.len() as u64,
+            total_cells: cells as u64,
             collisions: in_fov - filled,
             ring_fallbacks: ring_fallback as u64,
             ..Default::default()

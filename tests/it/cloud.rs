@@ -271,18 +271,56 @@ fn both_code_paths_project_the_same() {
 }
 
 /// The same projection whatever the threads: the points' parts and the map's bands change
-/// nothing, plain and augmented, with and without the spare bands of a narrow map.
+/// nothing, plain and augmented, with and without the spare bands of a narrow map; the parts
+/// by rows (rings in scan order: from the scan, given, or given for fewer rows than beams) and
+/// the parts whose keys are merged (elevation rows; given rings out of order).
 #[test]
 fn threads_change_nothing() {
-    use kitti2pgm::project::project_cloud_on;
+    use kitti2pgm::project::RowMode;
     let plan = Plan::build(&raw_root(), FrameSelection::Annotated).unwrap();
     let (d, f) = plan.jobs[0];
     let l = load(&plan.drives[d], f, &MapParams::default(), Viz::Off).unwrap();
-    let cloud = Cloud {
+    let plain = Cloud {
         labels: Some(&l.labels.points.class),
         instance: Some(&l.labels.points.instance),
         ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
     };
+    let ring = rings(&l.scan.points).0.expect("a whole scan");
+    let upside_down: Vec<u8> = ring.iter().map(|r| 63 - r).collect();
+    let elevation = PgmSpec {
+        row_mode: RowMode::Elevation,
+        ..spec360()
+    };
+    let half_rows = PgmSpec {
+        rows: 32,
+        ..spec360()
+    };
+    let cases = [
+        (plain, PgmSpec::default()),
+        (plain, spec360()),
+        (plain, elevation),
+        (
+            Cloud {
+                rings: Some(&ring),
+                ..plain
+            },
+            half_rows,
+        ),
+        (
+            Cloud {
+                rings: Some(&upside_down),
+                ..plain
+            },
+            spec360(),
+        ),
+    ];
+    for (cloud, spec) in cases {
+        threads_change_nothing_for(&cloud, spec, l.scan.points.len());
+    }
+}
+
+fn threads_change_nothing_for(cloud: &Cloud<'_>, spec: PgmSpec, n: usize) {
+    use kitti2pgm::project::project_cloud_on;
     let aug = Augment {
         rotate: -1.1,
         scale: 0.98,
@@ -291,21 +329,16 @@ fn threads_change_nothing() {
         seed: 9,
         ..Default::default()
     };
-    for spec in [PgmSpec::default(), spec360()] {
-        for a in [None, Some(&aug)] {
-            let one = project_cloud_on(&cloud, &spec, a, 1).unwrap();
-            assert!(
-                l.scan.points.len() > 7 * 16_384,
-                "enough points for 7 parts"
-            );
-            for threads in [0, 2, 3, 7, 64] {
-                let many = project_cloud_on(&cloud, &spec, a, threads).unwrap();
-                let what = format!("{} cols, {a:?}, {threads} threads", spec.cols);
-                assert_eq!(many.frame, one.frame, "{what}");
-                assert_eq!(many.point_cell, one.point_cell, "{what}");
-                assert_eq!(many.cell_point, one.cell_point, "{what}");
-                assert_eq!(many.stats, one.stats, "{what}");
-            }
+    assert!(n > 7 * 16_384, "enough points for 7 parts");
+    for a in [None, Some(&aug)] {
+        let one = project_cloud_on(cloud, &spec, a, 1).unwrap();
+        for threads in [0, 2, 3, 7, 64] {
+            let many = project_cloud_on(cloud, &spec, a, threads).unwrap();
+            let what = format!("{spec:?}, {a:?}, {threads} threads");
+            assert_eq!(many.frame, one.frame, "{what}");
+            assert_eq!(many.point_cell, one.point_cell, "{what}");
+            assert_eq!(many.cell_point, one.cell_point, "{what}");
+            assert_eq!(many.stats, one.stats, "{what}");
         }
     }
 }
