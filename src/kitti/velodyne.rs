@@ -53,6 +53,11 @@ impl Scan {
                 what: "point",
             });
         }
+        Ok(Scan::all_valid(bytes).unwrap_or_else(|| Scan::dropping_bad(bytes)))
+    }
+
+    /// The scan of `bytes` (whole points), its bad points dropped and counted, a point at a time.
+    fn dropping_bad(bytes: &[u8]) -> Scan {
         let n = bytes.len() / POINT_BYTES;
         let mut points = Vec::with_capacity(n);
         let mut reflectance = Vec::with_capacity(n);
@@ -76,12 +81,58 @@ impl Scan {
                 dropped.push(i as u32);
             }
         }
-        Ok(Scan {
+        Scan {
             points,
             reflectance,
             file_len: n,
             dropped,
             dropped_out_of_range: out_of_range,
+        }
+    }
+
+    /// The scan of `bytes` (whole points) when every point is valid (the common case): one
+    /// branch-free pass over the points, each slot written once, that only notes a bad point
+    /// (pushing point by point with a branch each was a tenth of a SemanticKITTI frame's
+    /// conversion); `None` when one is bad, for [`Scan::from_bytes`]'s loop to drop it.
+    fn all_valid(bytes: &[u8]) -> Option<Scan> {
+        let (records, rest) = bytes.as_chunks::<POINT_BYTES>();
+        debug_assert!(rest.is_empty(), "whole points");
+        let n = records.len();
+        let max2 = (MAX_RANGE_M as f64).powi(2);
+        let (points, reflectance, bad) = crate::simd::with_simd(
+            #[inline(always)]
+            move || {
+                let (mut points, mut reflectance) = (Vec::with_capacity(n), Vec::with_capacity(n));
+                let slots = (points.spare_capacity_mut()[..n].iter_mut())
+                    .zip(&mut reflectance.spare_capacity_mut()[..n]);
+                let mut bad = false;
+                for ((p, r), b) in slots.zip(records) {
+                    let f = |k: usize| f32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
+                    let (x, y, z, i) = (f(0), f(4), f(8), f(12));
+                    // The same tests as the loop's, `&` for `&&`: no branch. In f64, so that
+                    // a huge coordinate cannot overflow the test itself (nor NaN pass it).
+                    let (xd, yd, zd) = (x as f64, y as f64, z as f64);
+                    let near = xd * xd + yd * yd + zd * zd <= max2;
+                    let reflect =
+                        (i >= *REFLECTANCE_RANGE.start()) & (i <= *REFLECTANCE_RANGE.end());
+                    bad |= !(near & reflect);
+                    p.write(Point3::new(x, y, z));
+                    r.write(i);
+                }
+                // SAFETY: the loop wrote the first `n` slots of both.
+                unsafe {
+                    points.set_len(n);
+                    reflectance.set_len(n);
+                }
+                (points, reflectance, bad)
+            },
+        );
+        (!bad).then_some(Scan {
+            points,
+            reflectance,
+            file_len: n,
+            dropped: Vec::new(),
+            dropped_out_of_range: 0,
         })
     }
 
@@ -192,6 +243,49 @@ mod tests {
         assert_eq!(s.points[1], Point3::new(4.0, 5.0, 6.0));
         assert_eq!(s.to_file_order(&[7u32, 8], 0), vec![7, 0, 8]);
         assert_eq!(s.file_indices(), vec![0, 2]);
+    }
+
+    /// The branch-free pass and the loop that drops bad points give the same scan when all are
+    /// valid (a real scan; the limits themselves); each kind of bad value sends the scan to the
+    /// loop, which drops that point alone.
+    #[test]
+    fn the_fast_pass_equals_the_loop() {
+        let real = std::fs::read(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin"),
+        )
+        .unwrap();
+        let edge = bytes(&[[MAX_RANGE_M, 0.0, 0.0, 1.0], [0.0, 0.0, -MAX_RANGE_M, 0.0]]);
+        for b in [&real, &edge] {
+            let fast = Scan::all_valid(b).expect("all valid");
+            let slow = Scan::dropping_bad(b);
+            assert_eq!(fast.points, slow.points);
+            assert_eq!(fast.reflectance, slow.reflectance);
+            assert!(slow.dropped.is_empty() && fast.file_len == slow.file_len);
+        }
+        let bad = [
+            [f32::NAN, 0.0, 0.0, 0.5],
+            [0.0, f32::INFINITY, 0.0, 0.5],
+            [0.0, 0.0, f32::NEG_INFINITY, 0.5],
+            [1e30, 0.0, 0.0, 0.5],
+            [MAX_RANGE_M, 1.0, 0.0, 0.5],
+            [1.0, 0.0, 0.0, f32::NAN],
+            [1.0, 0.0, 0.0, -0.1],
+            [1.0, 0.0, 0.0, 1.5],
+        ];
+        for (k, p) in bad.iter().enumerate() {
+            let mut b = real.clone();
+            let at = 1000 + 37 * k;
+            b[at * POINT_BYTES..(at + 1) * POINT_BYTES].copy_from_slice(&bytes(&[*p]));
+            assert!(Scan::all_valid(&b).is_none(), "{p:?}");
+            let s = Scan::from_bytes(&b, Path::new("x.bin")).unwrap();
+            assert_eq!(s.dropped, [at as u32], "{p:?}");
+            assert_eq!(
+                s.dropped_out_of_range,
+                usize::from(p.iter().all(|v| v.is_finite()))
+            );
+            assert_eq!(s.points.len(), real.len() / POINT_BYTES - 1);
+        }
     }
 
     #[test]

@@ -253,45 +253,6 @@ impl ClassMap {
         Ok(map)
     }
 
-    /// The raw id class `c` is written back as (`learning_map_inv`), for per-point maps.
-    pub fn raw_of_class(&self, c: ClassId) -> Option<u32> {
-        self.learning_map_inv.get(c as usize).copied()
-    }
-
-    /// The class of a raw per-point label (through `learning_map`); `None` for an id the map
-    /// does not list.
-    pub fn class_of_raw(&self, raw: u32) -> Option<ClassId> {
-        self.learning_map.get(&raw).copied()
-    }
-
-    /// The class of every entry of a per-point `.label` file of raw ids (low 16 bits through
-    /// `learning_map`); an id the map does not list is an error naming `path` and the point.
-    pub fn classes_of_raw(&self, raw: &[u32], path: &Path) -> Result<Vec<ClassId>> {
-        // A table over all 2^16 raw ids: one lookup a point (a tree lookup per point was most
-        // of a SemanticKITTI frame's time).
-        let mut lut = vec![None; 1 << 16];
-        for (&r, &c) in &self.learning_map {
-            if let Some(slot) = lut.get_mut(r as usize) {
-                *slot = Some(c);
-            }
-        }
-        raw.iter()
-            .enumerate()
-            .map(|(i, v)| {
-                lut[(v & 0xffff) as usize].ok_or_else(|| {
-                    Error::format(
-                        path,
-                        format!(
-                            "point {i} has label id {}, which the learning_map of {} does not list",
-                            v & 0xffff,
-                            self.name
-                        ),
-                    )
-                })
-            })
-            .collect()
-    }
-
     /// Number of classes.
     pub fn len(&self) -> usize {
         self.classes.len()

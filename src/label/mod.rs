@@ -1,7 +1,8 @@
 //! LABEL: the class of every velodyne point.
 //!
 //! - [`classes`]: the [`ClassMap`] (ids, names, colours, ignored and averaged ids, object types)
-//!   and per-class counts; [`nuscenes`]: nuScenes-lidarseg's classes;
+//!   and per-class counts ([`counts`]); raw per-point ids to classes and back (`raw_ids`);
+//!   [`nuscenes`]: nuScenes-lidarseg's classes;
 //! - [`boxes`]: boxes as parry cuboids and the [`Labeller`] that finds each point's box.
 //!
 //! The rule that turns a tracklet into a class lives here ([`tracklet_boxes`]), not in the
@@ -11,6 +12,7 @@ pub mod boxes;
 pub mod classes;
 pub mod counts;
 pub mod nuscenes;
+mod raw_ids;
 
 pub use boxes::{LabelBox, Labeller, PointLabels};
 pub use classes::{ClassId, ClassInfo, ClassMap};

@@ -49,8 +49,7 @@ impl PgmFrame {
 
     /// Valid cells per class among `n` classes.
     pub fn class_cells(&self, n: usize) -> ClassCounts {
-        let valid = self.label.iter().zip(&self.mask).filter(|(_, m)| **m != 0);
-        ClassCounts::count(n, valid.map(|(l, _)| *l))
+        ClassCounts::count_kept(n, &self.label, &self.mask)
     }
 }
 
