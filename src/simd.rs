@@ -56,6 +56,12 @@ impl Level {
     }
 }
 
+/// The level [`with_simd`] takes on this thread now (the CPU's widest, narrowed by
+/// [`at_most`]): for the passes written with a level's own instructions.
+pub fn level() -> Level {
+    Level::widest().min(LIMIT.with(Cell::get))
+}
+
 thread_local! {
     /// The widest level [`with_simd`] takes on this thread ([`at_most`]).
     static LIMIT: Cell<Level> = const { Cell::new(Level::Avx512) };

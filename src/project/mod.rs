@@ -19,6 +19,7 @@
 
 pub mod augment;
 pub mod camera;
+mod cells16;
 pub mod channels;
 mod claim;
 pub mod cloud;

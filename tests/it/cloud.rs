@@ -270,6 +270,55 @@ fn both_code_paths_project_the_same() {
     assert!(scans >= 3, "{scans} scans");
 }
 
+/// The map's cells sixteen at a time (AVX-512) equal the cell-by-cell loop at the edges of
+/// their inputs: the first and last points kept (whose class and instance are read from the
+/// values before them), the largest class and instance ids, a handful of points, and maps
+/// whose cells are no multiple of sixteen.
+#[test]
+fn cells_at_the_edges_of_their_inputs_on_every_path() {
+    use kitti2pgm::project::RowMode;
+    for n in [1usize, 2, 3, 4, 5, 17, 40, 333] {
+        // Points on a spiral, each in a cell of its own, the first and the last among them.
+        let points: Vec<_> = (0..n)
+            .map(|i| {
+                let a = (i as f32 + 0.5) * 6.1 / n as f32 - 3.05;
+                let r = 5.0 + i as f32 * 0.01;
+                kitti2pgm::geom::Point3::new(r * a.cos(), r * a.sin(), -1.0 + 0.003 * i as f32)
+            })
+            .collect();
+        let intensity: Vec<f32> = (0..n).map(|i| (i % 7) as f32 / 7.0).collect();
+        let class: Vec<u8> = (0..n).map(|i| [255, 0, 7, 254][i % 4]).collect();
+        let instance: Vec<u16> = (0..n).map(|i| [65535, 1, 0, 40000][i % 4]).collect();
+        let cloud = Cloud {
+            labels: Some(&class),
+            instance: Some(&instance),
+            ..Cloud::of_points(&points, &intensity)
+        };
+        for cols in [512, 333, 7] {
+            let spec = PgmSpec {
+                cols,
+                rows: 5,
+                row_mode: RowMode::Elevation,
+                fov_up: kitti2pgm::geom::Degrees(0.0),
+                ..spec360()
+            };
+            let base = kitti2pgm::simd::baseline(|| project_cloud(&cloud, &spec, None).unwrap());
+            for level in Level::available() {
+                let fast =
+                    kitti2pgm::simd::at_most(level, || project_cloud(&cloud, &spec, None).unwrap());
+                assert_eq!(fast.frame, base.frame, "{n} points, {cols} cols, {level:?}");
+            }
+            if cols == 512 {
+                let kept = base.cell_point.iter().filter(|&&c| c != EMPTY).count();
+                assert_eq!(kept, n, "every point keeps a cell");
+                let c = base.point_cell[n - 1] as usize;
+                assert_eq!(base.frame.label[c], class[n - 1]);
+                assert_eq!(base.frame.instance[c], instance[n - 1]);
+            }
+        }
+    }
+}
+
 /// The same projection whatever the threads: the points' parts and the map's bands change
 /// nothing, plain and augmented, with and without the spare bands of a narrow map; the parts
 /// by rows (rings in scan order: from the scan, given, or given for fewer rows than beams) and
