@@ -3,13 +3,17 @@
 PyTorch formulation (unfold the range image and the argmax, topk, scatter-add vote; written here
 from the algorithm), one thread each, the same inputs, 64 x 2048 maps of the SemanticKITTI scans.
 
-Usage: bench_unproject.py [SCAN.bin ...] [--repeat N] [--warm N]   (default: the fixture and shared scans)
+Usage: bench_unproject.py [SCAN.bin ...] [--repeat N] [--warm N] [--floor] [--gaps]
+(default: the fixture and shared scans)
 Prints the medians and their ratio, measured in one run; checks the two agree point for point.
 --warm N: also the best of N back-to-back kitti2pgm calls on each scan (a warm cache: the
 benchmark's own calls each follow a PyTorch call).
 --floor: also the floor, reading the call's input arrays (numpy sums over each) right after a
 PyTorch call, as the benchmark's calls come (then another PyTorch call, so that the floor's read
 warms nothing for kitti2pgm): the least any implementation's call takes here.
+--gaps: also a kitti2pgm call after each kind of pause (median of --repeat calls on the first
+scan): another kitti2pgm call (warm), busy Python loops of 1, 10 and 95 ms (touching no memory),
+streaming a 16 MB array for 95 ms, and the PyTorch reference; which of them makes a call slow.
 """
 import glob
 import math
@@ -60,7 +64,8 @@ def main():
         repeat = int(argv[i + 1])
         argv = argv[:i] + argv[i + 2:]
     floor = "--floor" in argv
-    argv = [a for a in argv if a != "--floor"]
+    gaps = "--gaps" in argv
+    argv = [a for a in argv if a not in ("--floor", "--gaps")]
     if "--warm" in argv:
         i = argv.index("--warm")
         warm = int(argv[i + 1])
@@ -102,6 +107,10 @@ def main():
             t0 = time.perf_counter()
             k2.unproject(pred, m["row"], m["col"], pts, cell_range, method="knn")
             t_warm.append(time.perf_counter() - t0)
+        if gaps and path == scans[0]:
+            args = (pred, m["row"], m["col"], pts, cell_range)
+            gap_table = after_gaps(lambda args=args: k2.unproject(*args, method="knn"),
+                                   lambda refs=(pr, ur, pa, px, py): torch_knn(*refs), repeat)
         agree += int((ours[inside] == ref.numpy()).sum())
         total += int(inside.sum())
     mr, mt = statistics.median(t_rust) * 1e3, statistics.median(t_torch) * 1e3
@@ -115,6 +124,37 @@ def main():
     if t_warm:
         print(f"kitti2pgm knn      warm, best of {warm} calls a scan {min(t_warm) * 1e3:.2f} ms")
     print(f"agreement with torch.topk's tie order: {agree}/{total} points ({100 * agree / total:.3f}%)")
+    if gaps:
+        print(f"a kitti2pgm knn call after a pause (first scan, median of {repeat}):")
+        for name, ms in gap_table:
+            print(f"  {name:38s} {ms:6.2f} ms")
+
+
+def after_gaps(call, reference, repeat):
+    """Median time of `call` after each kind of pause."""
+    def busy(seconds):
+        t = time.perf_counter()
+        while time.perf_counter() - t < seconds:
+            pass
+    big = np.ones(4 << 20, np.float32)
+
+    def stream(seconds):
+        t = time.perf_counter()
+        while time.perf_counter() - t < seconds:
+            big.sum()
+    pauses = [("another kitti2pgm call (warm)", call), ("busy Python loop, 1 ms", lambda: busy(0.001)),
+              ("busy Python loop, 10 ms", lambda: busy(0.010)), ("busy Python loop, 95 ms", lambda: busy(0.095)),
+              ("streaming 16 MB, 95 ms", lambda: stream(0.095)), ("the PyTorch reference", reference)]
+    table = []
+    for name, pause in pauses:
+        times = []
+        for _ in range(max(repeat, 5)):
+            pause()
+            t0 = time.perf_counter()
+            call()
+            times.append(time.perf_counter() - t0)
+        table.append((name, statistics.median(times) * 1e3))
+    return table
 
 
 if __name__ == "__main__":
