@@ -2,8 +2,12 @@
 //!
 //! [`LabelBox`] turns a tracklet pose into a parry [`Cuboid`] (half extents) with a centred pose;
 //! [`Labeller`] answers "which box holds this point" for a whole scan with parry's containment
-//! test, after a cheap prefilter (a 2D bucket grid over the boxes' bounding boxes), so that the
-//! cost is about one grid lookup per point plus the boxes of that cell, not points x boxes.
+//! test, after a cheap prefilter by the boxes' axis-aligned bounds. A scan is labelled in runs
+//! of 64 points, box by box: a box apart from the run's bounds is passed over, else its bounds
+//! are tested on all 64 points at once (SIMD lanes, no branch), parry's test on those inside.
+//! One point, or a scan among more than [`BY_BOX_MAX`] boxes (the 36 drives' tracklets have
+//! 21 at most in a frame), goes through a 2D bucket grid over the bounds instead: one lookup a
+//! point plus the boxes of its cell. Both give every point the same box.
 //!
 //! Rule for a point in several boxes: the box of the smallest volume wins (the more specific
 //! claim: a cyclist box overlapping a car's keeps its points), ties go to the lower tracklet
@@ -217,8 +221,7 @@ impl Labeller {
     pub fn label_point(&self, p: &Point3) -> Option<(ClassId, u16)> {
         for &i in self.grid.candidates(p.x, p.y) {
             let b = &self.boxes[i as usize];
-            let outside = (p.x < b.mins.x) | (p.x > b.maxs.x) | (p.y < b.mins.y) | (p.y > b.maxs.y);
-            if outside | (p.z < b.mins.z) | (p.z > b.maxs.z) {
+            if !b.bounds_hold(p.x, p.y, p.z) {
                 continue;
             }
             if b.cuboid
@@ -230,19 +233,113 @@ impl Labeller {
         None
     }
 
-    /// Labels every point of a scan.
+    /// Labels every point of a scan: each point as [`Labeller::label_point`] would. Up to
+    /// [`BY_BOX_MAX`] boxes, box by box over blocks of points ([`Labeller::label_by_box`]),
+    /// else point by point through the grid.
     pub fn label(&self, points: &[Point3]) -> PointLabels {
-        let mut class = vec![self.background; points.len()];
-        let mut instance = vec![0u16; points.len()];
-        if !self.is_empty() {
+        let mut labels = PointLabels {
+            class: vec![self.background; points.len()],
+            instance: vec![0u16; points.len()],
+        };
+        if self.boxes.len() > BY_BOX_MAX {
             for (i, p) in points.iter().enumerate() {
                 if let Some((c, id)) = self.label_point(p) {
-                    class[i] = c;
-                    instance[i] = id;
+                    labels.class[i] = c;
+                    labels.instance[i] = id;
+                }
+            }
+        } else if !self.is_empty() {
+            for (start, pts) in (0..).step_by(BLOCK).zip(points.chunks(BLOCK)) {
+                crate::simd::with_simd(
+                    #[inline(always)]
+                    || self.label_by_box(start, pts, &mut labels),
+                );
+            }
+        }
+        labels
+    }
+
+    /// The labels of a block of points (from `start` in the scan), 64 points at a time, box
+    /// by box in the order of precedence: a box apart from the 64 points' bounds passed over,
+    /// else its bounds tested on the 64 at once (branch-free, in SIMD lanes), then parry's
+    /// test on those inside it and not yet labelled. The same result as the grid's, without
+    /// its unpredictable branch per candidate box.
+    #[inline(always)]
+    fn label_by_box(&self, start: usize, pts: &[Point3], labels: &mut PointLabels) {
+        let n = pts.len();
+        assert!(n <= BLOCK);
+        let (mut x, mut y, mut z) = ([0.0; BLOCK], [0.0; BLOCK], [0.0; BLOCK]);
+        for (k, p) in pts.iter().enumerate() {
+            (x[k], y[k], z[k]) = (p.x, p.y, p.z);
+        }
+        // A bit a point, set while it is free to take a box (not the slots past the block).
+        let mut free = [0u64; BLOCK / 64];
+        for (w, f) in free.iter_mut().enumerate() {
+            let k = n.saturating_sub(w * 64).min(64);
+            *f = if k == 64 { u64::MAX } else { (1u64 << k) - 1 };
+        }
+        for (w, f) in free.iter_mut().enumerate().take(n.div_ceil(64)) {
+            let (x, y, z) = (&x[w * 64..][..64], &y[w * 64..][..64], &z[w * 64..][..64]);
+            // The bounds of the 64 points (a slot past the block, at the origin, only widens
+            // them; a NaN is passed over): most boxes lie outside them (a run of one ring).
+            let lo = Point3::new(min_of(x), min_of(y), min_of(z));
+            let hi = Point3::new(max_of(x), max_of(y), max_of(z));
+            for b in &self.boxes {
+                let apart = (b.mins.x > hi.x) | (b.maxs.x < lo.x) | (b.mins.y > hi.y);
+                if apart | (b.maxs.y < lo.y) | (b.mins.z > hi.z) | (b.maxs.z < lo.z) {
+                    continue;
+                }
+                // 64 bounds tests to one word (compares to mask registers, with AVX-512).
+                let mut bits = 0u64;
+                for j in 0..64 {
+                    bits |= u64::from(b.bounds_hold(x[j], y[j], z[j])) << j;
+                }
+                bits &= *f;
+                while bits != 0 {
+                    let j = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let k = w * 64 + j;
+                    if b.cuboid
+                        .contains_local_point(&b.velo_to_box.transform_point(&pts[k]))
+                    {
+                        *f &= !(1 << j);
+                        labels.class[start + k] = b.class;
+                        labels.instance[start + k] = b.instance;
+                    }
                 }
             }
         }
-        PointLabels { class, instance }
+    }
+}
+
+/// The least of `v` (NaN passed over).
+#[inline(always)]
+fn min_of(v: &[Real]) -> Real {
+    v.iter().fold(Real::INFINITY, |a, &b| a.min(b))
+}
+
+/// The greatest of `v` (NaN passed over).
+#[inline(always)]
+fn max_of(v: &[Real]) -> Real {
+    v.iter().fold(Real::NEG_INFINITY, |a, &b| a.max(b))
+}
+
+/// Points per block of [`Labeller::label_by_box`].
+const BLOCK: usize = 1024;
+
+/// The most boxes labelled box by box ([`Labeller::label_by_box`]): its cost grows with the
+/// boxes near each run of points, the grid's more slowly. Measured on a real scan among cars
+/// scattered over 60 x 60 m: box by box 3.3x the grid's speed with 4 boxes, 2.9x with 64, 1.3x
+/// with 256, 0.97x with 512.
+pub const BY_BOX_MAX: usize = 256;
+
+impl Prepared {
+    /// Whether the box's axis-aligned bounds hold the point, without a branch (a NaN
+    /// coordinate never: parry's test would take it in).
+    #[inline(always)]
+    fn bounds_hold(&self, x: Real, y: Real, z: Real) -> bool {
+        let (lo, hi) = (&self.mins, &self.maxs);
+        (x >= lo.x) & (x <= hi.x) & (y >= lo.y) & (y <= hi.y) & (z >= lo.z) & (z <= hi.z)
     }
 }
 

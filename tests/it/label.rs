@@ -178,3 +178,105 @@ fn cars_are_labelled_where_the_tracklets_put_them() {
         );
     }
 }
+
+/// A small deterministic generator (xorshift), for cases a proptest would take long to shrink.
+fn xorshift(state: &mut u64) -> f64 {
+    *state ^= *state << 13;
+    *state ^= *state >> 7;
+    *state ^= *state << 17;
+    (*state >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// `label` (box by box over blocks of points, up to `BY_BOX_MAX` boxes; the grid beyond)
+/// gives every point what `label_point` (the grid) gives it: on real frames, and on crowded
+/// made-up scenes of 1 to `BY_BOX_MAX` + 6 overlapping boxes of every class with points at
+/// the boxes' corners (the bounding boxes' faces), on them, near them, a NaN, and blocks
+/// that end mid-word.
+#[test]
+fn labelling_a_scan_gives_each_point_what_label_point_gives() {
+    let classes = ClassMap::kitti_paper();
+    for (drive, frame) in [(1u32, 0u32), (1, 45), (52, 0)] {
+        let dir = fixture_drive(drive);
+        let tr = Tracklets::read(&dir.join("tracklet_labels.xml")).unwrap();
+        let scan = Scan::read(&dir.join(format!("velodyne_points/data/{frame:010}.bin"))).unwrap();
+        let boxes = kitti2pgm::label::tracklet_boxes(&tr, frame, &classes);
+        let lab = Labeller::new(&boxes, 0);
+        assert!(lab.len() <= kitti2pgm::label::boxes::BY_BOX_MAX);
+        let labels = lab.label(&scan.points);
+        let mut labelled = 0;
+        for (k, p) in scan.points.iter().enumerate() {
+            let want = lab.label_point(p).unwrap_or((0, 0));
+            assert_eq!(
+                (labels.class[k], labels.instance[k]),
+                want,
+                "drive {drive} frame {frame} point {k}"
+            );
+            labelled += usize::from(want.0 != 0);
+        }
+        assert!(
+            labelled > 100,
+            "drive {drive} frame {frame}: {labelled} points in boxes"
+        );
+    }
+    let types = [
+        ObjectType::Car,
+        ObjectType::Pedestrian,
+        ObjectType::Cyclist,
+        ObjectType::Van,
+        ObjectType::Tram,
+    ];
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    for n_boxes in (1..=kitti2pgm::label::boxes::BY_BOX_MAX + 6).step_by(7) {
+        let mut boxes = Vec::new();
+        let mut points = Vec::new();
+        for i in 0..n_boxes {
+            let mut r = || xorshift(&mut seed);
+            let hwl = [0.5 + 2.0 * r(), 0.4 + 2.0 * r(), 0.5 + 5.0 * r()];
+            // Boxes crowded into 12 x 12 m, so that many overlap.
+            let t = [12.0 * r() - 6.0, 12.0 * r() - 6.0, -2.0 + r()];
+            let (tr, pose) = tracklet(types[i % types.len()].clone(), hwl, t, 7.0 * r() - 3.5);
+            let b = lbox(i, &tr, &pose);
+            let h = b.cuboid.half_extents;
+            for corner in 0..8 {
+                let s = |bit: u32| if corner >> bit & 1 == 1 { 1.0 } else { -1.0 };
+                let local = Point3::new(s(0) * h.x, s(1) * h.y, s(2) * h.z);
+                let c = b.pose * local;
+                points.push(c);
+                // On a bounding-box face: the corner's x with another box point's y and z.
+                points.push(Point3::new(c.x, b.pose.translation.y, b.pose.translation.z));
+            }
+            boxes.push(b);
+        }
+        let mut r = || xorshift(&mut seed) as Real;
+        while points.len() < 2 * 1024 + 333 {
+            points.push(Point3::new(
+                16.0 * r() - 8.0,
+                16.0 * r() - 8.0,
+                4.0 * r() - 3.0,
+            ));
+        }
+        // NaN coordinates (inside every box but for that one): never in a box.
+        let c = boxes[0].pose.translation;
+        let nan = [
+            Point3::new(Real::NAN, c.y, c.z),
+            Point3::new(c.x, c.y, Real::NAN),
+        ];
+        points.extend(nan);
+        let lab = Labeller::new(&boxes, 0);
+        let labels = lab.label(&points);
+        let last = points.len() - 2..points.len();
+        assert!(labels.class[last.clone()].iter().all(|&c| c == 0));
+        assert!(nan.iter().all(|p| lab.label_point(p).is_none()));
+        let mut labelled = 0;
+        for (k, p) in points.iter().enumerate() {
+            let want = lab.label_point(p).unwrap_or((0, 0));
+            assert_eq!(
+                (labels.class[k], labels.instance[k]),
+                want,
+                "{n_boxes} boxes, point {k} {p:?}"
+            );
+            labelled += usize::from(want.0 != 0);
+        }
+        assert!(labelled > 0, "{n_boxes} boxes: some points inside");
+    }
+}
