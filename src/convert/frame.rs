@@ -15,7 +15,7 @@ use crate::label::ClassCounts;
 use crate::params::MapParams;
 use crate::plan::DrivePlan;
 use crate::project::camera::CameraProjector;
-use crate::project::frame::{assemble, PgmFrame, PointValues};
+use crate::project::frame::{assemble, CellColours, PgmFrame, PointValues};
 use crate::project::{project, project_beams, ProjectionStats};
 
 /// What converting one frame found.
@@ -116,14 +116,9 @@ pub fn process(
         proj.stats.beam_table_frames = (b.from == RowsFrom::BeamTable) as u64;
         proj.stats.off_model = b.off_model;
     }
-    let colour_fn = camera.map(|(cam, img)| move |i: usize| cam.colour(img, &scan.points[i]));
-    let pgm = assemble(
-        PointValues::of_scan(scan, labels),
-        &proj,
-        colour_fn
-            .as_ref()
-            .map(|f| f as &dyn Fn(usize) -> Option<[f32; 3]>),
-    );
+    let colours =
+        camera.map(|(cam, img)| CellColours::of(&proj, |i| cam.colour(img, &scan.points[i])));
+    let pgm = assemble(PointValues::of_scan(scan, labels), &proj, colours.as_ref());
     let report = FrameReport {
         id: id.to_string(),
         points: scan.len() as u64,

@@ -30,6 +30,17 @@ crate::named_enum!(Sampling, "colour sampling", [
     Bilinear => "bilinear" [] "Bilinear blend of the four neighbouring pixels",
 ]);
 
+/// `c / 255` for every 8-bit value `c` (the same quotients, without a division a sample).
+static UNIT: [f32; 256] = {
+    let mut t = [0.0; 256];
+    let mut c = 0;
+    while c < 256 {
+        t[c] = c as f32 / 255.0;
+        c += 1;
+    }
+    t
+};
+
 /// Pixel coordinates of velodyne point `p` through `velo_to_image` (velodyne to homogeneous
 /// pixels), or `None` behind the camera.
 #[inline]
@@ -62,6 +73,7 @@ impl CameraProjector {
     }
 
     /// Colour of `p` in `image`, scaled to [0, 1], or `None` when it has none.
+    #[inline(always)]
     pub fn colour(&self, image: &RgbImage, p: &Point3) -> Option<[f32; 3]> {
         let (u, v) = self.pixel(p)?;
         let (w, h) = (image.width() as f64, image.height() as f64);
@@ -72,7 +84,7 @@ impl CameraProjector {
                 }
                 let (cu, cv) = (floor_i64(u + 0.5), floor_i64(v + 0.5));
                 let px = image.get_pixel(cu as u32, cv as u32).0;
-                Some(px.map(|c| c as f32 / 255.0))
+                Some(px.map(|c| UNIT[c as usize]))
             }
             Sampling::Bilinear => {
                 if !(u >= 0.0 && v >= 0.0 && u <= w - 1.0 && v <= h - 1.0) {

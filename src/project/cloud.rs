@@ -9,7 +9,7 @@
 //! moves a point to another row.
 
 use super::augment::Augment;
-use super::frame::{assemble_on, PgmFrame, PointValues};
+use super::frame::{assemble_on, CellColours, PgmFrame, PointValues};
 use super::{
     project_impl, rings, Geometry, PgmSpec, PointCells, ProjectionStats, RowMode, Rows, EMPTY,
     LASERS,
@@ -259,8 +259,8 @@ fn plain(
         class,
         instance,
     };
-    let colour = cloud.colours.map(|_| colour_of);
-    let frame = assemble_on(values, &proj, colour, threads);
+    let colour = cloud.colours.map(|_| CellColours::of(&proj, colour_of));
+    let frame = assemble_on(values, &proj, colour.as_ref(), threads);
     CloudProjection {
         frame,
         point_cell: proj.point_cell,
@@ -354,10 +354,8 @@ fn augmented(
         instance: &k_inst,
     };
     let kept_colour = |k: usize| colour_of(a.kept[k] as usize);
-    let colour = cloud
-        .colours
-        .map(|_| &kept_colour as &dyn Fn(usize) -> Option<[f32; 3]>);
-    let frame = assemble_on(values, &proj, colour, threads);
+    let colour = cloud.colours.map(|_| CellColours::of(&proj, kept_colour));
+    let frame = assemble_on(values, &proj, colour.as_ref(), threads);
     // Back to the input's indices.
     let mut point_cell = vec![EMPTY; n];
     for (k, &i) in a.kept.iter().enumerate() {

@@ -79,8 +79,35 @@ impl<'a> PointValues<'a> {
     }
 }
 
-/// The colour of a kept point (by its index), when colour is on.
-type Colour<'a> = &'a dyn Fn(usize) -> Option<[f32; 3]>;
+/// The colour of every cell of a map (zeros where it has none) and whether it has one,
+/// row-major: what its r, g, b channels and [`PgmFrame::rgb_valid`] hold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellColours {
+    /// Each cell's r, g, b (0-1).
+    pub rgb: Vec<[f32; 3]>,
+    /// 1 where the cell has a colour.
+    pub valid: Vec<u8>,
+}
+
+impl CellColours {
+    /// The colours of `proj`'s cells: `colour(i)` of the point `i` each keeps (`None`: no
+    /// colour), in one pass over the cells (inlined: the colours of many cells are sampled at
+    /// once, their image reads overlapping).
+    #[inline]
+    pub fn of(proj: &Projection, colour: impl Fn(usize) -> Option<[f32; 3]>) -> CellColours {
+        let cells = proj.cell_point.len();
+        let (mut rgb, mut valid) = (Vec::with_capacity(cells), Vec::with_capacity(cells));
+        for &i in &proj.cell_point {
+            let c = if i == EMPTY { None } else { colour(i as usize) };
+            rgb.push(c.unwrap_or_default());
+            valid.push(u8::from(c.is_some()));
+        }
+        CellColours { rgb, valid }
+    }
+}
+
+/// The colours of a map's cells, when colour is on.
+type Colour<'a> = &'a CellColours;
 
 /// The `.npy` layout's first six planes, in [`Channels::npy`]'s order (checked by
 /// [`assemble`]): what [`cell_values`] stores in each cell, at these offsets.
@@ -93,11 +120,11 @@ const LIDAR: [Channel; 6] = [
     Channel::Label,
 ];
 
-/// Assembles the frame. `colour(point index)` gives the colour of a kept point, when colour is on.
+/// Assembles the frame; `colour`: its cells' colours ([`CellColours::of`]), when colour is on.
 pub fn assemble(
     values: PointValues<'_>,
     proj: &Projection,
-    colour: Option<&dyn Fn(usize) -> Option<[f32; 3]>>,
+    colour: Option<&CellColours>,
 ) -> PgmFrame {
     assemble_on(values, proj, colour, 1)
 }
@@ -107,10 +134,17 @@ pub fn assemble(
 pub(crate) fn assemble_on(
     values: PointValues<'_>,
     proj: &Projection,
-    colour: Option<&dyn Fn(usize) -> Option<[f32; 3]>>,
+    colour: Option<&CellColours>,
     threads: usize,
 ) -> PgmFrame {
     let channels = Channels::npy(colour.is_some());
+    if let Some(c) = colour {
+        let cells = proj.cell_point.len();
+        assert!(
+            c.rgb.len() == cells && c.valid.len() == cells,
+            "a colour per cell"
+        );
+    }
     assert!(
         channels.0[..LIDAR.len()] == LIDAR,
         "the .npy layout starts with x, y, z, intensity, range, label"
@@ -383,12 +417,11 @@ fn cell_values<const D: usize>(
         label[c].write(class[i] & keep as ClassId);
         inst[c].write(instance[i] & keep as u16);
         mask[c].write((keep as u8) & (range > 0.0) as u8);
-        if let (Some(f), Some(valid)) = (colour, &mut rgb_valid) {
-            let rgb = if keep == 0 { None } else { f(i) };
-            for (d, v) in dst[LIDAR.len()..].iter_mut().zip(rgb.unwrap_or_default()) {
+        if let (Some(colour), Some(valid)) = (colour, &mut rgb_valid) {
+            for (d, &v) in dst[LIDAR.len()..].iter_mut().zip(&colour.rgb[first + c]) {
                 d.write(v);
             }
-            valid[c].write(rgb.is_some() as u8);
+            valid[c].write(colour.valid[first + c]);
         }
     }
 }

@@ -35,7 +35,7 @@ use claim::{claim, Claimed};
 pub use cloud::{project_cloud, project_cloud_on, Cloud, CloudProjection, IntensityKind};
 pub(crate) use columns::Geometry;
 pub use columns::{atan2_fast, Columns, ATAN2_FAST_MAX_ERROR, BORDER, OUTSIDE};
-pub use frame::PgmFrame;
+pub use frame::{CellColours, PgmFrame};
 pub use preset::{MapChoice, MapOrigin, MapPreset, MapValue};
 pub use rows::{rings, Rows};
 use rows::{row_source, RowSource};
