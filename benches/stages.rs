@@ -307,9 +307,70 @@ fn lidar_only_bag(bag: &Path, out: &Path, little_endian_only: bool) -> Bag {
     Bag::open(out).unwrap()
 }
 
+/// Labelling a real scan (drive 0052 frame 0) among `n` made-up cars scattered over 60 x 60 m
+/// around the sensor: `label` (box by box in runs of points, up to `BY_BOX_MAX` boxes) against
+/// the grid's point-by-point `label_point`.
+fn labelling(c: &mut Criterion) {
+    use kitti2pgm::kitti::tracklets::{
+        ObjectType, Occlusion, Pose, PoseState, Tracklet, Truncation,
+    };
+    use kitti2pgm::label::LabelBox;
+    kitti2pgm::alloc::tune_mimalloc();
+    let (dp, f) = drive_0052();
+    let scan = Scan::read(&dp.drive.scan_path(f)).unwrap();
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut r = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut g = c.benchmark_group("label");
+    for n in [4usize, 64, 256, 512] {
+        let boxes: Vec<LabelBox> = (0..n)
+            .map(|i| {
+                let pose = Pose {
+                    t: [60.0 * r() - 30.0, 60.0 * r() - 30.0, -1.7],
+                    r: [0.0, 0.0, 6.0 * r()],
+                    state: PoseState::Labeled,
+                    occlusion: Occlusion::Visible,
+                    occlusion_kf: false,
+                    truncation: Truncation::InImage,
+                    amt_occlusion: 0.0,
+                    amt_occlusion_kf: 0,
+                    amt_border_l: 0.0,
+                    amt_border_r: 0.0,
+                    amt_border_kf: 0,
+                };
+                let car = Tracklet {
+                    object_type: ObjectType::Car,
+                    h: 1.5,
+                    w: 1.8,
+                    l: 4.3,
+                    first_frame: 0,
+                    poses: vec![pose.clone()],
+                    finished: Some(true),
+                };
+                LabelBox::new(i, &car, &pose, 1)
+            })
+            .collect();
+        let lab = Labeller::new(&boxes, 0);
+        g.bench_function(format!("scan_{n}_boxes"), |b| {
+            b.iter(|| lab.label(black_box(&scan.points)))
+        });
+        g.bench_function(format!("grid_{n}_boxes"), |b| {
+            b.iter(|| {
+                let pts = black_box(&scan.points);
+                pts.iter().map(|p| lab.label_point(p)).collect::<Vec<_>>()
+            })
+        });
+    }
+    g.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(30).measurement_time(std::time::Duration::from_secs(3));
-    targets = stages, knn, read
+    targets = stages, knn, read, labelling
 }
 criterion_main!(benches);
