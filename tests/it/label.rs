@@ -187,13 +187,24 @@ fn xorshift(state: &mut u64) -> f64 {
     (*state >> 11) as f64 / (1u64 << 53) as f64
 }
 
-/// `label` (box by box over blocks of points, up to `BY_BOX_MAX` boxes; the grid beyond)
-/// gives every point what `label_point` (the grid) gives it: on real frames, and on crowded
-/// made-up scenes of 1 to `BY_BOX_MAX` + 6 overlapping boxes of every class with points at
-/// the boxes' corners (the bounding boxes' faces), on them, near them, a NaN, and blocks
-/// that end mid-word.
+/// Labels `points` with `lab` and checks that each point gets what `label_point` gives it;
+/// returns the points in a box.
+fn label_agrees_with_label_point(lab: &Labeller, points: &[Point3], what: &str) -> usize {
+    let labels = lab.label(points);
+    let mut labelled = 0;
+    for (k, p) in points.iter().enumerate() {
+        let want = lab.label_point(p).unwrap_or((0, 0));
+        let got = (labels.class[k], labels.instance[k]);
+        assert_eq!(got, want, "{what}, point {k} {p:?}");
+        labelled += usize::from(want.0 != 0);
+    }
+    labelled
+}
+
+/// `label` (box by box in runs of points, up to `BY_BOX_MAX` boxes) gives every point of real
+/// frames what `label_point` (the grid) gives it.
 #[test]
-fn labelling_a_scan_gives_each_point_what_label_point_gives() {
+fn labelling_a_real_scan_gives_each_point_what_label_point_gives() {
     let classes = ClassMap::kitti_paper();
     for (drive, frame) in [(1u32, 0u32), (1, 45), (52, 0)] {
         let dir = fixture_drive(drive);
@@ -202,22 +213,17 @@ fn labelling_a_scan_gives_each_point_what_label_point_gives() {
         let boxes = kitti2pgm::label::tracklet_boxes(&tr, frame, &classes);
         let lab = Labeller::new(&boxes, 0);
         assert!(lab.len() <= kitti2pgm::label::boxes::BY_BOX_MAX);
-        let labels = lab.label(&scan.points);
-        let mut labelled = 0;
-        for (k, p) in scan.points.iter().enumerate() {
-            let want = lab.label_point(p).unwrap_or((0, 0));
-            assert_eq!(
-                (labels.class[k], labels.instance[k]),
-                want,
-                "drive {drive} frame {frame} point {k}"
-            );
-            labelled += usize::from(want.0 != 0);
-        }
-        assert!(
-            labelled > 100,
-            "drive {drive} frame {frame}: {labelled} points in boxes"
-        );
+        let what = format!("drive {drive} frame {frame}");
+        let labelled = label_agrees_with_label_point(&lab, &scan.points, &what);
+        assert!(labelled > 100, "{what}: {labelled} points in boxes");
     }
+}
+
+/// The same on crowded made-up scenes of 1 to `BY_BOX_MAX` + 6 overlapping boxes of every
+/// class (so both paths), with points at the boxes' corners and on their bounding boxes'
+/// faces, near them, with a NaN coordinate, and runs of points that end mid-word.
+#[test]
+fn labelling_a_crowded_scene_gives_each_point_what_label_point_gives() {
     let types = [
         ObjectType::Car,
         ObjectType::Pedestrian,
@@ -239,10 +245,9 @@ fn labelling_a_scan_gives_each_point_what_label_point_gives() {
             let h = b.cuboid.half_extents;
             for corner in 0..8 {
                 let s = |bit: u32| if corner >> bit & 1 == 1 { 1.0 } else { -1.0 };
-                let local = Point3::new(s(0) * h.x, s(1) * h.y, s(2) * h.z);
-                let c = b.pose * local;
+                let c = b.pose * Point3::new(s(0) * h.x, s(1) * h.y, s(2) * h.z);
                 points.push(c);
-                // On a bounding-box face: the corner's x with another box point's y and z.
+                // On a bounding-box face: the corner's x with the box centre's y and z.
                 points.push(Point3::new(c.x, b.pose.translation.y, b.pose.translation.z));
             }
             boxes.push(b);
@@ -255,7 +260,7 @@ fn labelling_a_scan_gives_each_point_what_label_point_gives() {
                 4.0 * r() - 3.0,
             ));
         }
-        // NaN coordinates (inside every box but for that one): never in a box.
+        // The first box's centre with a NaN coordinate: in no box.
         let c = boxes[0].pose.translation;
         let nan = [
             Point3::new(Real::NAN, c.y, c.z),
@@ -264,19 +269,10 @@ fn labelling_a_scan_gives_each_point_what_label_point_gives() {
         points.extend(nan);
         let lab = Labeller::new(&boxes, 0);
         let labels = lab.label(&points);
-        let last = points.len() - 2..points.len();
-        assert!(labels.class[last.clone()].iter().all(|&c| c == 0));
+        assert!(labels.class[points.len() - 2..].iter().all(|&c| c == 0));
         assert!(nan.iter().all(|p| lab.label_point(p).is_none()));
-        let mut labelled = 0;
-        for (k, p) in points.iter().enumerate() {
-            let want = lab.label_point(p).unwrap_or((0, 0));
-            assert_eq!(
-                (labels.class[k], labels.instance[k]),
-                want,
-                "{n_boxes} boxes, point {k} {p:?}"
-            );
-            labelled += usize::from(want.0 != 0);
-        }
-        assert!(labelled > 0, "{n_boxes} boxes: some points inside");
+        let what = format!("{n_boxes} boxes");
+        let labelled = label_agrees_with_label_point(&lab, &points, &what);
+        assert!(labelled > 0, "{what}: some points inside");
     }
 }
