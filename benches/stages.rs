@@ -311,9 +311,7 @@ fn lidar_only_bag(bag: &Path, out: &Path, little_endian_only: bool) -> Bag {
 /// around the sensor: `label` (box by box in runs of points, up to `BY_BOX_MAX` boxes) against
 /// the grid's point-by-point `label_point`.
 fn labelling(c: &mut Criterion) {
-    use kitti2pgm::kitti::tracklets::{
-        ObjectType, Occlusion, Pose, PoseState, Tracklet, Truncation,
-    };
+    use kitti2pgm::geom::{na, Iso3, Vector3};
     use kitti2pgm::label::LabelBox;
     kitti2pgm::alloc::tune_mimalloc();
     let (dp, f) = drive_0052();
@@ -323,35 +321,17 @@ fn labelling(c: &mut Criterion) {
         seed ^= seed << 13;
         seed ^= seed >> 7;
         seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
+        (seed >> 11) as f32 / (1u64 << 53) as f32
     };
     let mut g = c.benchmark_group("label");
     for n in [4usize, 64, 256, 512] {
+        // Cars (4.3 x 1.8 x 1.5 m) standing on the road, 1.7 m below the sensor.
         let boxes: Vec<LabelBox> = (0..n)
             .map(|i| {
-                let pose = Pose {
-                    t: [60.0 * r() - 30.0, 60.0 * r() - 30.0, -1.7],
-                    r: [0.0, 0.0, 6.0 * r()],
-                    state: PoseState::Labeled,
-                    occlusion: Occlusion::Visible,
-                    occlusion_kf: false,
-                    truncation: Truncation::InImage,
-                    amt_occlusion: 0.0,
-                    amt_occlusion_kf: 0,
-                    amt_border_l: 0.0,
-                    amt_border_r: 0.0,
-                    amt_border_kf: 0,
-                };
-                let car = Tracklet {
-                    object_type: ObjectType::Car,
-                    h: 1.5,
-                    w: 1.8,
-                    l: 4.3,
-                    first_frame: 0,
-                    poses: vec![pose.clone()],
-                    finished: Some(true),
-                };
-                LabelBox::new(i, &car, &pose, 1)
+                let centre = na::Translation3::new(60.0 * r() - 30.0, 60.0 * r() - 30.0, -0.95);
+                let yaw = na::UnitQuaternion::from_euler_angles(0.0, 0.0, 6.0 * r());
+                let half = Vector3::new(2.15, 0.9, 0.75);
+                LabelBox::centred(1, i as u16 + 1, half, Iso3::from_parts(centre, yaw))
             })
             .collect();
         let lab = Labeller::new(&boxes, 0);

@@ -106,9 +106,6 @@ impl CellColours {
     }
 }
 
-/// The colours of a map's cells, when colour is on.
-type Colour<'a> = &'a CellColours;
-
 /// The `.npy` layout's first six planes, in [`Channels::npy`]'s order (checked by
 /// [`assemble`]): what [`cell_values`] stores in each cell, at these offsets.
 const LIDAR: [Channel; 6] = [
@@ -357,7 +354,7 @@ fn cell_values<const D: usize>(
     proj: &Projection,
     first: usize,
     out: Cells<'_>,
-    colour: Option<Colour<'_>>,
+    colour: Option<&CellColours>,
 ) {
     assert_eq!(D, LIDAR.len() + if colour.is_some() { 3 } else { 0 });
     let cells = out.label.len();
