@@ -22,7 +22,7 @@ use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
 use kitti2pgm::project::{project, project_beams, project_cloud, Augment, Cloud, PgmSpec};
 use kitti2pgm::source::bag::{Bag, MessageRef};
-use kitti2pgm::source::pointcloud2::PointCloud2;
+use kitti2pgm::source::pointcloud2::{PointCloud2, TYPE_NAME};
 
 /// The same allocator as the binary, so that stage costs match what `convert` pays (set up as
 /// the binary sets it up: [`kitti2pgm::alloc::tune_mimalloc`], called by each group).
@@ -254,14 +254,15 @@ fn read(c: &mut Criterion) {
     g.throughput(Throughput::Elements(n));
     for (name, little_endian_only) in [("ros2_bag_vlp16", false), ("ros2_bag_vlp16_le", true)] {
         let bag = lidar_only_bag(&fixture, &dir.path().join(name), little_endian_only);
+        let topic = bag.topic(Some("/velodyne_points"), TYPE_NAME).unwrap();
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut points = 0;
-                let mut messages = bag.messages(black_box("/velodyne_points"));
+                let mut messages = bag.messages(black_box(&topic));
                 let what = std::path::Path::new("bag");
                 let decode = |m: MessageRef<'_>| PointCloud2::decode(m.data, what)?.cloud(what);
                 while let Some(cloud) = messages.next_with(decode) {
-                    points += cloud.unwrap().unwrap().len();
+                    points += cloud.unwrap().message().unwrap().unwrap().len();
                 }
                 points
             })
@@ -273,10 +274,10 @@ fn read(c: &mut Criterion) {
 /// The `/velodyne_points` messages of `bag` copied into a bag of that topic alone at `out`;
 /// with `little_endian_only`, its first little-endian message as many times as it has messages.
 fn lidar_only_bag(bag: &Path, out: &Path, little_endian_only: bool) -> Bag {
-    let mut messages: Vec<Vec<u8>> = Bag::open(bag)
-        .unwrap()
-        .messages("/velodyne_points")
-        .map(|m| m.unwrap().data)
+    let bag = Bag::open(bag).unwrap();
+    let topic = bag.topic(Some("/velodyne_points"), TYPE_NAME).unwrap();
+    let mut messages: Vec<Vec<u8>> = (bag.messages(&topic))
+        .map(|m| m.unwrap().message().unwrap().data)
         .collect();
     if little_endian_only {
         // CDR's encapsulation header: 0x00 0x01 is little-endian.

@@ -198,7 +198,7 @@ pub enum Error {
         first: PathBuf,
     },
     /// An output folder another process is converting into (its lock is held).
-    #[error("{}: another kitti2pgm conversion is writing into this folder", path.display())]
+    #[error("{}: another kitti2pgm run (convert or unpack) is writing into this folder", path.display())]
     Locked {
         /// The output folder.
         path: PathBuf,
@@ -218,6 +218,15 @@ pub enum Error {
         path: PathBuf,
         /// What is unfinished or inconsistent.
         problem: String,
+    },
+    /// A sequence folder an unpack began and never finished (killed, or failed before its end),
+    /// refused: its scans are a part of the recording that looks whole.
+    #[error("{}: an unfinished unpack ({} says complete: false: the unpack was interrupted); unpack the recording again with --overwrite", path.display(), marker.display())]
+    UnfinishedUnpack {
+        /// The sequence folder.
+        path: PathBuf,
+        /// The file that says so (`unpack.json`, `nuscenes.json`).
+        marker: PathBuf,
     },
     /// A per-point label file whose count is not its scan's.
     #[error("{}: {labels} labels, but the scan {} has {points} points{}", path.display(), scan.display(), note.map(|n| format!(" ({n})")).unwrap_or_default())]
@@ -297,7 +306,7 @@ impl Error {
             Error::DuplicatePrediction { .. } => "duplicate_prediction",
             Error::Locked { .. } => "locked",
             Error::NeedsScans { .. } => "needs_scans",
-            Error::Unfinished { .. } => "unfinished",
+            Error::Unfinished { .. } | Error::UnfinishedUnpack { .. } => "unfinished",
             Error::LabelCount { .. } => "label_count",
             Error::Mcap { .. } => "mcap",
             Error::MissingKey { .. } => "missing_key",
@@ -398,8 +407,12 @@ pub enum Role {
     Predictions,
     /// Converted data read by a report (maps, shards).
     Converted,
-    /// A list or a class map file.
+    /// A list file.
     List,
+    /// A class map file.
+    ClassMap,
+    /// A sensor's calibration table.
+    Calibration,
 }
 
 impl std::fmt::Display for Role {
@@ -410,6 +423,8 @@ impl std::fmt::Display for Role {
             Role::Predictions => "the predictions",
             Role::Converted => "the converted data",
             Role::List => "an input list",
+            Role::ClassMap => "the class map",
+            Role::Calibration => "the sensor calibration",
         })
     }
 }
@@ -423,6 +438,8 @@ pub enum Overlap {
     Inside,
     /// A folder holding the input.
     Holds,
+    /// Inside a folder that holds a hard link of one of the input's files (the path named).
+    BesideLink,
 }
 
 impl std::fmt::Display for Overlap {
@@ -431,6 +448,7 @@ impl std::fmt::Display for Overlap {
             Overlap::Is => "is",
             Overlap::Inside => "is inside",
             Overlap::Holds => "holds",
+            Overlap::BesideLink => "is inside a folder that holds (hard-linked) a file of",
         })
     }
 }

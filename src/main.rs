@@ -53,7 +53,8 @@ fn main() -> ExitCode {
                     return ExitCode::SUCCESS;
                 }
             }
-            eprintln!("kitti2pgm: error: {e:#}");
+            let message = chain_text(&e);
+            eprintln!("kitti2pgm: error: {message}");
             let hint = commands::hint(&e);
             if let Some(hint) = hint {
                 eprintln!("kitti2pgm: hint: {hint}");
@@ -73,7 +74,7 @@ fn main() -> ExitCode {
                 // The same error for programs: its kind (the library's, or `command`), the message.
                 let record = serde_json::json!({ "error": {
                     "kind": library.map_or("command", kitti2pgm::Error::kind),
-                    "message": format!("{e:#}"),
+                    "message": message,
                     "hint": hint,
                     "exit": status,
                 }});
@@ -82,4 +83,18 @@ fn main() -> ExitCode {
             ExitCode::from(status)
         }
     }
+}
+
+/// The error and its causes, each once: a library error's text already holds its source (the
+/// operating system's error), which anyhow's chain would print again.
+pub(crate) fn chain_text(e: &anyhow::Error) -> String {
+    let mut out = e.to_string();
+    for cause in e.chain().skip(1) {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+    }
+    out
 }

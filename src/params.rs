@@ -94,14 +94,19 @@ impl MapParams {
 }
 
 /// Reads the scan at `path` as a conversion with `sensor` does: its `.bin` records in the
-/// declared layout (`--fields`), and with a sensor its points moved into the sensor's frame and
-/// the beam row (and Ouster column) of every point ([`SensorParams::beam_rows`]). The one place
+/// declared layout (`--fields`), and with a sensor its points moved into the sensor's frame
+/// (those then beyond the range limit dropped, as the readers drop them) and the beam row (and Ouster column) of every point ([`SensorParams::beam_rows`]). The one place
 /// that decides it, for `convert`, `check`, `unproject` and `score`.
 pub fn read_scan(sensor: Option<&SensorParams>, path: &Path) -> Result<(Scan, Option<BeamRowsOf>)> {
     let layout = sensor.map(SensorParams::layout).transpose()?.flatten();
-    let (mut scan, rings) = Scan::read_with_rings(path, layout.as_ref())?;
+    let (mut scan, mut rings) = Scan::read_with_rings(path, layout.as_ref())?;
+    if let Some(pose) = sensor.and_then(|s| s.pose) {
+        // The range limit holds in the sensor's frame: points the pose carries past it go.
+        pose.to_sensor_frame(&mut scan.points);
+        scan.drop_beyond_range(rings.as_mut());
+    }
     let beams = sensor
-        .map(|s| s.beam_rows(&mut scan.points, rings.as_deref(), path))
+        .map(|s| s.beam_rows(&scan.points, rings.as_deref(), path))
         .transpose()?;
     Ok((scan, beams))
 }

@@ -52,6 +52,17 @@ pub fn run(a: CheckArgs, g: &Global) -> anyhow::Result<Outcome> {
         use kitti2pgm::fs::Role;
         let mut inputs = vec![(Role::Dataset, root.as_path())];
         inputs.extend(a.imageset.as_deref().map(|p| (Role::List, p)));
+        inputs.extend(
+            a.sensor
+                .sensor_calibration
+                .as_deref()
+                .map(|p| (Role::Calibration, p)),
+        );
+        inputs.extend(
+            (a.class_map.as_deref())
+                .filter(|p| p.is_file())
+                .map(|p| (Role::ClassMap, p)),
+        );
         kitti2pgm::fs::refuse_overlap(dir, &inputs)?;
     }
     let pb = progress::bar(0, g.progress, "checking scans");

@@ -120,6 +120,11 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
         map_origin: Some(a.map_choice().origin(Some(plan.layout()))),
     };
     opts.params.validate()?;
+    // A class map given as a file is an input too (the library checks the dataset and the
+    // calibration table).
+    if let Some(file) = a.class_map.as_deref().filter(|p| p.is_file()) {
+        kitti2pgm::fs::refuse_overlap(&a.out, &[(kitti2pgm::fs::Role::ClassMap, file)])?;
+    }
     // A split the user named must name frames that are there.
     if let Some(rule) = a.split.rule()? {
         let mut ids: Vec<_> = plan.frame_ids().collect();

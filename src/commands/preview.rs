@@ -99,7 +99,7 @@ pub fn run(a: PreviewArgs, g: &super::Global) -> anyhow::Result<Outcome> {
             match preview_npy(input, &a, single_file) {
                 Ok(()) => (1, 0),
                 Err(e) => {
-                    eprintln!("kitti2pgm: {e:#}");
+                    eprintln!("kitti2pgm: {}", crate::chain_text(&e));
                     (0, 1)
                 }
             }
@@ -179,7 +179,7 @@ fn preview_folder(input: &std::path::Path, a: &PreviewArgs) -> (usize, usize) {
         Ok(_) => (drawn, 0),
         Err(e) => {
             eprintln!(
-                "kitti2pgm: {e:#} ({drawn} previews of {} written)",
+                "kitti2pgm: {e} ({drawn} previews of {} written)",
                 input.display()
             );
             (drawn, 1)

@@ -73,8 +73,17 @@ fn print_summary(s: &UnpackSummary) {
             p.sensor_frame, p.points_frame, p.pose
         );
     }
+    if s.skipped_other_types > 0 {
+        println!(
+            "other types     {:>10}  (messages on {} that are not point clouds, passed over)",
+            s.skipped_other_types, s.topic
+        );
+    }
     for f in &s.failures {
         println!("FAILED frame {:06}: {}", f.frame, f.error);
+    }
+    for d in &s.damaged {
+        println!("DAMAGED {d}");
     }
 }
 
@@ -117,7 +126,8 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
     } else {
         print_summary(&s);
     }
-    Ok(match (s.failures.is_empty(), s.frames_written) {
+    let clean = s.failures.is_empty() && s.damaged.is_empty();
+    Ok(match (clean, s.frames_written) {
         (true, 0) => Outcome::Failed(format!("{} has no message to unpack", s.topic)),
         (true, _) => Outcome::Ok,
         (false, 0) => Outcome::Failed(format!("no frame of {} unpacked", s.topic)),

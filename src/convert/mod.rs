@@ -296,6 +296,27 @@ fn remove_unproduced_shards(opts: &ConvertOptions, run: &Run) -> Result<()> {
     Ok(())
 }
 
+/// Refuses an output folder over any input: the dataset (by path, and through the hard links of
+/// its scans: an unpacked nuScenes root's) and the sensor's calibration table.
+fn refuse_over_inputs(plan: &Plan, opts: &ConvertOptions) -> Result<()> {
+    use crate::fs::Role;
+    let mut inputs = vec![(Role::Dataset, plan.root.as_path())];
+    if let Some(crate::sensor::params::SensorSource::File { path, .. }) =
+        opts.params.map.sensor.as_ref().map(|s| &s.source)
+    {
+        inputs.push((Role::Calibration, path.as_path()));
+    }
+    crate::fs::refuse_overlap(&opts.out.root, &inputs)?;
+    let scans: Vec<std::path::PathBuf> = (plan.jobs.iter())
+        .map(|&(d, f)| plan.drives[d].drive.scan_path(f))
+        .collect();
+    crate::fs::refuse_linked(
+        &opts.out.root,
+        Role::Dataset,
+        scans.iter().map(|p| p.as_path()),
+    )
+}
+
 /// Converts every frame of `plan`, calling `progress` after each one (from worker threads).
 /// A frame that fails is recorded in the summary and the others go on; the whole run fails only
 /// over its folder: parameters or a class map that do not fit, an output folder over the
@@ -308,7 +329,7 @@ pub fn convert(
     let params = &opts.params;
     params.validate()?;
     plan.check_class_map(&params.map.class_map)?;
-    crate::fs::refuse_overlap(&opts.out.root, &[(crate::fs::Role::Dataset, &plan.root)])?;
+    refuse_over_inputs(plan, opts)?;
     create_dir(&opts.out.root)?;
     let _lock = resume::lock(&opts.out)?;
     let leftovers_removed = resume::remove_leftovers(&opts.out)?;

@@ -38,7 +38,13 @@ pub const LOCK_FILE: &str = ".kitti2pgm.lock";
 
 /// Takes the output folder's lock; it is released when the returned file is dropped.
 pub fn lock(out: &OutputDir) -> Result<File> {
-    let path = out.root.join(LOCK_FILE);
+    lock_dir(&out.root)
+}
+
+/// Takes the lock of the folder `dir` (a conversion's output, an unpack's root: one writer at a
+/// time); it is released when the returned file is dropped (or its process dies).
+pub fn lock_dir(dir: &Path) -> Result<File> {
+    let path = dir.join(LOCK_FILE);
     let file = File::options()
         .create(true)
         .truncate(false)
@@ -50,9 +56,7 @@ pub fn lock(out: &OutputDir) -> Result<File> {
         })?;
     match file.try_lock() {
         Ok(()) => Ok(file),
-        Err(std::fs::TryLockError::WouldBlock) => Err(Error::Locked {
-            path: out.root.clone(),
-        }),
+        Err(std::fs::TryLockError::WouldBlock) => Err(Error::Locked { path: dir.into() }),
         Err(std::fs::TryLockError::Error(source)) => Err(Error::Write { path, source }),
     }
 }

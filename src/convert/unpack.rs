@@ -14,9 +14,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::format::{atomic_write, create_dir, Durability};
-use crate::source::bag::{Bag, BagMessage, Topic};
+use crate::source::bag::{Bag, BagMessage, Lost, Next, Topic};
 use crate::source::pcd;
 use crate::source::pointcloud2::{PointCloud2, Stamp};
+use crate::source::unpacked::BAG_MARKER;
 
 /// What to unpack and where to.
 #[derive(Debug, Clone)]
@@ -87,6 +88,23 @@ pub struct UnpackSummary {
     /// The sensor's pose in the clouds' frame, when its frame was named.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_pose: Option<FoundPose>,
+    /// Messages on the topic of other types than `sensor_msgs/msg/PointCloud2`, passed over.
+    #[serde(default)]
+    pub skipped_other_types: u64,
+    /// Damaged chunks or records passed over that the bag's index says held none of the
+    /// topic's frames (or for which it has no index): each named with its place in its file.
+    #[serde(default)]
+    pub damaged: Vec<String>,
+    /// False from the unpack's first write until its last: a sequence whose `unpack.json` says
+    /// false is an interrupted unpack, which the readers refuse
+    /// ([`crate::source::unpacked::refuse_unfinished`]). Summaries of earlier versions, written
+    /// at the end only, are complete.
+    #[serde(default = "complete")]
+    pub complete: bool,
+}
+
+fn complete() -> bool {
+    true
 }
 
 /// One decoded frame, ready to write.
@@ -146,9 +164,10 @@ const BATCH: usize = 8;
 
 /// Unpacks the bag's `PointCloud2` topic (as [`Bag::topic`] found it, `TYPE_NAME`) into a
 /// sequence folder. `progress` hears of every frame done (its index). Errors: an unreadable bag,
-/// or a non-empty sequence without `overwrite`; a frame that fails is in the summary's
-/// `failures`, and a bag that breaks off partway keeps the frames read before (its error is the
-/// last failure).
+/// a root another run writes into (its lock), or a non-empty sequence without `overwrite`; a
+/// frame that fails, or is lost with a damaged chunk, is in the summary's `failures`, and a bag
+/// that breaks off partway keeps the frames read before (its error is the last failure). The
+/// sequence's `unpack.json` says `complete: false` until the end.
 pub fn unpack(
     bag: &Bag,
     topic: &Topic,
@@ -156,6 +175,8 @@ pub fn unpack(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<UnpackSummary> {
     let (seq, scans) = sequence_dirs(opts);
+    create_dir(&opts.out)?;
+    let _lock = super::resume::lock_dir(&opts.out)?;
     let before = existing_scans(&scans)?;
     if !before.is_empty() && !opts.overwrite {
         return Err(Error::Input {
@@ -168,24 +189,10 @@ pub fn unpack(
         });
     }
     create_dir(&scans)?;
-    let mut s = UnpackSummary {
-        version: env!("CARGO_PKG_VERSION").into(),
-        bag: bag.path.clone(),
-        topic: topic.name.clone(),
-        sequence_dir: seq.clone(),
-        messages: 0,
-        frames_written: 0,
-        points: 0,
-        first_stamp: None,
-        frame_ids: Vec::new(),
-        fields: Vec::new(),
-        log_time_frames: Vec::new(),
-        failures: Vec::new(),
-        removed_stale: 0,
-        sensor_pose: None,
-    };
+    let mut s = started(bag, topic, &seq)?;
+    write_summary(&s, &seq, opts.durability)?;
     let mut stamps: Vec<i64> = Vec::new();
-    let mut stream = bag.messages(&topic.name);
+    let mut stream = bag.messages(topic);
     loop {
         let mut batch = Vec::with_capacity(BATCH);
         let mut broke = None;
@@ -198,17 +205,21 @@ pub fn unpack(
         if batch.is_empty() && broke.is_none() {
             break;
         }
-        let done: Vec<Result<Unpacked>> = batch
+        let done: Vec<Option<Result<Unpacked>>> = batch
             .par_iter()
             .map(|m| {
+                let Next::Message(m) = m else { return None };
                 let r = unpack_one(m, &scans, opts.durability);
                 progress(m.index);
-                r
+                Some(r)
             })
             .collect();
-        for (m, r) in batch.iter().zip(done) {
-            s.messages += 1;
-            record(&mut s, &mut stamps, m, r);
+        for (m, r) in batch.into_iter().zip(done) {
+            match (m, r) {
+                (Next::Message(m), Some(r)) => record(&mut s, &mut stamps, &m, r),
+                (Next::Lost(lost), _) => record_lost(&mut s, &mut stamps, lost, progress),
+                (Next::Message(_), None) => unreachable!("every message is unpacked"),
+            }
         }
         if let Some(e) = broke {
             s.failures.push(UnpackFailure {
@@ -226,6 +237,64 @@ pub fn unpack(
     s.sensor_pose = located.as_ref().ok().cloned().flatten();
     finish(&mut s, &stamps, (&seq, &scans), &before, opts.durability)?;
     located.map(|_| s)
+}
+
+/// The summary of an unpack that begins (`complete: false`).
+fn started(bag: &Bag, topic: &Topic, seq: &Path) -> Result<UnpackSummary> {
+    Ok(UnpackSummary {
+        version: env!("CARGO_PKG_VERSION").into(),
+        bag: bag.path.clone(),
+        topic: topic.name.clone(),
+        sequence_dir: seq.into(),
+        messages: 0,
+        frames_written: 0,
+        points: 0,
+        first_stamp: None,
+        frame_ids: Vec::new(),
+        fields: Vec::new(),
+        log_time_frames: Vec::new(),
+        failures: Vec::new(),
+        removed_stale: 0,
+        sensor_pose: None,
+        skipped_other_types: bag.other_types_on(&topic.name, &topic.type_name)?,
+        damaged: Vec::new(),
+        complete: false,
+    })
+}
+
+/// Writes the sequence's `unpack.json`.
+fn write_summary(s: &UnpackSummary, seq: &Path, durability: Durability) -> Result<()> {
+    let json = serde_json::to_vec_pretty(s).expect("a summary serialises");
+    atomic_write(&seq.join(BAG_MARKER), &json, durability)
+}
+
+/// Adds the frames lost with a damaged chunk to the summary (failures, their log times in
+/// `times.txt`), or the damage alone when the bag's index names none of the topic's messages in
+/// it.
+fn record_lost(
+    s: &mut UnpackSummary,
+    stamps: &mut Vec<i64>,
+    lost: Lost,
+    progress: &(dyn Fn(u64) + Sync),
+) {
+    let what = format!("{}: {}", lost.file.display(), lost.damage.error);
+    if lost.messages.is_empty() {
+        s.damaged.push(format!(
+            "{what} (the bag's message index names none of {}'s messages in it)",
+            s.topic
+        ));
+        return;
+    }
+    for m in lost.messages {
+        s.messages += 1;
+        s.failures.push(UnpackFailure {
+            frame: m.index,
+            error: format!("lost with a damaged chunk: {what}"),
+        });
+        s.log_time_frames.push(m.index);
+        stamps.push(i64::try_from(m.log_time).unwrap_or(i64::MAX));
+        progress(m.index);
+    }
 }
 
 /// The pose of frame `sensor` in the clouds' frame `points` through the bag's `/tf_static`; an
@@ -268,6 +337,7 @@ fn locate_sensor(bag: &Bag, sensor: &str, points: &str, frame_ids: &[String]) ->
 
 /// Adds one frame's outcome to the summary and its stamp (nanoseconds) to `stamps`.
 fn record(s: &mut UnpackSummary, stamps: &mut Vec<i64>, m: &BagMessage, r: Result<Unpacked>) {
+    s.messages += 1;
     match r {
         Ok(u) => {
             s.frames_written += 1;
@@ -303,9 +373,6 @@ fn finish(
     before: &[PathBuf],
     durability: Durability,
 ) -> Result<()> {
-    let zero = stamps.first().copied().unwrap_or(0);
-    let times = crate::kitti::poses::times_text(stamps.iter().map(|t| t - zero));
-    atomic_write(&seq.join("times.txt"), times.as_bytes(), durability)?;
     let failed: std::collections::BTreeSet<u64> = s.failures.iter().map(|f| f.frame).collect();
     for old in before {
         let frame = old
@@ -315,11 +382,13 @@ fn finish(
         let keep = frame.is_some_and(|i: u64| {
             i < s.messages && !failed.contains(&i) && scan_path(scans, i) == *old
         });
-        if !keep {
-            std::fs::remove_file(old).map_err(|e| Error::io(old, e))?;
+        if !keep && crate::fs::remove_if_there(old)? {
             s.removed_stale += 1;
         }
     }
-    let json = serde_json::to_vec_pretty(&*s).expect("a summary serialises");
-    atomic_write(&seq.join("unpack.json"), &json, durability)
+    let zero = stamps.first().copied().unwrap_or(0);
+    let times = crate::kitti::poses::times_text(stamps.iter().map(|t| t - zero));
+    atomic_write(&seq.join("times.txt"), times.as_bytes(), durability)?;
+    s.complete = true;
+    write_summary(s, seq, durability)
 }

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::format::{atomic_write, create_dir, Durability};
 use crate::source::nuscenes::{Keyframe, NuScenes, Scene};
+use crate::source::unpacked::NUSCENES_MARKER;
 
 /// Bytes of one nuScenes point (x, y, z, intensity, ring index as float32).
 const POINT_BYTES: u64 = 20;
@@ -55,6 +56,15 @@ pub struct SceneIndex {
     pub tokens: Vec<String>,
     /// Its first keyframe's timestamp (microseconds), the zero of `times.txt`.
     pub first_timestamp_us: Option<i64>,
+    /// False from the scene's first write until its last (an interrupted unpack: the readers
+    /// refuse the sequence, [`crate::source::unpacked::refuse_unfinished`]); indexes of earlier
+    /// versions, written at the end only, are complete.
+    #[serde(default = "complete")]
+    pub complete: bool,
+}
+
+fn complete() -> bool {
+    true
 }
 
 /// What an unpack of a nuScenes root did.
@@ -122,15 +132,19 @@ fn existing(seq: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// Unpacks the scenes of `ds` that `opts` asks for. `progress` hears of every frame done.
-/// Errors: an unknown scene, or a non-empty sequence without `overwrite` (before anything is
-/// written); a frame that fails (its scan missing, its labels not one per point) is in the
-/// summary's `failures` and the rest goes on.
+/// Errors: an unknown scene, a root another run writes into (its lock), or a non-empty sequence
+/// without `overwrite` (before anything is written); a frame that fails (its scan missing, its
+/// labels not one per point) is in the summary's `failures` and the rest goes on. Each scene's
+/// `nuscenes.json` says `complete: false` from its first write until its old files are gone and
+/// its new ones written: an overwrite leaves what a fresh unpack leaves.
 pub fn unpack_nuscenes(
     ds: &NuScenes,
     opts: &NuScenesOptions,
     progress: &(dyn Fn() + Sync),
 ) -> Result<NuScenesSummary> {
     let scenes = chosen(ds, opts)?;
+    create_dir(&opts.out)?;
+    let _lock = super::resume::lock_dir(&opts.out)?;
     let mut before = Vec::new();
     for s in &scenes {
         let old = existing(&sequence_dir(&opts.out, s))?;
@@ -143,7 +157,7 @@ pub fn unpack_nuscenes(
                 ),
             });
         }
-        before.extend(old);
+        before.push(old);
     }
     let mut summary = NuScenesSummary {
         version: env!("CARGO_PKG_VERSION").into(),
@@ -156,48 +170,68 @@ pub fn unpack_nuscenes(
         failures: Vec::new(),
         removed_stale: 0,
     };
-    let mut written = std::collections::HashSet::new();
-    for s in scenes {
-        let seq = sequence_dir(&opts.out, s);
-        create_dir(&seq.join("velodyne"))?;
-        if s.keyframes.iter().any(|k| k.labels.is_some()) {
-            create_dir(&seq.join("labels"))?;
-        }
-        let done: Vec<Result<Written>> = s
-            .keyframes
-            .par_iter()
-            .enumerate()
-            .map(|(i, k)| {
-                let r = unpack_frame(k, &seq, i, opts.durability);
-                progress();
-                r
-            })
-            .collect();
-        for (i, r) in done.into_iter().enumerate() {
-            match r {
-                Ok(w) => {
-                    summary.frames_written += 1;
-                    summary.points += w.points;
-                    summary.labelled_frames += w.label.is_some() as u64;
-                    written.insert(w.scan);
-                    written.extend(w.label);
-                }
-                Err(e) => summary.failures.push(NuScenesFailure {
-                    scene: s.name.clone(),
-                    frame: i as u64,
-                    error: e.to_string(),
-                }),
-            }
-        }
-        summary
-            .scenes
-            .push(finish_scene(ds, s, &seq, opts.durability)?);
-    }
-    for old in before.iter().filter(|p| !written.contains(*p)) {
-        std::fs::remove_file(old).map_err(|e| Error::io(old, e))?;
-        summary.removed_stale += 1;
+    for (s, old) in scenes.into_iter().zip(before) {
+        let index = unpack_scene(ds, s, &old, opts, &mut summary, progress)?;
+        summary.scenes.push(index);
     }
     Ok(summary)
+}
+
+/// One scene: marked unfinished, its frames written, the files of an earlier unpack that no
+/// frame wrote again (`old`) removed, then `times.txt` and its finished index.
+fn unpack_scene(
+    ds: &NuScenes,
+    s: &Scene,
+    old: &[PathBuf],
+    opts: &NuScenesOptions,
+    summary: &mut NuScenesSummary,
+    progress: &(dyn Fn() + Sync),
+) -> Result<SceneIndex> {
+    let seq = sequence_dir(&opts.out, s);
+    create_dir(&seq.join("velodyne"))?;
+    let mut index = scene_index(ds, s, &seq);
+    write_index(&index, &seq, opts.durability)?;
+    if s.keyframes.iter().any(|k| k.labels.is_some()) {
+        create_dir(&seq.join("labels"))?;
+    }
+    let done: Vec<Result<Written>> = s
+        .keyframes
+        .par_iter()
+        .enumerate()
+        .map(|(i, k)| {
+            let r = unpack_frame(k, &seq, i, opts.durability);
+            progress();
+            r
+        })
+        .collect();
+    let mut written = std::collections::HashSet::new();
+    for (i, r) in done.into_iter().enumerate() {
+        match r {
+            Ok(w) => {
+                summary.frames_written += 1;
+                summary.points += w.points;
+                summary.labelled_frames += w.label.is_some() as u64;
+                written.insert(w.scan);
+                written.extend(w.label);
+            }
+            Err(e) => summary.failures.push(NuScenesFailure {
+                scene: s.name.clone(),
+                frame: i as u64,
+                error: e.to_string(),
+            }),
+        }
+    }
+    for f in old.iter().filter(|p| !written.contains(*p)) {
+        summary.removed_stale += crate::fs::remove_if_there(f)? as u64;
+    }
+    let zero = index.first_timestamp_us.unwrap_or(0);
+    let times = crate::kitti::poses::times_text(
+        (s.keyframes.iter()).map(|k| (k.timestamp_us - zero) * 1000),
+    );
+    atomic_write(&seq.join("times.txt"), times.as_bytes(), opts.durability)?;
+    index.complete = true;
+    write_index(&index, &seq, opts.durability)?;
+    Ok(index)
 }
 
 /// The files one frame wrote.
@@ -260,33 +294,38 @@ fn unpack_frame(k: &Keyframe, seq: &Path, i: usize, d: Durability) -> Result<Wri
 }
 
 /// `to` becomes `from`'s content: a hard link where the file system allows, else a copy
-/// (written atomically).
+/// (written atomically). A `to` that already is `from` (a link of an earlier unpack) stays: the
+/// rename of a link onto another link of the same file does nothing, and would leave the
+/// temporary name behind.
 fn link_or_copy(from: &Path, to: &Path, d: Durability) -> Result<()> {
+    if crate::fs::overlap(to, from) == Some(crate::fs::Overlap::Is) {
+        return Ok(());
+    }
     let tmp = to.with_extension("bin.link-tmp");
-    let _ = std::fs::remove_file(&tmp);
+    crate::fs::remove_if_there(&tmp)?;
     if std::fs::hard_link(from, &tmp).is_ok() {
-        return std::fs::rename(&tmp, to).map_err(|e| Error::io(to, e));
+        return std::fs::rename(&tmp, to).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            Error::io(to, e)
+        });
     }
     atomic_write(to, &crate::fs::read(from, crate::fs::Limit::Data)?, d)
 }
 
-/// Writes a scene's `times.txt` and `nuscenes.json`.
-fn finish_scene(ds: &NuScenes, s: &Scene, seq: &Path, d: Durability) -> Result<SceneIndex> {
-    let zero = s.keyframes.first().map(|k| k.timestamp_us);
-    let times = crate::kitti::poses::times_text(
-        s.keyframes
-            .iter()
-            .map(|k| (k.timestamp_us - zero.unwrap_or(0)) * 1000),
-    );
-    atomic_write(&seq.join("times.txt"), times.as_bytes(), d)?;
-    let index = SceneIndex {
+/// The index of scene `s` unpacked into `seq`, not yet complete.
+fn scene_index(ds: &NuScenes, s: &Scene, seq: &Path) -> SceneIndex {
+    SceneIndex {
         scene: s.name.clone(),
         version: ds.version.clone(),
         sequence_dir: seq.to_path_buf(),
         tokens: s.keyframes.iter().map(|k| k.token.clone()).collect(),
-        first_timestamp_us: zero,
-    };
-    let json = serde_json::to_vec_pretty(&index).expect("an index serialises");
-    atomic_write(&seq.join("nuscenes.json"), &json, d)?;
-    Ok(index)
+        first_timestamp_us: s.keyframes.first().map(|k| k.timestamp_us),
+        complete: false,
+    }
+}
+
+/// Writes a scene's `nuscenes.json`.
+fn write_index(index: &SceneIndex, seq: &Path, d: Durability) -> Result<()> {
+    let json = serde_json::to_vec_pretty(index).expect("an index serialises");
+    atomic_write(&seq.join(NUSCENES_MARKER), &json, d)
 }

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 pub use crate::error::NotFileKind;
 use crate::error::{Error, Result};
 pub use inputs::{fingerprint, note, recording, Fingerprint, InputRecord, Inputs};
-pub use overlap::{overlap, refuse_overlap, resolved, Overlap, Role};
+pub use overlap::{overlap, refuse_linked, refuse_overlap, resolved, Overlap, Role};
 
 /// The entries of a folder, sorted by path; errors name the folder.
 pub fn sorted_dir(dir: &Path) -> Result<Vec<PathBuf>> {
@@ -27,6 +27,19 @@ pub fn sorted_dir(dir: &Path) -> Result<Vec<PathBuf>> {
     }
     out.sort();
     Ok(out)
+}
+
+/// Removes the file at `path`: true when it was there, false when it was already gone (another
+/// name of the same run removed it); other failures are errors naming it.
+pub fn remove_if_there(path: &Path) -> Result<bool> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(true),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+        Err(source) => Err(Error::Write {
+            path: path.into(),
+            source,
+        }),
+    }
 }
 
 /// Whether something is at `path`: a file, or a link even when it leads nowhere (a dangling

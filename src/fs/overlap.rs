@@ -50,10 +50,11 @@ fn fold(p: &Path) -> PathBuf {
     out
 }
 
-/// How `output` meets `input`, if it does.
+/// How `output` meets `input`, if it does: by their resolved paths, or as one file reached by
+/// two paths (a hard link).
 pub fn overlap(output: &Path, input: &Path) -> Option<Overlap> {
     let (o, i) = (resolved(output), resolved(input));
-    if o == i {
+    if o == i || same_file(&o, &i) {
         Some(Overlap::Is)
     } else if o.starts_with(&i) {
         Some(Overlap::Inside)
@@ -80,6 +81,66 @@ pub fn refuse_overlap(output: &Path, inputs: &[(Role, &Path)]) -> Result<()> {
     Ok(())
 }
 
+/// Whether two existing paths are one file (the same device and inode; never elsewhere).
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(a), Ok(b)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return a.dev() == b.dev() && a.ino() == b.ino();
+        }
+    }
+    let _ = (a, b);
+    false
+}
+
+/// Refuses `output` when a folder it would lie in holds another link of one of `files` (inputs
+/// of `role`): an unpacked nuScenes root's scans are hard links of the dataset's own
+/// `samples/LIDAR_TOP` files, so an output inside that folder writes into the dataset though no
+/// path says so. Only files with several links are looked for; the output's existing folders
+/// are listed (their entries' inodes, without a `stat` each).
+pub fn refuse_linked<'a>(
+    output: &Path,
+    role: Role,
+    files: impl IntoIterator<Item = &'a Path>,
+) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::collections::HashSet;
+        use std::os::unix::fs::{DirEntryExt, MetadataExt};
+        let linked: HashSet<(u64, u64)> = (files.into_iter())
+            .filter_map(|f| std::fs::metadata(f).ok())
+            .filter(|m| m.is_file() && m.nlink() > 1)
+            .map(|m| (m.dev(), m.ino()))
+            .collect();
+        if linked.is_empty() {
+            return Ok(());
+        }
+        let out = resolved(output);
+        for dir in out.ancestors().filter(|d| d.is_dir()) {
+            let Ok(dev) = std::fs::metadata(dir).map(|m| m.dev()) else {
+                continue;
+            };
+            let Ok(entries) = std::fs::read_dir(dir) else {
+                continue;
+            };
+            for e in entries.flatten() {
+                if linked.contains(&(dev, e.ino())) {
+                    return Err(Error::OutputOverInput {
+                        output: output.into(),
+                        how: Overlap::BesideLink,
+                        role,
+                        input: e.path(),
+                    });
+                }
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = (output, role, files.into_iter().count());
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,6 +161,31 @@ mod tests {
             Some(Overlap::Is)
         );
         assert_eq!(overlap(&d.join("gt2"), &d.join("gt")), None);
+        // One file by two paths, and a folder that holds a hard link of an input file.
+        std::fs::create_dir_all(d.join("samples")).unwrap();
+        std::fs::write(d.join("samples/a.bin"), b"x").unwrap();
+        std::fs::hard_link(d.join("samples/a.bin"), d.join("gt/a.bin")).unwrap();
+        assert_eq!(
+            overlap(&d.join("samples/a.bin"), &d.join("gt/a.bin")),
+            Some(Overlap::Is)
+        );
+        let linked = [d.join("gt/a.bin")];
+        let e = refuse_linked(
+            &d.join("samples/out"),
+            Role::Dataset,
+            linked.iter().map(|p| p.as_path()),
+        );
+        assert!(
+            matches!(&e, Err(Error::OutputOverInput { how: Overlap::BesideLink, input, .. })
+                if input.ends_with("samples/a.bin")),
+            "{e:?}"
+        );
+        assert!(refuse_linked(
+            &d.join("x/out"),
+            Role::Dataset,
+            linked.iter().map(|p| p.as_path())
+        )
+        .is_ok());
         #[cfg(unix)]
         {
             std::os::unix::fs::symlink(d.join("gt"), d.join("link")).unwrap();

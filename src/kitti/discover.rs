@@ -116,20 +116,29 @@ fn raw_like(dir: &Path) -> Result<bool> {
 
 /// The sequences at `dir`: itself when it holds `velodyne/`, else `sequences/<NN>` (or `<NN>`)
 /// folders with scans.
+/// A sequence an unpack began and never finished is refused
+/// ([`crate::source::unpacked::refuse_unfinished`]).
 fn sequences(dir: &Path) -> Result<Vec<Drive>> {
-    if has_scans(dir) {
-        return Ok(Drive::sequence(dir).into_iter().collect());
-    }
-    let parent = if dir.join("sequences").is_dir() {
-        dir.join("sequences")
+    let folders = if has_scans(dir) {
+        vec![dir.to_path_buf()]
     } else {
-        dir.to_path_buf()
+        let parent = if dir.join("sequences").is_dir() {
+            dir.join("sequences")
+        } else {
+            dir.to_path_buf()
+        };
+        (crate::fs::sorted_dir(&parent)?.into_iter())
+            .filter(|p| has_scans(p))
+            .collect()
     };
-    Ok(crate::fs::sorted_dir(&parent)?
-        .into_iter()
-        .filter(|p| has_scans(p))
-        .filter_map(|p| Drive::sequence(&p))
-        .collect())
+    let mut drives = Vec::with_capacity(folders.len());
+    for p in folders {
+        if let Some(d) = Drive::sequence(&p) {
+            crate::source::unpacked::refuse_unfinished(&p)?;
+            drives.push(d);
+        }
+    }
+    Ok(drives)
 }
 
 /// The object split at `dir`: itself when it holds `velodyne/` (and no `labels/`, which a

@@ -172,6 +172,36 @@ impl Scan {
         )
     }
 
+    /// Drops the points now beyond [`MAX_RANGE_M`] (after a move into the sensor's frame: a
+    /// `--sensor-pose` far from the points carries them past the limit), with their ring values,
+    /// counting them in `dropped_out_of_range`; returns how many. In f64, as the readers' test.
+    pub fn drop_beyond_range(&mut self, rings: Option<&mut Vec<u16>>) -> usize {
+        let max2 = (MAX_RANGE_M as f64).powi(2);
+        let far = |p: &Point3| {
+            let (x, y, z) = (p.x as f64, p.y as f64, p.z as f64);
+            // A point made non-finite by the move is dropped too.
+            let r2 = x * x + y * y + z * z;
+            r2.is_nan() || r2 > max2
+        };
+        if !self.points.iter().any(far) {
+            return 0;
+        }
+        let keep: Vec<bool> = self.points.iter().map(|p| !far(p)).collect();
+        let gone: Vec<u32> = (self.file_indices().into_iter().zip(&keep))
+            .filter(|(_, k)| !**k)
+            .map(|(i, _)| i)
+            .collect();
+        retain_flagged(&mut self.points, &keep);
+        retain_flagged(&mut self.reflectance, &keep);
+        if let Some(r) = rings {
+            retain_flagged(r, &keep);
+        }
+        self.dropped.extend_from_slice(&gone);
+        self.dropped.sort_unstable();
+        self.dropped_out_of_range += gone.len();
+        gone.len()
+    }
+
     /// Number of finite points.
     pub fn len(&self) -> usize {
         self.points.len()
@@ -215,6 +245,12 @@ impl Scan {
         }
         out
     }
+}
+
+/// Keeps the values of `v` whose flag in `keep` is set.
+fn retain_flagged<T>(v: &mut Vec<T>, keep: &[bool]) {
+    let mut k = keep.iter();
+    v.retain(|_| *k.next().expect("one flag a value"));
 }
 
 #[cfg(test)]

@@ -75,6 +75,26 @@ mod avx512 {
 
     const PERMUTES: [([i64; 8], [i64; 8]); 3] = [permutes(0), permutes(1), permutes(2)];
 
+    /// The pass's constants: the empty-cell marker, the point count, the pairing and the
+    /// permutes of the interleave.
+    #[derive(Clone, Copy)]
+    struct Consts {
+        empty: __m512i,
+        count: __m512i,
+        pairs: [__m512i; 2],
+        perm: [(__m512i, __m512i); 3],
+    }
+
+    /// Sixteen cells' values, gathered: which lanes keep a point and are valid, the (x, y),
+    /// (z, intensity), (range, class) pairs of cells 0-7 and 8-15 as f64 lanes, class and
+    /// instance.
+    struct Group {
+        valid: __mmask16,
+        halves: [[__m512d; 3]; 2],
+        class: __m512i,
+        inst: __m512i,
+    }
+
     /// [`super::cells`] on AVX-512.
     ///
     /// # Safety
@@ -91,12 +111,14 @@ mod avx512 {
         assert_eq!(out.data.len(), cells * 6, "six channels a cell");
         let groups = cells / 16;
         let zero = _mm512_setzero_si512();
-        let (empty, count) = (_mm512_set1_epi32(EMPTY as i32), _mm512_set1_epi32(n as i32));
-        let (one, three) = (_mm512_set1_epi32(1), _mm512_set1_epi32(3));
         let pairs_lo = _mm512_setr_epi32(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23);
-        let pairs_hi = _mm512_add_epi32(pairs_lo, _mm512_set1_epi32(8));
-        let mut perm = [(zero, zero); 3];
-        for (p, (a, b)) in perm.iter_mut().zip(&PERMUTES) {
+        let mut k = Consts {
+            empty: _mm512_set1_epi32(EMPTY as i32),
+            count: _mm512_set1_epi32(n as i32),
+            pairs: [pairs_lo, _mm512_add_epi32(pairs_lo, _mm512_set1_epi32(8))],
+            perm: [(zero, zero); 3],
+        };
+        for (p, (a, b)) in k.perm.iter_mut().zip(&PERMUTES) {
             // SAFETY: eight i64 are 64 bytes.
             *p = unsafe {
                 (
@@ -105,87 +127,111 @@ mod avx512 {
                 )
             };
         }
-        let xyz = v.points.as_ptr().cast::<f32>();
+        let mut out = out;
         for g in 0..groups {
-            let c0 = g * 16;
-            // SAFETY: cells c0..c0 + 16 are within every per-cell slice (groups * 16 <= cells).
-            let (cp, range) = unsafe {
-                (
-                    _mm512_loadu_si512(v.cell_point.as_ptr().add(c0).cast()),
-                    _mm512_loadu_ps(v.cell_range.as_ptr().add(c0)),
-                )
-            };
-            let keep = _mm512_cmpneq_epi32_mask(cp, empty);
-            assert_eq!(
-                _mm512_mask_cmplt_epu32_mask(keep, cp, count),
-                keep,
-                "a cell keeps one of the points"
-            );
-            let i = _mm512_maskz_mov_epi32(keep, cp);
-            let i3 = _mm512_add_epi32(i, _mm512_add_epi32(i, i));
-            // The class byte from the four bytes ending at it (from the first, for the first
-            // three points), the instance from the two values ending at it.
-            let class_at = _mm512_sub_epi32(_mm512_max_epu32(i, three), three);
-            let inst_at = _mm512_sub_epi32(_mm512_max_epu32(i, one), one);
-            // SAFETY: every kept index is below n (asserted), an empty lane reads nothing;
-            // the class reads bytes class_at..class_at + 4 <= max(i + 1, 4) <= n, the
-            // instance values inst_at..inst_at + 2 <= max(i + 1, 2) <= n.
-            let nothing = _mm512_setzero_ps();
-            let (x, y, z, it, class, inst) = unsafe {
-                (
-                    _mm512_mask_i32gather_ps::<4>(nothing, keep, i3, xyz.cast()),
-                    _mm512_mask_i32gather_ps::<4>(nothing, keep, i3, xyz.add(1).cast()),
-                    _mm512_mask_i32gather_ps::<4>(nothing, keep, i3, xyz.add(2).cast()),
-                    _mm512_mask_i32gather_ps::<4>(nothing, keep, i, v.intensity.as_ptr().cast()),
-                    _mm512_mask_i32gather_epi32::<1>(zero, keep, class_at, v.class.as_ptr().cast()),
-                    _mm512_mask_i32gather_epi32::<2>(
-                        zero,
-                        keep,
-                        inst_at,
-                        v.instance.as_ptr().cast(),
-                    ),
-                )
-            };
-            let class =
-                _mm512_srlv_epi32(class, _mm512_slli_epi32::<3>(_mm512_sub_epi32(i, class_at)));
-            let class = _mm512_and_si512(class, _mm512_set1_epi32(0xff));
-            let inst =
-                _mm512_srlv_epi32(inst, _mm512_slli_epi32::<4>(_mm512_sub_epi32(i, inst_at)));
-            let inst = _mm512_and_si512(inst, _mm512_set1_epi32(0xffff));
-            let range = _mm512_maskz_mov_ps(keep, range);
-            let valid = keep & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(range, _mm512_setzero_ps());
-            let class_f = _mm512_cvtepi32_ps(class);
-            // (x, y), (z, intensity), (range, class) pairs of cells 0-7 and 8-15, as f64 lanes.
-            let mut halves = [[_mm512_setzero_pd(); 3]; 2];
-            for (half, idx) in halves.iter_mut().zip([pairs_lo, pairs_hi]) {
-                for (p, (a, b)) in half.iter_mut().zip([(x, y), (z, it), (range, class_f)]) {
-                    *p = _mm512_castps_pd(_mm512_permutex2var_ps(a, idx, b));
-                }
-            }
-            // SAFETY: the outputs' slots of cells c0..c0 + 16 are within them (asserted above).
+            // SAFETY: cells g * 16..g * 16 + 16 are within every per-cell slice (groups * 16 <=
+            // cells, asserted with the outputs' lengths above).
             unsafe {
-                let data = out.data.as_mut_ptr().add(c0 * 6).cast::<f64>();
-                for (h, [xy, zi, rc]) in halves.into_iter().enumerate() {
-                    for (o, (first, second)) in perm.iter().enumerate() {
-                        let t = _mm512_permutex2var_pd(xy, *first, zi);
-                        let t = _mm512_permutex2var_pd(t, *second, rc);
-                        _mm512_storeu_pd(data.add(8 * (3 * h + o)), t);
-                    }
-                }
-                _mm_storeu_si128(
-                    out.label.as_mut_ptr().add(c0).cast(),
-                    _mm512_cvtepi32_epi8(class),
-                );
-                _mm256_storeu_si256(
-                    out.instance.as_mut_ptr().add(c0).cast(),
-                    _mm512_cvtepi32_epi16(inst),
-                );
-                _mm_storeu_si128(
-                    out.mask.as_mut_ptr().add(c0).cast(),
-                    _mm_maskz_mov_epi8(valid, _mm_set1_epi8(1)),
-                );
+                let group = gather(&v, g * 16, &k);
+                store(&mut out, g * 16, &group, &k);
             }
         }
         groups * 16
+    }
+
+    /// The values of cells `c0..c0 + 16`, gathered from their kept points.
+    ///
+    /// # Safety
+    /// As [`cells`]; the cells are within `v`'s per-cell slices.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
+    #[inline]
+    unsafe fn gather(v: &Kept<'_>, c0: usize, k: &Consts) -> Group {
+        let zero = _mm512_setzero_si512();
+        let (one, three) = (_mm512_set1_epi32(1), _mm512_set1_epi32(3));
+        // SAFETY: the caller's.
+        let (cp, range) = unsafe {
+            (
+                _mm512_loadu_si512(v.cell_point.as_ptr().add(c0).cast()),
+                _mm512_loadu_ps(v.cell_range.as_ptr().add(c0)),
+            )
+        };
+        let keep = _mm512_cmpneq_epi32_mask(cp, k.empty);
+        assert_eq!(
+            _mm512_mask_cmplt_epu32_mask(keep, cp, k.count),
+            keep,
+            "a cell keeps one of the points"
+        );
+        let i = _mm512_maskz_mov_epi32(keep, cp);
+        let i3 = _mm512_add_epi32(i, _mm512_add_epi32(i, i));
+        // The class byte from the four bytes ending at it (from the first, for the first three
+        // points), the instance from the two values ending at it.
+        let class_at = _mm512_sub_epi32(_mm512_max_epu32(i, three), three);
+        let inst_at = _mm512_sub_epi32(_mm512_max_epu32(i, one), one);
+        let xyz = v.points.as_ptr().cast::<f32>();
+        // SAFETY: every kept index is below n (asserted), an empty lane reads nothing; the
+        // class reads bytes class_at..class_at + 4 <= max(i + 1, 4) <= n, the instance values
+        // inst_at..inst_at + 2 <= max(i + 1, 2) <= n.
+        let nothing = _mm512_setzero_ps();
+        let (x, y, z, it, class, inst) = unsafe {
+            (
+                _mm512_mask_i32gather_ps::<4>(nothing, keep, i3, xyz.cast()),
+                _mm512_mask_i32gather_ps::<4>(nothing, keep, i3, xyz.add(1).cast()),
+                _mm512_mask_i32gather_ps::<4>(nothing, keep, i3, xyz.add(2).cast()),
+                _mm512_mask_i32gather_ps::<4>(nothing, keep, i, v.intensity.as_ptr().cast()),
+                _mm512_mask_i32gather_epi32::<1>(zero, keep, class_at, v.class.as_ptr().cast()),
+                _mm512_mask_i32gather_epi32::<2>(zero, keep, inst_at, v.instance.as_ptr().cast()),
+            )
+        };
+        let class = _mm512_srlv_epi32(class, _mm512_slli_epi32::<3>(_mm512_sub_epi32(i, class_at)));
+        let class = _mm512_and_si512(class, _mm512_set1_epi32(0xff));
+        let inst = _mm512_srlv_epi32(inst, _mm512_slli_epi32::<4>(_mm512_sub_epi32(i, inst_at)));
+        let inst = _mm512_and_si512(inst, _mm512_set1_epi32(0xffff));
+        let range = _mm512_maskz_mov_ps(keep, range);
+        let valid = keep & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(range, _mm512_setzero_ps());
+        let class_f = _mm512_cvtepi32_ps(class);
+        let mut halves = [[_mm512_setzero_pd(); 3]; 2];
+        for (half, idx) in halves.iter_mut().zip(k.pairs) {
+            for (p, (a, b)) in half.iter_mut().zip([(x, y), (z, it), (range, class_f)]) {
+                *p = _mm512_castps_pd(_mm512_permutex2var_ps(a, idx, b));
+            }
+        }
+        Group {
+            valid,
+            halves,
+            class,
+            inst,
+        }
+    }
+
+    /// Writes cells `c0..c0 + 16`: the six channels interleaved, then label, instance, mask.
+    ///
+    /// # Safety
+    /// As [`cells`]; the cells are within `out`'s slices.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq")]
+    #[inline]
+    unsafe fn store(out: &mut Out<'_>, c0: usize, g: &Group, k: &Consts) {
+        // SAFETY: the caller's.
+        unsafe {
+            let data = out.data.as_mut_ptr().add(c0 * 6).cast::<f64>();
+            for (h, [xy, zi, rc]) in g.halves.into_iter().enumerate() {
+                for (o, (first, second)) in k.perm.iter().enumerate() {
+                    let t = _mm512_permutex2var_pd(xy, *first, zi);
+                    let t = _mm512_permutex2var_pd(t, *second, rc);
+                    _mm512_storeu_pd(data.add(8 * (3 * h + o)), t);
+                }
+            }
+            _mm_storeu_si128(
+                out.label.as_mut_ptr().add(c0).cast(),
+                _mm512_cvtepi32_epi8(g.class),
+            );
+            _mm256_storeu_si256(
+                out.instance.as_mut_ptr().add(c0).cast(),
+                _mm512_cvtepi32_epi16(g.inst),
+            );
+            _mm_storeu_si128(
+                out.mask.as_mut_ptr().add(c0).cast(),
+                _mm_maskz_mov_epi8(g.valid, _mm_set1_epi8(1)),
+            );
+        }
     }
 }

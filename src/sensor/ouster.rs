@@ -51,6 +51,11 @@ fn numbers(v: &Value, path: &Path, key: &str) -> Result<Vec<f64>> {
 }
 
 /// `lidar_to_sensor_transform` (row-major 4x4, millimetres) as a rigid motion in metres.
+/// The largest offset inside a unit that a metadata file may state (the beam origin's from the
+/// lidar's, the lidar's from the sensor's): Ouster's are tens of millimetres; a metre or more
+/// is a damaged or made-up file, whose points would all miss the beam model.
+const MAX_INTERNAL_OFFSET_MM: f64 = 1000.0;
+
 fn sensor_frame(root: &Value, path: &Path) -> Result<na::Isometry3<f64>> {
     let key = "lidar_to_sensor_transform";
     let v = field(root, &["lidar_intrinsics"], key).ok_or_else(|| {
@@ -70,6 +75,17 @@ fn sensor_frame(root: &Value, path: &Path) -> Result<na::Isometry3<f64>> {
     let rotation = m.fixed_view::<3, 3>(0, 0).into_owned();
     check_rotation(&rotation).map_err(|e| Error::format(path, format!("{key} {e}")))?;
     let translation = na::Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]) / 1000.0;
+    let norm = translation.norm();
+    if norm.is_nan() || norm > MAX_INTERNAL_OFFSET_MM / 1000.0 {
+        return Err(Error::format(
+            path,
+            format!(
+                "{key} moves the lidar {} mm from the sensor's origin: not an Ouster unit's \
+                 (tens of millimetres; at most {MAX_INTERNAL_OFFSET_MM} mm taken)",
+                crate::error::shown(translation.norm() * 1000.0)
+            ),
+        ));
+    }
     Ok(na::Isometry3::from_parts(
         translation.into(),
         na::UnitQuaternion::from_matrix(&rotation),
@@ -152,11 +168,14 @@ pub fn parse(text: &str, path: &Path) -> Result<SensorModel> {
     }
     let offset_mm = need(&beam, "lidar_origin_to_beam_origin_mm")?
         .as_f64()
-        .filter(|v| v.is_finite() && *v >= 0.0)
+        .filter(|v| (0.0..=MAX_INTERNAL_OFFSET_MM).contains(v))
         .ok_or_else(|| {
             Error::format(
                 path,
-                "lidar_origin_to_beam_origin_mm is not a non-negative number",
+                format!(
+                    "lidar_origin_to_beam_origin_mm is not a number of 0-{MAX_INTERNAL_OFFSET_MM} \
+                     mm (an Ouster unit's is 15-30 mm)"
+                ),
             )
         })?;
     let lidar_to_points = sensor_frame(&root, path)?;

@@ -149,18 +149,15 @@ impl SensorParams {
         })
     }
 
-    /// A scan of this sensor in its terms: `points` moved into the sensor's frame (with a
-    /// pose), then every point's beam row, from the scan's ring field where it has one (its ids
+    /// A scan of this sensor in its terms (`points` already in the sensor's frame:
+    /// [`crate::params::read_scan`] applies the pose): every point's beam row, from the scan's ring field where it has one (its ids
     /// must be the sensor's beams; `path` names the scan), else the table's nearest beam.
     pub fn beam_rows(
         &self,
-        points: &mut [Point3],
+        points: &[Point3],
         rings: Option<&[u16]>,
         path: &Path,
     ) -> Result<BeamRowsOf> {
-        if let Some(pose) = self.pose {
-            pose.to_sensor_frame(points);
-        }
         let model = self.model()?;
         let beams = model.beams();
         let mut of = match rings {

@@ -17,8 +17,14 @@ pub struct SensorPose {
     pub rpy_deg: [f64; 3],
 }
 
+/// The farthest a sensor can sit from the origin of its points' frame: a mounting on a vehicle
+/// or a rig is metres away; a pose beyond this is a typing error (`1e30`), which would carry every
+/// point past the range limit.
+pub const MAX_MOUNT_OFFSET_M: f64 = 100.0;
+
 impl SensorPose {
-    /// Parses `x,y,z` or `x,y,z,roll,pitch,yaw` (metres, degrees).
+    /// Parses `x,y,z` or `x,y,z,roll,pitch,yaw` (metres, degrees); a position farther than
+    /// [`MAX_MOUNT_OFFSET_M`] from the origin is not a mounting and is refused.
     pub fn parse(text: &str) -> Result<SensorPose> {
         let bad = |m: &str| Error::Config(format!("--sensor-pose {text:?}: {m}"));
         let v: Vec<f64> = text
@@ -26,17 +32,29 @@ impl SensorPose {
             .map(|s| s.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
             .collect::<Option<_>>()
             .ok_or_else(|| bad("not a list of finite numbers"))?;
-        match v[..] {
-            [x, y, z] => Ok(SensorPose {
+        let pose = match v[..] {
+            [x, y, z] => SensorPose {
                 xyz: [x, y, z],
                 rpy_deg: [0.0; 3],
-            }),
-            [x, y, z, r, p, w] => Ok(SensorPose {
+            },
+            [x, y, z, r, p, w] => SensorPose {
                 xyz: [x, y, z],
                 rpy_deg: [r, p, w],
-            }),
-            _ => Err(bad("expected x,y,z or x,y,z,roll,pitch,yaw")),
+            },
+            _ => return Err(bad("expected x,y,z or x,y,z,roll,pitch,yaw")),
+        };
+        let offset = pose.xyz.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if offset > MAX_MOUNT_OFFSET_M {
+            return Err(bad(&format!(
+                "the sensor {} m from the points' origin is not a mounting (at most \
+                 {MAX_MOUNT_OFFSET_M} m): the pose is the sensor's place on the vehicle",
+                crate::error::shown(offset)
+            )));
         }
+        if pose.rpy_deg.iter().any(|a| a.abs() > 360.0) {
+            return Err(bad("roll, pitch and yaw are degrees within -360..360"));
+        }
+        Ok(pose)
     }
 
     /// The pose of a rigid motion sensor frame -> points' frame (a bag's static transforms).
@@ -117,7 +135,15 @@ mod tests {
             SensorPose::parse(&back.to_string()).unwrap().to_string(),
             back.to_string()
         );
-        for bad in ["1,2", "1,2,3,4", "1,x,3", "1,2,inf"] {
+        for bad in [
+            "1,2",
+            "1,2,3,4",
+            "1,x,3",
+            "1,2,inf",
+            "1e30,0,0",
+            "600,0,0",
+            "0,0,0,0,0,1e9",
+        ] {
             assert!(SensorPose::parse(bad).is_err(), "{bad}");
         }
     }

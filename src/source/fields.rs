@@ -46,6 +46,25 @@ impl FieldType {
         }
     }
 
+    /// Whether a value read as text (an ascii PCD's) is one of this type: an integer within the
+    /// type's range, or for floats any number (NaN marks a non-dense cloud's empty point; a
+    /// finite value beyond f32's range is not a float32).
+    pub fn holds(self, v: f64) -> bool {
+        let int = |lo: f64, hi: f64| v.fract() == 0.0 && (lo..=hi).contains(&v);
+        match self {
+            FieldType::I8 => int(i8::MIN.into(), i8::MAX.into()),
+            FieldType::U8 => int(0.0, u8::MAX.into()),
+            FieldType::I16 => int(i16::MIN.into(), i16::MAX.into()),
+            FieldType::U16 => int(0.0, u16::MAX.into()),
+            FieldType::I32 => int(i32::MIN.into(), i32::MAX.into()),
+            FieldType::U32 => int(0.0, u32::MAX.into()),
+            FieldType::I64 => int(i64::MIN as f64, i64::MAX as f64),
+            FieldType::U64 => int(0.0, u64::MAX as f64),
+            FieldType::F32 => !v.is_finite() || v.abs() <= f32::MAX as f64,
+            FieldType::F64 => true,
+        }
+    }
+
     /// PCD's type letter and size (`F 4`, `U 2`).
     pub fn from_pcd(letter: &str, size: usize) -> Option<FieldType> {
         Some(match (letter, size) {
@@ -177,8 +196,8 @@ impl PointLayout {
 
     /// Parses a declaration such as `x,y,z,intensity,ring:f32` or `x,y,z:f32,intensity:u8,_:u8,
     /// ring:u16`: comma-separated names, each with an optional `:type`; a field without a type
-    /// takes the type of the next field that has one (the last ones default to `f32`); `_` is
-    /// padding.
+    /// takes the type of the next field that has one (so the last field must have one); `_` is
+    /// padding, the only name that may come twice.
     pub fn declared(spec: &str) -> Result<PointLayout> {
         let bad = |m: String| Error::Config(format!("--fields {spec:?}: {m}"));
         let mut named: Vec<(String, Option<FieldType>)> = Vec::new();
@@ -197,7 +216,16 @@ impl PointLayout {
             if name.is_empty() {
                 return Err(bad("an empty field name".into()));
             }
+            if name != "_" && named.iter().any(|(n, _)| n == name) {
+                return Err(bad(format!("field {name} is named twice")));
+            }
             named.push((name.to_string(), ty));
+        }
+        if let Some((name, None)) = named.last() {
+            return Err(bad(format!(
+                "the last field, {name}, has no type: a type ends each run of names it types \
+                 (x,y,z:f32 makes all three float32)"
+            )));
         }
         let mut next = FieldType::F32;
         let mut typed: Vec<(String, FieldType)> = Vec::with_capacity(named.len());
@@ -223,10 +251,12 @@ impl PointLayout {
         fields.join(",")
     }
 
+    /// The first field named one of `names` (in their order of preference); a field of count
+    /// 0 is zero bytes wide and holds nothing, so it is never one.
     fn find(&self, names: &[&str]) -> Option<&Field> {
-        names
-            .iter()
-            .find_map(|n| self.fields.iter().find(|f| f.name.eq_ignore_ascii_case(n)))
+        names.iter().find_map(|n| {
+            (self.fields.iter()).find(|f| f.count > 0 && f.name.eq_ignore_ascii_case(n))
+        })
     }
 
     /// Checks the layout (fields inside the record, x, y, z present) and finds the roles.

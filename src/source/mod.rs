@@ -19,6 +19,7 @@ pub mod nuscenes;
 pub mod pcd;
 pub mod pointcloud2;
 pub mod tf;
+pub mod unpacked;
 
 use std::path::Path;
 
@@ -99,6 +100,8 @@ pub struct LidarCloud {
     pub dropped: Vec<u32>,
     /// How many of `dropped` were finite but beyond [`MAX_RANGE_M`](crate::geom::MAX_RANGE_M).
     pub dropped_out_of_range: usize,
+    /// Bytes after the declared points, left unread (a `binary` PCD some exporters pad).
+    pub trailing_bytes: usize,
 }
 
 impl LidarCloud {

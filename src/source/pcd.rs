@@ -3,7 +3,10 @@
 //! `VIEWPOINT`, `POINTS`, `DATA`), then the points as `ascii` lines, `binary` records, or
 //! `binary_compressed` (LZF over the fields stored one after the other).
 //!
-//! Any field order, sizes and types are read; an organised cloud (`HEIGHT` > 1) is read row by
+//! Any field order, sizes and types are read; a field of `COUNT 0` is zero bytes wide and read as
+//! nothing (three.js's PCDLoader and labelling tools' exports write such padding); bytes after
+//! the declared points of `binary` data are left and counted
+//! ([`LidarCloud::trailing_bytes`]); an organised cloud (`HEIGHT` > 1) is read row by
 //! row; NaN points (a non-dense cloud's empty pixels) are dropped and counted. `VIEWPOINT` is
 //! read and not applied (the points are taken in the sensor frame, as drivers write them).
 
@@ -174,12 +177,12 @@ fn fields_of(entries: &[Entry], path: &Path) -> Result<Vec<Field>> {
         let count: usize = counts[i]
             .parse()
             .ok()
-            .filter(|&c| (1..=1 << 16).contains(&c))
+            .filter(|&c| c <= 1 << 16)
             .ok_or_else(|| {
                 bad(
                     line,
                     format!(
-                        "COUNT {:?} of field {} is not in 1-65536",
+                        "COUNT {:?} of field {} is not in 0-65536",
                         counts[i], names[i]
                     ),
                 )
@@ -228,19 +231,16 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
             ),
         ));
     }
-    let data = match data_words
-        .first()
-        .map(|s| s.to_ascii_lowercase())
-        .as_deref()
-    {
-        Some("ascii") => PcdData::Ascii,
-        Some("binary") => PcdData::Binary,
-        Some("binary_compressed") => PcdData::BinaryCompressed,
+    let data = match data_words.first().map(|s| s.to_ascii_lowercase()) {
+        Some(d) if d == "ascii" => PcdData::Ascii,
+        Some(d) if d == "binary" => PcdData::Binary,
+        Some(d) if d == "binary_compressed" => PcdData::BinaryCompressed,
         other => {
+            let shown = other.map_or("with no value".into(), |d| format!("{d:?}"));
             return Err(bad(
                 data_line,
-                format!("DATA {other:?}: expected ascii, binary or binary_compressed"),
-            ))
+                format!("DATA {shown}: expected ascii, binary or binary_compressed"),
+            ));
         }
     };
     let step = fields.iter().map(|f| f.ty.size() * f.count).sum();
@@ -267,7 +267,7 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<LidarCloud> {
     let (n, step) = (h.points, h.layout.step);
     match h.data {
         PcdData::Binary => {
-            if body.len() != n * step {
+            if body.len() < n * step {
                 return Err(Error::Length {
                     path: path.into(),
                     what: format!("the binary data of {n} points of {step} bytes (POINTS)"),
@@ -276,7 +276,10 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<LidarCloud> {
                     unit: "bytes",
                 });
             }
-            h.layout.decode(body, n, path)
+            // Bytes after the declared points (some exporters pad the file) are not points.
+            let mut cloud = h.layout.decode(&body[..n * step], n, path)?;
+            cloud.trailing_bytes = body.len() - n * step;
+            Ok(cloud)
         }
         PcdData::BinaryCompressed => {
             let records = decompress(body, n, &h.layout, path)?;
@@ -288,10 +291,7 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<LidarCloud> {
 
 /// LZF-decompresses `binary_compressed` data and interleaves its fields into records.
 fn decompress(body: &[u8], n: usize, layout: &PointLayout, path: &Path) -> Result<Vec<u8>> {
-    let damaged = |m: String| Error::Corrupt {
-        path: path.into(),
-        what: format!("binary_compressed data: {m}"),
-    };
+    let damaged = |m: String| Error::format(path, format!("damaged binary_compressed data: {m}"));
     if body.len() < 8 {
         return Err(damaged(format!(
             "{} bytes, too short for its size words",
@@ -338,14 +338,11 @@ fn decompress(body: &[u8], n: usize, layout: &PointLayout, path: &Path) -> Resul
     Ok(aos)
 }
 
-/// Decodes `ascii` data: one line of values per point (every value of every field).
-fn ascii(body: &[u8], h: &PcdHeader, path: &Path) -> Result<LidarCloud> {
-    let text = std::str::from_utf8(body)
-        .map_err(|e| Error::format(path, format!("ascii data is not text: {e}")))?;
-    // Every value as f64, packed: the layout of the header with each value widened.
+/// Every value of `layout` as f64, packed: the record an ascii line is read into.
+fn widened(layout: &PointLayout) -> PointLayout {
     let mut fields = Vec::new();
     let mut offset = 0;
-    for f in &h.layout.fields {
+    for f in &layout.fields {
         fields.push(Field {
             name: f.name.clone(),
             ty: FieldType::F64,
@@ -354,12 +351,23 @@ fn ascii(body: &[u8], h: &PcdHeader, path: &Path) -> Result<LidarCloud> {
         });
         offset += 8 * f.count;
     }
-    let wide = PointLayout {
+    PointLayout {
         fields,
         step: offset,
         big_endian: false,
-    };
-    let values = offset / 8;
+    }
+}
+
+/// Decodes `ascii` data: one line of values per point (every value of every field).
+fn ascii(body: &[u8], h: &PcdHeader, path: &Path) -> Result<LidarCloud> {
+    let text = std::str::from_utf8(body)
+        .map_err(|e| Error::format(path, format!("ascii data is not text: {e}")))?;
+    let wide = widened(&h.layout);
+    let (offset, values) = (wide.step, wide.step / 8);
+    // The declared field of each value on a line, to check that the value is one of its type.
+    let declared: Vec<&Field> = (h.layout.fields.iter())
+        .flat_map(|f| std::iter::repeat_n(f, f.count))
+        .collect();
     let mut records = Vec::with_capacity(h.points * offset);
     let mut lines = 0usize;
     for (k, line) in text.lines().enumerate() {
@@ -382,6 +390,17 @@ fn ascii(body: &[u8], h: &PcdHeader, path: &Path) -> Result<LidarCloud> {
             let v: f64 = word.parse().map_err(|_| {
                 Error::format(path, format!("point {lines}: {word:?} is not a number"))
             })?;
+            if let Some(f) = declared.get(got).filter(|f| !f.ty.holds(v)) {
+                return Err(Error::format(
+                    path,
+                    format!(
+                        "point {lines}: {word} is not a value of field {} ({} {})",
+                        f.name,
+                        f.ty.pcd_letter(),
+                        f.ty.size()
+                    ),
+                ));
+            }
             got += 1;
             if got <= values {
                 records.extend_from_slice(&v.to_le_bytes());

@@ -95,8 +95,12 @@ pub fn read_static(bag: &super::bag::Bag) -> Result<Vec<StaticTransform>> {
         return Ok(Vec::new());
     };
     let mut out: Vec<StaticTransform> = Vec::new();
-    for m in bag.messages(&topic.name).take(topic.messages as usize) {
-        let m = m?;
+    for m in bag.messages(&topic).take(topic.messages as usize) {
+        // A transform lost with a damaged chunk could be the one asked for: no pose then.
+        let m = match m? {
+            super::bag::Next::Message(m) => m,
+            super::bag::Next::Lost(lost) => return Err(lost.damage.error),
+        };
         let what = m.file.join(format!("/tf_static message {}", m.index));
         for t in decode(&m.data, &what)? {
             out.retain(|o| (&o.parent, &o.child) != (&t.parent, &t.child));

@@ -242,11 +242,25 @@ fn function_lengths() -> Vec<(usize, String, String)> {
         let text = std::fs::read_to_string(&f).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         for (i, line) in lines.iter().enumerate() {
-            let t = line.trim_start();
-            let t = t
-                .strip_prefix("pub(crate) ")
-                .or(t.strip_prefix("pub "))
-                .unwrap_or(t);
+            // Any visibility (`pub`, `pub(crate)`, `pub(super)`, `pub(in path)`) and qualifiers
+            // (`const`, `async`, `unsafe`, `extern "C"`) before `fn`.
+            let mut t = line.trim_start();
+            if let Some(r) = t.strip_prefix("pub") {
+                t = match r.strip_prefix('(') {
+                    Some(inner) => inner.split_once(')').map_or(r, |(_, after)| after),
+                    None => r,
+                }
+                .trim_start();
+            }
+            loop {
+                let before = t;
+                for q in ["const ", "async ", "unsafe ", "extern \"C\" ", "extern "] {
+                    t = t.strip_prefix(q).unwrap_or(t);
+                }
+                if t == before {
+                    break;
+                }
+            }
             let Some(rest) = t.strip_prefix("fn ") else {
                 continue;
             };

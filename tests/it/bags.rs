@@ -9,6 +9,7 @@ use kitti2pgm::source::pcd;
 use kitti2pgm::source::pointcloud2::PointCloud2;
 
 use super::util::{fixture, run_text, s, tmp};
+use serde_json::json;
 
 fn bag() -> PathBuf {
     fixture("own_lidar_bag")
@@ -16,6 +17,14 @@ fn bag() -> PathBuf {
 
 fn vlp16() -> PathBuf {
     fixture("lidars/velodyne/vlp16_1673400472138016708.pcd")
+}
+
+/// The stream of a bag's point cloud topic `name`.
+fn messages_of(bag: &Bag, name: &str) -> kitti2pgm::source::bag::Messages {
+    let topic = bag
+        .topic(Some(name), kitti2pgm::source::pointcloud2::TYPE_NAME)
+        .unwrap();
+    bag.messages(&topic)
 }
 
 fn unpack_json(args: &[&str]) -> (i32, serde_json::Value, String) {
@@ -76,8 +85,8 @@ fn the_reader_gives_what_the_pcd_reader_gives() {
     let bag = Bag::open(&bag().join("own_lidar_bag.mcap")).unwrap();
     let expected = pcd::read(&vlp16()).unwrap();
     let mut n = 0;
-    for m in bag.messages("/velodyne_points") {
-        let m = m.unwrap();
+    for m in messages_of(&bag, "/velodyne_points") {
+        let m = m.unwrap().message().unwrap();
         let msg = PointCloud2::decode(&m.data, Path::new("bag")).unwrap();
         assert_eq!(msg.layout.big_endian, m.index == 1);
         let cloud = msg.cloud(Path::new("bag")).unwrap();
@@ -87,7 +96,8 @@ fn the_reader_gives_what_the_pcd_reader_gives() {
     }
     assert_eq!(n, 2);
     let pandar = fixture("lidars/hesai/Pandar40P_1673400149711850138.pcd");
-    let m = bag.messages("/pandar_points").next().unwrap().unwrap();
+    let m = messages_of(&bag, "/pandar_points").next().unwrap();
+    let m = m.unwrap().message().unwrap();
     let msg = PointCloud2::decode(&m.data, Path::new("bag")).unwrap();
     assert_eq!(
         msg.cloud(Path::new("bag")).unwrap(),
@@ -500,7 +510,9 @@ fn every_chunk_layout_reads_the_same_messages_and_damage_is_named() {
         let path = t.path().join(format!("{name}.mcap"));
         write_mcap_with(&path, &messages, options);
         let bag = Bag::open(&path).unwrap();
-        let read: Vec<_> = bag.messages("/points").map(|m| m.unwrap()).collect();
+        let read: Vec<_> = (messages_of(&bag, "/points"))
+            .map(|m| m.unwrap().message().unwrap())
+            .collect();
         assert_eq!(read.len(), messages.len(), "{name}");
         for (i, (m, want)) in read.iter().zip(&messages).enumerate() {
             assert_eq!((m.index, m.log_time), (i as u64, i as u64), "{name}");
@@ -508,33 +520,27 @@ fn every_chunk_layout_reads_the_same_messages_and_damage_is_named() {
             assert_eq!(m.file, path);
         }
         // Read in place, message by message, the same bytes.
-        let mut stream = bag.messages("/points");
+        let mut stream = messages_of(&bag, "/points");
         let mut i = 0;
         while let Some(same) = stream.next_with(|m| m.data == messages[i]) {
-            assert!(same.unwrap(), "{name} message {i}");
+            assert!(same.unwrap().message().unwrap(), "{name} message {i}");
             i += 1;
         }
         assert_eq!(i, messages.len());
         assert!(stream.next_with(|_| ()).is_none());
     }
-    // A flipped byte inside a compressed chunk fails its CRC: the error names the file, and
-    // the stream ends there.
-    let zstd = std::fs::read(t.path().join("zstd.mcap")).unwrap();
-    let mut bad = zstd.clone();
-    let at = bad.len() / 3;
-    bad[at] ^= 0x40;
-    let damaged = t.path().join("damaged.mcap");
-    std::fs::write(&damaged, &bad).unwrap();
-    let results: Vec<_> = Bag::open(&damaged).unwrap().messages("/points").collect();
-    let e = results.last().unwrap().as_ref().unwrap_err().to_string();
-    assert!(e.contains("damaged.mcap"), "{e}");
-    assert!(results[..results.len() - 1].iter().all(|r| r.is_ok()));
     // Not MCAP at all.
     let text = t.path().join("notes.mcap");
     std::fs::write(&text, "not a bag").unwrap();
+    let topic = kitti2pgm::source::bag::Topic {
+        name: "/points".into(),
+        type_name: kitti2pgm::source::pointcloud2::TYPE_NAME.into(),
+        encoding: "cdr".into(),
+        messages: 0,
+    };
     let e = Bag::open(&text)
         .unwrap()
-        .messages("/points")
+        .messages(&topic)
         .next()
         .unwrap()
         .unwrap_err();
@@ -581,4 +587,433 @@ fn a_bag_given_to_convert_or_check_is_named_with_the_command_that_reads_it() {
         );
     }
     assert!(!out.exists());
+}
+
+/// A bag of one topic `/points` written by the mcap crate with `options`: each message on the
+/// channel of its type (`sensor_msgs/msg/PointCloud2` or another), log time = its header stamp
+/// (`i` s and 5 ns, as [`cdr_cloud`] stamps message `i`) so that `times.txt` is the same
+/// whether a frame is read or lost.
+fn write_typed(path: &Path, messages: &[(&str, Vec<u8>)], options: mcap::WriteOptions) {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let mut w = options.create(file).unwrap();
+    let mut channels = std::collections::HashMap::new();
+    for (i, (ty, data)) in messages.iter().enumerate() {
+        let ch = *channels.entry(*ty).or_insert_with(|| {
+            let schema = w.add_schema(ty, "ros2msg", b"").unwrap();
+            w.add_channel(schema, "/points", "cdr", &Default::default())
+                .unwrap()
+        });
+        let header = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: i as u64 * 1_000_000_000 + 5,
+            publish_time: i as u64,
+        };
+        w.write_to_known_channel(&header, data).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+/// The chunk records of an MCAP file: (where the record's body starts, where its compressed
+/// data starts, where it ends).
+fn chunks(bytes: &[u8]) -> Vec<(usize, usize, usize)> {
+    let mut at = 8;
+    let mut out = Vec::new();
+    while at + 9 <= bytes.len() {
+        let op = bytes[at];
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        let body = at + 9;
+        if op == 0x06 {
+            // message start and end times, uncompressed size, CRC, compression string, size.
+            let name = u32::from_le_bytes(bytes[body + 28..body + 32].try_into().unwrap());
+            out.push((body, body + 32 + name as usize + 8, body + len));
+        }
+        if op == 0x0F {
+            break; // the footer
+        }
+        at = body + len;
+    }
+    out
+}
+
+fn unpack_to(bag: &Path, root: &Path) -> (i32, serde_json::Value, String) {
+    unpack_json(&[s(bag), "--topic", "/points", "--out", s(root)])
+}
+
+/// Issue 47, defects 2 and 3: a flipped byte in a chunk (uncompressed: rosbag2's default, whose
+/// CRC is now checked; zstd; lz4) fails that chunk's frame alone, named with its log time in
+/// `times.txt`, and the walk goes on to the later chunks; a chunk whose CRC is 0 has none.
+#[test]
+fn a_damaged_chunk_fails_its_frames_alone() {
+    let t = tmp();
+    let clouds: Vec<(&str, Vec<u8>)> = (0..5)
+        .map(|i| {
+            (
+                kitti2pgm::source::pointcloud2::TYPE_NAME,
+                cdr_cloud(300, 16, i),
+            )
+        })
+        .collect();
+    for (name, compression) in [
+        ("plain", None),
+        ("zstd", Some(mcap::Compression::Zstd)),
+        ("lz4", Some(mcap::Compression::Lz4)),
+    ] {
+        let bag = t.path().join(format!("{name}.mcap"));
+        let options = mcap::WriteOptions::new()
+            .compression(compression)
+            .chunk_size(Some(1));
+        write_typed(&bag, &clouds, options);
+        let clean = t.path().join(format!("{name}-clean"));
+        let (code, j, err) = unpack_to(&bag, &clean);
+        assert_eq!((code, &j["frames_written"]), (0, &json!(5)), "{err}");
+        let bytes = std::fs::read(&bag).unwrap();
+        // The schema and channel records in a chunk of their own, then a chunk a message.
+        let all = chunks(&bytes);
+        assert_eq!(all.len(), 6, "{name}");
+        let found = &all[1..];
+        for k in [0, 2] {
+            let (_, data, end) = found[k];
+            let mut bad = bytes.clone();
+            bad[(data + end) / 2] ^= 0x10;
+            let damaged = t.path().join(format!("{name}-{k}.mcap"));
+            std::fs::write(&damaged, &bad).unwrap();
+            let root = t.path().join(format!("{name}-{k}"));
+            let (code, j, err) = unpack_to(&damaged, &root);
+            assert_eq!(code, 3, "{name} {k}: {err} {j}");
+            assert_eq!(j["frames_written"], 4, "{name} {k}: {j}");
+            assert_eq!(j["messages"], 5, "{name} {k}: {j}");
+            let f = j["failures"].as_array().unwrap();
+            assert_eq!(f.len(), 1, "{name} {k}: {j}");
+            assert_eq!(f[0]["frame"], k, "{j}");
+            let e = f[0]["error"].as_str().unwrap();
+            assert!(
+                e.contains(&format!("{name}-{k}.mcap")) && e.contains("chunk"),
+                "{e}"
+            );
+            assert_eq!(j["log_time_frames"], json!([k]));
+            let seq = |r: &Path| r.join("sequences/00");
+            for i in (0..5).filter(|&i| i != k) {
+                let p = format!("velodyne/{i:06}.pcd");
+                assert!(
+                    std::fs::read(seq(&root).join(&p)).unwrap()
+                        == std::fs::read(seq(&clean).join(&p)).unwrap(),
+                    "{name} {k}: frame {i}"
+                );
+            }
+            assert!(!seq(&root).join(format!("velodyne/{k:06}.pcd")).exists());
+            let times = |r: &Path| std::fs::read_to_string(seq(r).join("times.txt")).unwrap();
+            assert_eq!(times(&root), times(&clean), "{name} {k}");
+        }
+        // The chunk of the channel records damaged: the file's summary still names the
+        // channel, so every frame is read and the damage is named.
+        let (_, data, end) = all[0];
+        let mut bad = bytes.clone();
+        bad[(data + end) / 2] ^= 0x10;
+        let damaged = t.path().join(format!("{name}-channels.mcap"));
+        std::fs::write(&damaged, &bad).unwrap();
+        let (code, j, err) = unpack_to(&damaged, &t.path().join(format!("{name}-channels")));
+        assert_eq!((code, &j["frames_written"]), (3, &json!(5)), "{err} {j}");
+        assert_eq!(j["damaged"].as_array().unwrap().len(), 1, "{j}");
+        if compression.is_none() {
+            // CRC 0: the chunk has none, and is read as it is.
+            let mut none = bytes.clone();
+            for &(body, _, _) in found {
+                none[body + 24..body + 28].fill(0);
+            }
+            let nocrc = t.path().join("nocrc.mcap");
+            std::fs::write(&nocrc, &none).unwrap();
+            let (code, j, err) = unpack_to(&nocrc, &t.path().join("nocrc"));
+            assert_eq!((code, &j["frames_written"]), (0, &json!(5)), "{err}");
+        }
+    }
+}
+
+/// Issue 47, defect 4: a topic is channels: the PointCloud2 messages of `/points` unpack and
+/// the `std_msgs/msg/String` one beside them is counted as passed over, whatever the chunks;
+/// `--list` names both types.
+#[test]
+fn a_message_of_another_type_on_the_topic_is_passed_over() {
+    let t = tmp();
+    let pc2 = kitti2pgm::source::pointcloud2::TYPE_NAME;
+    let text = "std_msgs/msg/String";
+    let messages = vec![
+        (pc2, cdr_cloud(30, 16, 0)),
+        (pc2, cdr_cloud(30, 16, 1)),
+        (text, vec![0, 1, 0, 0, 3, 0, 0, 0, b'h', b'i', 0]),
+        (pc2, cdr_cloud(30, 16, 3)),
+        (pc2, cdr_cloud(30, 16, 4)),
+    ];
+    for (name, compression) in [("plain", None), ("zstd", Some(mcap::Compression::Zstd))] {
+        let bag = t.path().join(format!("{name}.mcap"));
+        write_typed(
+            &bag,
+            &messages,
+            mcap::WriteOptions::new().compression(compression),
+        );
+        let root = t.path().join(name);
+        let (code, j, err) = unpack_to(&bag, &root);
+        assert_eq!(code, 0, "{name}: {err}");
+        assert_eq!(j["frames_written"], 4, "{j}");
+        assert_eq!(j["skipped_other_types"], 1, "{j}");
+        let (code, out, err) = run_text(&["unpack", s(&bag), "--list", "--json"]);
+        assert_eq!(code, 0, "{err}");
+        let listed: serde_json::Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(
+            listed,
+            json!([{"topic": "/points", "type": pc2, "encoding": "cdr", "messages": 4},
+                   {"topic": "/points", "type": text, "encoding": "cdr", "messages": 1}])
+        );
+    }
+}
+
+/// A PointCloud2 message of `n` records of `step` bytes (`data`) with `fields` (name, offset,
+/// datatype, count), in either byte order.
+fn cdr_message(
+    fields: &[(&str, u32, u8, u32)],
+    step: u32,
+    n: u32,
+    data: &[u8],
+    be: bool,
+) -> Vec<u8> {
+    let mut b: Vec<u8> = vec![0, if be { 0 } else { 1 }, 0, 0];
+    let u32_ = |b: &mut Vec<u8>, v: u32| {
+        while !(b.len() - 4).is_multiple_of(4) {
+            b.push(0);
+        }
+        b.extend(if be { v.to_be_bytes() } else { v.to_le_bytes() });
+    };
+    let string = |b: &mut Vec<u8>, v: &str| {
+        u32_(b, v.len() as u32 + 1);
+        b.extend(v.as_bytes());
+        b.push(0);
+    };
+    u32_(&mut b, 7);
+    u32_(&mut b, 0);
+    string(&mut b, "lidar");
+    u32_(&mut b, 1);
+    u32_(&mut b, n);
+    u32_(&mut b, fields.len() as u32);
+    for &(name, offset, datatype, count) in fields {
+        string(&mut b, name);
+        u32_(&mut b, offset);
+        b.push(datatype);
+        u32_(&mut b, count);
+    }
+    b.push(be as u8);
+    u32_(&mut b, step);
+    u32_(&mut b, step * n);
+    u32_(&mut b, data.len() as u32);
+    b.extend(data);
+    b.push(1);
+    b
+}
+
+/// Issue 47, defect 5: what unpack writes, convert reads. For every field kind the decoder
+/// accepts (PointField's eight datatypes as the intensity, the ring and an extra field; counts
+/// 0, 1 and 3; both byte orders; padding between fields), the PCD that unpack writes decodes to
+/// the cloud that `read_bag` decodes from the message; a zero-wide x is no x, refused by both.
+#[test]
+fn every_field_kind_round_trips_through_unpack() {
+    let names = ["i8", "u8", "i16", "u16", "i32", "u32", "f32", "f64"];
+    let size = |dt: u8| [1, 1, 2, 2, 4, 4, 4, 8][dt as usize - 1] as u32;
+    let what = Path::new("message");
+    let mut cases = 0;
+    for dt in 1..=8u8 {
+        for count in [0u32, 1, 3] {
+            for be in [false, true] {
+                for role in ["intensity", "ring", "extra"] {
+                    // x, y, z float32, 2 bytes of padding, the field, a zero-wide pad field.
+                    let at = 14;
+                    let step = at + size(dt) * count + 3;
+                    let fields = [
+                        ("x", 0, 7, 1),
+                        ("y", 4, 7, 1),
+                        ("z", 8, 7, 1),
+                        (role, at, dt, count),
+                        ("pad", step - 1, 2, 0),
+                    ];
+                    let n = 7u32;
+                    let data: Vec<u8> = (0..n * step)
+                        .map(|i| {
+                            let (p, o) = (i / step, i % step);
+                            // Small finite coordinates (the top byte of each float fixed).
+                            match (o % 4, o < 12, be) {
+                                (3, true, false) | (0, true, true) => 0x40,
+                                _ => (p * 31 + o * 7) as u8 & 0x3f,
+                            }
+                        })
+                        .collect();
+                    let msg_bytes = cdr_message(&fields, step, n, &data, be);
+                    let msg = PointCloud2::decode(&msg_bytes, what).unwrap();
+                    let from_message = msg.cloud(what);
+                    let (layout, records) = msg.packed();
+                    let file = pcd::encode(&layout, n as usize, 1, &records);
+                    let from_pcd = pcd::decode(&file, what);
+                    match (from_message, from_pcd) {
+                        (Ok(a), Ok(b)) => {
+                            assert_eq!(a, b, "{} x{count} {role} be={be}", names[dt as usize - 1])
+                        }
+                        // The same refusal from both (a ring of values no beam id has).
+                        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+                        (a, b) => {
+                            panic!("{} x{count} {role}: {a:?} / {b:?}", names[dt as usize - 1])
+                        }
+                    }
+                    cases += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(cases, 8 * 3 * 2 * 3);
+    // A zero-wide x holds nothing: no x, the same refusal from both readers.
+    let data = vec![0x20u8; 16 * 2];
+    let fields = [
+        ("x", 0, 7, 0),
+        ("y", 4, 7, 1),
+        ("z", 8, 7, 1),
+        ("x2", 12, 7, 1),
+    ];
+    let bytes = cdr_message(&fields, 16, 2, &data, false);
+    let e = PointCloud2::decode(&bytes, what).unwrap_err().to_string();
+    assert!(e.contains("no x field"), "{e}");
+}
+
+/// Issue 47, defect 5 end to end: a message with a zero-wide padding field unpacks to a PCD
+/// (`COUNT 0`) that convert reads; a message whose x is zero-wide fails its frame in unpack
+/// (nothing written that convert would refuse).
+#[test]
+fn unpack_writes_only_what_convert_reads() {
+    let t = tmp();
+    let pc2 = kitti2pgm::source::pointcloud2::TYPE_NAME;
+    let data: Vec<u8> = (0..40u32)
+        .flat_map(|i| {
+            let a = i as f32 * 0.1 + 2.0;
+            [
+                a.to_le_bytes(),
+                (a * 0.5).to_le_bytes(),
+                (-0.3f32).to_le_bytes(),
+                [0; 4],
+            ]
+            .concat()
+        })
+        .collect();
+    let good = [
+        ("x", 0, 7, 1),
+        ("y", 4, 7, 1),
+        ("z", 8, 7, 1),
+        ("_", 12, 7, 0),
+    ];
+    let bad = [("x", 0, 7, 0), ("y", 4, 7, 1), ("z", 8, 7, 1)];
+    let bag = t.path().join("count0.mcap");
+    write_typed(
+        &bag,
+        &[
+            (pc2, cdr_message(&good, 16, 40, &data, false)),
+            (pc2, cdr_message(&bad, 16, 40, &data, false)),
+            (pc2, cdr_message(&good, 16, 40, &data, false)),
+        ],
+        mcap::WriteOptions::new(),
+    );
+    let root = t.path().join("root");
+    let (code, j, err) = unpack_to(&bag, &root);
+    assert_eq!((code, &j["frames_written"]), (3, &json!(2)), "{err} {j}");
+    assert_eq!(j["failures"][0]["frame"], 1);
+    let head = std::fs::read(root.join("sequences/00/velodyne/000000.pcd")).unwrap();
+    assert!(String::from_utf8_lossy(&head[..200]).contains("COUNT 1 1 1 0"));
+    let (code, j, err) = super::util::convert_json(
+        &root,
+        &t.path().join("conv"),
+        &["--sensor", "vlp16", "--all-frames", "--cols", "512"],
+    );
+    assert_eq!(code, 0, "{err} {j}");
+    assert_eq!(j["frames_converted"], 2, "{j}");
+}
+
+/// Issue 47, defects 7 and 8 for bags: a root another run holds is refused (two unpacks into
+/// one root at once cannot mix their sequences); while an unpack runs its `unpack.json` says
+/// `complete: false`, which the readers refuse; at the end it says true.
+#[test]
+fn unpack_holds_the_root_and_marks_its_sequence_unfinished_until_the_end() {
+    let t = tmp();
+    let root = t.path().join("root");
+    std::fs::create_dir(&root).unwrap();
+    let held = kitti2pgm::convert::resume::lock_dir(&root).unwrap();
+    let v = super::util::fails_with(
+        &[
+            "unpack",
+            s(&bag()),
+            "--topic",
+            "/velodyne_points",
+            "--out",
+            s(&root),
+        ],
+        "locked",
+    );
+    assert_eq!(v["exit"], 1);
+    assert!(!root.join("sequences").exists());
+    drop(held);
+    let b = Bag::open(&bag()).unwrap();
+    let topic = b
+        .topic(
+            Some("/velodyne_points"),
+            kitti2pgm::source::pointcloud2::TYPE_NAME,
+        )
+        .unwrap();
+    let opts = kitti2pgm::convert::unpack::UnpackOptions {
+        out: root.clone(),
+        sequence: 0,
+        overwrite: false,
+        durability: kitti2pgm::format::Durability::default(),
+        sensor_frame: None,
+    };
+    let marker = root.join("sequences/00/unpack.json");
+    let seen = std::sync::Mutex::new(Vec::new());
+    let s = kitti2pgm::convert::unpack::unpack(&b, &topic, &opts, &|_| {
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&marker).unwrap()).unwrap();
+        seen.lock().unwrap().push(j["complete"].clone());
+        // Meanwhile the sequence is refused.
+        let e = kitti2pgm::kitti::discover_as(&root, None).unwrap_err();
+        assert!(
+            matches!(e, kitti2pgm::Error::UnfinishedUnpack { .. }),
+            "{e}"
+        );
+    })
+    .unwrap();
+    assert!(s.complete);
+    assert_eq!(*seen.lock().unwrap(), vec![json!(false), json!(false)]);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&marker).unwrap()).unwrap();
+    assert_eq!(j["complete"], true);
+    assert!(kitti2pgm::kitti::discover_as(&root, None).is_ok());
+}
+
+/// Issue 47's smaller defects on bags: a `metadata.yaml` listing one file twice, an `.mcap`
+/// shorter than its magic, a missing file: each named once, without the OS error twice.
+#[test]
+fn small_bag_faults_are_named_plainly() {
+    let t = tmp();
+    let dir = t.path().join("twice");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::copy(bag().join("own_lidar_bag.mcap"), dir.join("a.mcap")).unwrap();
+    std::fs::write(
+        dir.join("metadata.yaml"),
+        "rosbag2_bagfile_information:\n  storage_identifier: mcap\n  relative_file_paths: [a.mcap, a.mcap]\n",
+    )
+    .unwrap();
+    let (code, _, err) = run_text(&["unpack", s(&dir), "--list"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("a.mcap twice"), "{err}");
+    let short = t.path().join("short.mcap");
+    std::fs::write(&short, b"\x89MC").unwrap();
+    let (code, _, err) = run_text(&["unpack", s(&short), "--list"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("not an MCAP file") && !err.contains("os error"),
+        "{err}"
+    );
+    let (code, _, err) = run_text(&["unpack", s(&t.path().join("none.mcap")), "--list"]);
+    assert_eq!(code, 1);
+    assert_eq!(err.matches("os error 2").count(), 1, "{err}");
 }

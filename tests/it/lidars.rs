@@ -333,7 +333,7 @@ fn bad_pcd_files_are_named_with_what_is_wrong() {
     cmp.extend_from_slice(&[0xff; 16]);
     let e = err(&pcd_file(&f, 2, "binary_compressed", &cmp));
     assert!(
-        e.contains("corrupted") && e.contains("binary_compressed"),
+        e.contains("damaged") && e.contains("binary_compressed"),
         "{e}"
     );
     let e = err(&pcd_file(&f, 2, "binary_compressed", &cmp[..12]));
@@ -559,4 +559,93 @@ fn a_pcd_beside_the_bin_of_its_frame_is_named_not_read() {
     assert_eq!(listing.not_frames, vec![dir.join("000000.pcd")]);
     assert_eq!(drive.scan_path(0), dir.join("000000.bin"));
     assert_eq!(drive.scan_path(1), dir.join("000001.pcd"));
+}
+
+/// Issue 47, defect 5 and the smaller ones on PCD: a real VLP-16 scan with a `COUNT 0` padding
+/// field added to its header (zero bytes, as three.js's PCDLoader reads it) and bytes after its
+/// points reads as the scan itself, the trailing bytes counted; ascii values outside their
+/// declared type and an unknown DATA are named plainly.
+#[test]
+fn zero_wide_fields_trailing_bytes_and_ascii_ranges() {
+    let path = lidars().join("velodyne/vlp16_1673400472138016708.pcd");
+    let original = std::fs::read(&path).unwrap();
+    let expected = pcd::read(&path).unwrap();
+    let text = String::from_utf8_lossy(&original[..400]).to_string();
+    let head_len = text.find("DATA binary\n").unwrap() + "DATA binary\n".len();
+    let head = text[..head_len]
+        .replace("time_stamp\n", "time_stamp _\n")
+        .replace("SIZE 4 4 4 1 1 2 4 4 4 4\n", "SIZE 4 4 4 1 1 2 4 4 4 4 1\n")
+        .replace("TYPE F F F U U U F F F U\n", "TYPE F F F U U U F F F U U\n")
+        .replace(
+            "COUNT 1 1 1 1 1 1 1 1 1 1\n",
+            "COUNT 1 1 1 1 1 1 1 1 1 1 0\n",
+        );
+    assert_ne!(head, text[..head_len], "the header was rewritten");
+    let mut padded = head.into_bytes();
+    padded.extend_from_slice(&original[head_len..]);
+    padded.extend_from_slice(&[0u8; 13]);
+    let got = pcd::decode(&padded, Path::new("export.pcd")).unwrap();
+    assert_eq!(got.trailing_bytes, 13);
+    assert_eq!(
+        LidarCloud {
+            trailing_bytes: 0,
+            ..got
+        },
+        expected
+    );
+    let f = [
+        ("x", 4, 'F'),
+        ("y", 4, 'F'),
+        ("z", 4, 'F'),
+        ("intensity", 1, 'U'),
+    ];
+    let err = |b: &[u8]| pcd::decode(b, Path::new("a.pcd")).unwrap_err().to_string();
+    for bad in ["300", "-1", "1.5"] {
+        let body = format!("1 2 3 7\n4 5 6 {bad}\n");
+        let e = err(&pcd_file(&f, 2, "ascii", body.as_bytes()));
+        assert!(
+            e.contains("a.pcd") && e.contains(bad) && e.contains("field intensity (U 1)"),
+            "{e}"
+        );
+    }
+    assert_eq!(
+        pcd::decode(
+            &pcd_file(&f, 1, "ascii", b"1 2 nan 255\n"),
+            Path::new("a.pcd")
+        )
+        .unwrap()
+        .dropped,
+        [0]
+    );
+    for (data, shown) in [("binary_lz4", "\"binary_lz4\""), ("", "with no value")] {
+        let e = err(&pcd_file(&f, 1, data, b""));
+        assert!(e.contains(shown) && !e.contains("Some("), "{e}");
+    }
+}
+
+/// Issue 47's smaller defects: a `--fields` declaration naming a field twice, or ending with a
+/// field without a type, is refused; Ouster metadata with an offset of a kilometre is refused.
+#[test]
+fn implausible_declarations_and_metadata_are_refused() {
+    for bad in ["x,y,z:f32,x:f32", "x,y,z:f32,intensity"] {
+        let e = source::PointLayout::declared(bad).unwrap_err().to_string();
+        assert!(e.contains("--fields"), "{e}");
+    }
+    assert!(source::PointLayout::declared("x,y,z:f32,_:u8,_:u8,ring:u16").is_ok());
+    let meta = lidars().join("ouster/OS-1-32-G_v2.1.1_1024x10.json");
+    let text = std::fs::read_to_string(&meta).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for (from, to) in [
+        (
+            "\"lidar_origin_to_beam_origin_mm\": 15.806",
+            "\"lidar_origin_to_beam_origin_mm\": 1e30",
+        ),
+        ("36.18", "1e30"),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let p = dir.path().join("bad.json");
+        std::fs::write(&p, text.replacen(from, to, 1)).unwrap();
+        let e = sensor::read_calibration(&p).unwrap_err().to_string();
+        assert!(e.contains("bad.json") && e.contains("mm"), "{e}");
+    }
 }

@@ -298,3 +298,119 @@ fn bad_nuscenes_roots_are_named_and_a_bad_frame_fails_alone() {
     assert_eq!(code, 1);
     assert!(err.contains("sample.json"), "{err}");
 }
+
+/// The files of a sequence folder: name -> (inode, bytes), to compare two unpacks.
+fn sequence_files(seq: &Path) -> Vec<(String, Vec<u8>)> {
+    super::util::tree_bytes(seq)
+        .into_iter()
+        .filter(|(n, _)| !n.ends_with("nuscenes.json"))
+        .collect()
+}
+
+/// Issue 47, defect 6: `--overwrite` onto an earlier unpack leaves exactly what a fresh unpack
+/// leaves (no `.link-tmp` names: a rename of a link onto another link of the same file does
+/// nothing), also after the keyframes' order changed, and never leaves a scan beside another
+/// scan's labels; then defect 9: an output inside the dataset's own `samples/LIDAR_TOP`, reached
+/// through the hard links, is refused.
+#[test]
+fn an_overwrite_leaves_what_a_fresh_unpack_leaves() {
+    let t = tmp();
+    let (root, _) = nuscenes_root(t.path());
+    let out = t.path().join("out");
+    let fresh = t.path().join("fresh");
+    for _ in 0..3 {
+        let (code, j, err) = unpack(&[s(&root), "--out", s(&out), "--overwrite"]);
+        assert_eq!(code, 0, "{err} {j}");
+        let left: Vec<_> = super::util::tree_bytes(&out)
+            .into_iter()
+            .filter(|(n, _)| n.contains("link-tmp"))
+            .map(|(n, _)| n)
+            .collect();
+        assert!(left.is_empty(), "{left:?}");
+    }
+    // The keyframes' order changes: a (labelled) and b (not) swap their times, so frame 0 is
+    // now b's scan, which has no labels: a's labels must not stay beside it.
+    let table = root.join("v1.0-mini/sample_data.json");
+    let text = std::fs::read_to_string(&table).unwrap();
+    let swapped = text
+        .replace("1532402928147951", "X")
+        .replace("1532402927647951", "1532402928147951")
+        .replace("X", "1532402927647951");
+    std::fs::write(&table, swapped).unwrap();
+    let (code, j, err) = unpack(&[s(&root), "--out", s(&out), "--overwrite"]);
+    assert_eq!(code, 0, "{err} {j}");
+    let (code, _, err) = unpack(&[s(&root), "--out", s(&fresh)]);
+    assert_eq!(code, 0, "{err}");
+    for seq in ["sequences/61", "sequences/1077"] {
+        assert_eq!(
+            sequence_files(&out.join(seq)),
+            sequence_files(&fresh.join(seq)),
+            "{seq}"
+        );
+    }
+    assert!(!out.join("sequences/61/labels/000000.label").exists());
+    assert!(out.join("sequences/61/labels/000001.label").exists());
+    // An output in the dataset's own folder, known to the converted root only by the links.
+    let inside = root.join("samples/LIDAR_TOP/converted");
+    let v = super::util::fails_with(
+        &[
+            "convert",
+            s(&out),
+            "--out",
+            s(&inside),
+            "--sensor",
+            "hdl32e",
+            "--class-map",
+            "nuscenes",
+        ],
+        "output_over_input",
+    );
+    assert_eq!(v["exit"], 2, "{v}");
+    assert!(!inside.exists());
+}
+
+/// Issue 47, defect 8: an unpack that did not finish (its `nuscenes.json` still says
+/// `complete: false`, as a kill leaves it) is refused by convert, check and split, and a run of
+/// unpack again makes it whole.
+#[test]
+fn an_unfinished_unpack_is_refused_until_it_is_run_again() {
+    let t = tmp();
+    let (root, _) = nuscenes_root(t.path());
+    let out = t.path().join("out");
+    let (code, _, err) = unpack(&[s(&root), "--out", s(&out)]);
+    assert_eq!(code, 0, "{err}");
+    let index = out.join("sequences/61/nuscenes.json");
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&index).unwrap()).unwrap();
+    assert_eq!(j["complete"], true);
+    j["complete"] = json!(false);
+    std::fs::write(&index, j.to_string()).unwrap();
+    let conv = t.path().join("conv");
+    for args in [
+        vec!["convert", s(&out), "--out", s(&conv), "--sensor", "hdl32e"],
+        vec!["check", s(&out)],
+        vec!["split", s(&out), "--out", s(&conv)],
+    ] {
+        let v = super::util::fails_with(&args, "unfinished");
+        let m = v["message"].as_str().unwrap();
+        assert!(
+            m.contains("nuscenes.json") && m.contains("--overwrite"),
+            "{m}"
+        );
+    }
+    assert!(!conv.join("lidar_2d").exists());
+    let (code, _, err) = unpack(&[s(&root), "--out", s(&out), "--overwrite"]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = convert_json(
+        &out,
+        &conv,
+        &[
+            "--sensor",
+            "hdl32e",
+            "--all-frames",
+            "--class-map",
+            "nuscenes",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+}

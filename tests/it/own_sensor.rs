@@ -313,3 +313,133 @@ fn flat_bin_scans_of_a_declared_layout_convert_as_their_pcd() {
     assert_eq!(code, 2);
     assert!(err.contains("--fields needs the sensor"), "{err}");
 }
+
+/// Issue 47, defect 1: a `--sensor-pose` that is no mounting (1e30 m, 600 m) is a usage error;
+/// a plausible one applies the range limit in the sensor's frame: points it carries past 500 m
+/// are dropped and counted, and the map holds none of them.
+#[test]
+fn the_range_limit_holds_after_the_sensor_pose() {
+    let t = tmp();
+    let root = super::util::fixture("own_lidar");
+    for far in ["1e30,0,0", "600,0,0", "0,0,0,0,0,1e9"] {
+        let v = super::util::fails_with(
+            &[
+                "convert",
+                s(&root),
+                "--out",
+                s(&t.path().join("far")),
+                "--sensor",
+                "vlp16",
+                "--all-frames",
+                "--sensor-pose",
+                far,
+            ],
+            "config",
+        );
+        assert_eq!(v["exit"], 2, "{far}: {v}");
+        assert!(
+            v["message"].as_str().unwrap().contains("--sensor-pose"),
+            "{v}"
+        );
+    }
+    // Three points 450 m ahead and two near ones; the sensor 90 m behind the points' origin
+    // sees the far ones at 540 m.
+    let seq = t.path().join("root/sequences/00/velodyne");
+    std::fs::create_dir_all(&seq).unwrap();
+    let pts = [
+        [450.0f32, 0.0, 0.0],
+        [10.0, 1.0, 0.0],
+        [450.0, 5.0, 1.0],
+        [-20.0, 3.0, -1.0],
+        [449.0, -3.0, 0.0],
+    ];
+    let mut body = format!(
+        "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 5\nHEIGHT 1\n\
+         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 5\nDATA binary\n"
+    )
+    .into_bytes();
+    body.extend(pts.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(seq.join("000000.pcd"), body).unwrap();
+    let out = t.path().join("out");
+    let (code, j, err) = convert_json(
+        &t.path().join("root"),
+        &out,
+        &[
+            "--sensor",
+            "vlp16",
+            "--all-frames",
+            "--sensor-pose",
+            "-90,0,0",
+            "--cols",
+            "512",
+        ],
+    );
+    assert_eq!(code, 0, "{err} {j}");
+    assert_eq!(j["dropped_out_of_range"], 3, "{j}");
+    let map = kitti2pgm::format::pgm::read(&out.join("lidar_2d/00_000000.npy")).unwrap();
+    let r = map
+        .channels
+        .index(kitti2pgm::project::Channel::Range)
+        .unwrap();
+    let max = (0..map.cells())
+        .map(|i| map.cell(i)[r])
+        .fold(0.0f32, f32::max);
+    assert!(max > 50.0 && max <= 500.0, "{max}");
+}
+
+/// Issue 47, defect 9: the calibration table and a class map file are inputs too: an output
+/// folder over them (the table's folder, the table itself) is refused before anything is
+/// written, as an output over the dataset is.
+#[test]
+fn the_calibration_table_and_class_map_are_inputs_the_output_may_not_cover() {
+    let t = tmp();
+    let root = super::util::fixture("own_lidar");
+    let cal_dir = t.path().join("cal");
+    std::fs::create_dir(&cal_dir).unwrap();
+    let yaml = cal_dir.join("VLP16.yaml");
+    std::fs::copy(super::util::fixture("lidars/velodyne/VLP16.yaml"), &yaml).unwrap();
+    for out in [&cal_dir, &yaml, &t.path().join("x/..").join("cal")] {
+        let v = super::util::fails_with(
+            &[
+                "convert",
+                s(&root),
+                "--out",
+                s(out),
+                "--all-frames",
+                "--sensor-calibration",
+                s(&yaml),
+            ],
+            "output_over_input",
+        );
+        assert_eq!(v["exit"], 2, "{v}");
+        assert!(
+            v["message"]
+                .as_str()
+                .unwrap()
+                .contains("sensor calibration"),
+            "{v}"
+        );
+    }
+    assert_eq!(std::fs::read_dir(&cal_dir).unwrap().count(), 1);
+    let map = t.path().join("map.yaml");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("src/label/semantic-kitti.yaml"),
+        &map,
+    )
+    .unwrap();
+    let v = super::util::fails_with(
+        &[
+            "convert",
+            s(&root),
+            "--out",
+            s(&map),
+            "--all-frames",
+            "--sensor",
+            "vlp16",
+            "--class-map",
+            s(&map),
+        ],
+        "output_over_input",
+    );
+    assert_eq!(v["exit"], 2, "{v}");
+}

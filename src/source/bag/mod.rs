@@ -13,12 +13,16 @@ use std::path::{Path, PathBuf};
 use mcap::records::Record;
 use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
 
-use records::Records;
+pub use records::Damage;
+use records::{Item, Records};
 
 use crate::error::{Error, Result};
 use crate::fs::{self, Limit};
 
+mod messages;
 mod records;
+
+pub use messages::{Lost, LostMessage, Messages, Next};
 
 /// A topic of a bag.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -152,6 +156,15 @@ impl Bag {
         if info.relative_file_paths.is_empty() {
             return Err(Error::format(&meta, "relative_file_paths lists no file"));
         }
+        let mut seen = std::collections::HashSet::new();
+        if let Some(twice) = (info.relative_file_paths.iter()).find(|f| !seen.insert(*f)) {
+            return Err(Error::format(
+                &meta,
+                format!(
+                    "relative_file_paths lists {twice} twice: its messages would be read twice"
+                ),
+            ));
+        }
         Ok(Bag {
             path: path.into(),
             files: info
@@ -162,20 +175,31 @@ impl Bag {
         })
     }
 
-    /// The bag's topics, by name, with their message counts over all its files.
+    /// The bag's topics with their message counts over all its files: one entry a topic and
+    /// message type (MCAP's channels: one topic can carry messages of several types), sorted by
+    /// name and type.
     pub fn topics(&self) -> Result<Vec<Topic>> {
-        let mut all: BTreeMap<String, Topic> = BTreeMap::new();
+        let mut all: BTreeMap<(String, String), Topic> = BTreeMap::new();
         for file in &self.files {
             for t in file_topics(file)? {
-                match all.get_mut(&t.name) {
+                let key = (t.name.clone(), t.type_name.clone());
+                match all.get_mut(&key) {
                     Some(seen) => seen.messages += t.messages,
                     None => {
-                        all.insert(t.name.clone(), t);
+                        all.insert(key, t);
                     }
                 }
             }
         }
         Ok(all.into_values().collect())
+    }
+
+    /// Messages on the topic `name` of other types than `type_name` (left out when reading it).
+    pub fn other_types_on(&self, name: &str, type_name: &str) -> Result<u64> {
+        Ok((self.topics()?.iter())
+            .filter(|t| t.name == name && t.type_name != type_name)
+            .map(|t| t.messages)
+            .sum())
     }
 
     /// The topic named `topic`, checked to be of `type_name`; the error lists the topics of that
@@ -199,35 +223,30 @@ impl Bag {
         let Some(name) = topic else {
             return Err(fail(format!("no topic given (--topic); {listed}")));
         };
-        let Some(t) = topics.iter().find(|t| t.name == name) else {
+        let on_topic: Vec<&Topic> = topics.iter().filter(|t| t.name == name).collect();
+        if on_topic.is_empty() {
             return Err(fail(format!("no topic {name}; {listed}")));
-        };
-        if t.type_name != type_name {
+        }
+        let Some(t) = on_topic.iter().find(|t| t.type_name == type_name) else {
+            let types: Vec<&str> = on_topic.iter().map(|t| t.type_name.as_str()).collect();
             return Err(fail(format!(
                 "{name} is {}, not {type_name}; {listed}",
-                t.type_name
+                types.join(" and ")
             )));
-        }
+        };
         if t.encoding != "cdr" {
             return Err(fail(format!(
                 "{name} is serialised as {:?}, not cdr",
                 t.encoding
             )));
         }
-        Ok(t.clone())
+        Ok((*t).clone())
     }
 
-    /// The messages of `topic`, streamed in file order.
-    pub fn messages(&self, topic: &str) -> Messages {
-        Messages {
-            files: self.files.clone(),
-            topic: topic.into(),
-            next_file: 0,
-            open: None,
-            ours: HashMap::new(),
-            index: 0,
-            done: false,
-        }
+    /// The messages of `topic` (its name and type: the messages of other types on the same
+    /// topic are passed over), streamed in file order.
+    pub fn messages(&self, topic: &Topic) -> Messages {
+        Messages::new(self.files.clone(), topic)
     }
 }
 
@@ -272,7 +291,11 @@ fn file_topics(path: &Path) -> Result<Vec<Topic>> {
 
 /// The summary section of a file: `None` when it has none or its end cannot be read.
 fn read_summary(path: &Path) -> Result<Option<mcap::Summary>> {
-    let (mut file, _) = fs::open(path)?;
+    let (mut file, meta) = fs::open(path)?;
+    // The two magics and a footer record: a file shorter has no summary to seek to.
+    if meta.len() < 2 * mcap::MAGIC.len() as u64 + 29 {
+        return Ok(None);
+    }
     let mut reader = SummaryReader::new();
     while let Some(event) = reader.next_event() {
         let Ok(event) = event else {
@@ -299,7 +322,10 @@ fn scanned_topics(path: &Path) -> Result<Vec<Topic>> {
     let mut schemas: HashMap<u16, String> = HashMap::new();
     let mut topics: HashMap<u16, Topic> = HashMap::new();
     let read = Records::open(path).and_then(|mut records| {
-        while let Some(record) = records.next(&|| "counting the topics".into())? {
+        while let Some(item) = records.next(&|| "counting the topics".into())? {
+            let Item::Record(record) = item else {
+                continue;
+            };
             match record {
                 Record::Schema { header, .. } => {
                     schemas.insert(header.id, header.name);
@@ -329,80 +355,5 @@ fn scanned_topics(path: &Path) -> Result<Vec<Topic>> {
     match read {
         Err(e) if topics.is_empty() => Err(e),
         _ => Ok(topics.into_values().collect()),
-    }
-}
-
-/// The messages of one topic, streamed file by file (see [`Bag::messages`]). An error ends the
-/// stream after the messages read before it.
-pub struct Messages {
-    files: Vec<PathBuf>,
-    topic: String,
-    next_file: usize,
-    open: Option<Records>,
-    /// Channel ids of the open file: whether each is on the topic.
-    ours: HashMap<u16, bool>,
-    index: u64,
-    done: bool,
-}
-
-impl Messages {
-    /// Calls `f` with the next message, borrowed from the reader's buffer (a message decoded
-    /// in place is not copied out first): `None` at the end of the topic. An error ends the
-    /// stream after the messages read before it.
-    pub fn next_with<T>(&mut self, f: impl FnOnce(MessageRef<'_>) -> T) -> Option<Result<T>> {
-        if self.done {
-            return None;
-        }
-        let out = self.step(f);
-        if out.is_err() {
-            self.done = true;
-        }
-        out.transpose()
-    }
-
-    /// The next message of the topic (opening the next file as needed) given to `f`: `None` at
-    /// the end.
-    fn step<T>(&mut self, f: impl FnOnce(MessageRef<'_>) -> T) -> Result<Option<T>> {
-        loop {
-            let Some(records) = self.open.as_mut() else {
-                let Some(path) = self.files.get(self.next_file) else {
-                    self.done = true;
-                    return Ok(None);
-                };
-                self.next_file += 1;
-                self.open = Some(Records::open(path)?);
-                self.ours.clear();
-                continue;
-            };
-            let context = || format!("reading after message {} of {}", self.index, self.topic);
-            let path = &self.files[self.next_file - 1];
-            match records.next(&context)? {
-                None => self.open = None,
-                Some(Record::Channel(c)) => {
-                    self.ours.insert(c.id, c.topic == self.topic);
-                }
-                Some(Record::Message { header, data }) => {
-                    if self.ours.get(&header.channel_id) == Some(&true) {
-                        let out = f(MessageRef {
-                            index: self.index,
-                            log_time: header.log_time,
-                            data: &data,
-                            file: path,
-                        });
-                        self.index += 1;
-                        return Ok(Some(out));
-                    }
-                }
-                Some(_) => {}
-            }
-        }
-    }
-}
-
-impl Iterator for Messages {
-    type Item = Result<BagMessage>;
-
-    fn next(&mut self) -> Option<Result<BagMessage>> {
-        self.next_with(|m| m.to_owned())
     }
 }

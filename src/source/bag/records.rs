@@ -24,6 +24,8 @@ pub(super) struct Records {
     chunk: Chunk,
     /// The pages before this offset have been given back.
     released: usize,
+    /// Where the chunk being read starts.
+    chunk_at: usize,
 }
 
 /// The chunk being read.
@@ -33,6 +35,27 @@ enum Chunk {
     Plain(Range<usize>),
     /// A compressed chunk's records still to read, decompressed.
     Unpacked(std::vec::IntoIter<Record<'static>>),
+}
+
+/// What the walk gives: a record, or the place of one whose framing is whole but whose content
+/// is not (a chunk failing its CRC or its decompression, a record that does not parse). The walk
+/// goes on after it; only a broken framing ends the file.
+pub(super) enum Item<'a> {
+    /// A record.
+    Record(Record<'a>),
+    /// A damaged record.
+    Damaged(Damage),
+}
+
+/// A record of the file that could not be read (see [`Item::Damaged`]).
+#[derive(Debug)]
+pub struct Damage {
+    /// Its byte offset in the file.
+    pub offset: u64,
+    /// Whether it is a chunk (whose messages are lost with it).
+    pub chunk: bool,
+    /// What is wrong.
+    pub error: Error,
 }
 
 /// A record as framed in the file: its opcode, its content, and where the next record starts.
@@ -58,7 +81,16 @@ fn frame(buf: &[u8], at: usize) -> std::result::Result<Option<Framed<'_>>, Strin
 impl Records {
     /// Maps the file at `path` (which must start with MCAP's magic).
     pub fn open(path: &Path) -> Result<Records> {
-        let (file, _) = crate::fs::open(path)?;
+        let (file, meta) = crate::fs::open(path)?;
+        if meta.len() < mcap::MAGIC.len() as u64 {
+            return Err(Error::format(
+                path,
+                format!(
+                    "not an MCAP file ({} bytes: shorter than its magic)",
+                    meta.len()
+                ),
+            ));
+        }
         // SAFETY: the file is only read. A bag is not modified in place once written (a
         // recording in progress only grows, beyond the length mapped here).
         let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(path, e))?;
@@ -74,29 +106,43 @@ impl Records {
             path: path.into(),
             chunk: Chunk::None,
             released: 0,
+            chunk_at: 0,
         })
     }
 
     /// The next record of the data section, chunks opened: `None` at its end (or at the end of
-    /// a file that breaks off between records, an unfinished recording). An error names the
-    /// file and `context`.
-    pub fn next(&mut self, context: &dyn Fn() -> String) -> Result<Option<Record<'_>>> {
+    /// a file that breaks off between records, an unfinished recording). A chunk or record that
+    /// cannot be read is [`Item::Damaged`] and the walk goes on after it; the error (naming the
+    /// file and `context`) is for a framing that breaks off inside the file.
+    pub fn next(&mut self, context: &dyn Fn() -> String) -> Result<Option<Item<'_>>> {
         let fail = |e: String| Error::format(&self.path, format!("{}: {e}", context()));
-        let parse = |op: u8, body| {
-            mcap::parse_record(op, body).map_err(|e| Error::mcap(&self.path, context(), e))
+        let damaged = |at: usize, chunk, error| {
+            Item::Damaged(Damage {
+                offset: at as u64,
+                chunk,
+                error,
+            })
         };
         loop {
+            let at = self.chunk_at;
             match &mut self.chunk {
                 Chunk::Plain(span) if span.start < span.end => {
-                    let (op, body, next) = frame(&self.map[..span.end], span.start)
-                        .map_err(fail)?
-                        .expect("a record in the span");
+                    let found = frame(&self.map[..span.end], span.start);
+                    let Ok(Some((op, body, next))) = found else {
+                        // Its CRC matched (or it has none), yet a record breaks off inside.
+                        self.chunk = Chunk::None;
+                        let e = fail(format!("a record breaks off inside the chunk at byte {at}"));
+                        return Ok(Some(damaged(at, true, e)));
+                    };
                     span.start = next;
-                    return parse(op, body).map(Some);
+                    return Ok(Some(match mcap::parse_record(op, body) {
+                        Ok(r) => Item::Record(r),
+                        Err(e) => damaged(at, false, Error::mcap(&self.path, context(), e)),
+                    }));
                 }
                 Chunk::Unpacked(records) => {
                     if let Some(r) = records.next() {
-                        return Ok(Some(r));
+                        return Ok(Some(Item::Record(r)));
                     }
                 }
                 _ => {}
@@ -106,26 +152,57 @@ impl Records {
             let Some((op, body, next)) = frame(&self.map, self.at).map_err(fail)? else {
                 return Ok(None);
             };
+            let record_at = self.at;
             self.at = next;
-            match op {
-                op::DATA_END | op::FOOTER => {
+            let parsed = mcap::parse_record(op, body).map_err(|e| {
+                let what = format!("{} (the record at byte {record_at})", context());
+                Error::mcap(&self.path, what, e)
+            });
+            match (op, parsed) {
+                (op::DATA_END | op::FOOTER, _) => {
                     self.at = self.map.len();
                     return Ok(None);
                 }
-                op::CHUNK => self.chunk = self.chunk(parse(op, body)?, context)?,
-                _ => return parse(op, body).map(Some),
+                (op::CHUNK, Ok(r)) => match self.chunk(r, record_at, context) {
+                    Ok(c) => (self.chunk, self.chunk_at) = (c, record_at),
+                    Err(e) => return Ok(Some(damaged(record_at, true, e))),
+                },
+                (_, Ok(r)) => return Ok(Some(Item::Record(r))),
+                (op, Err(e)) => return Ok(Some(damaged(record_at, op == op::CHUNK, e))),
             }
         }
     }
 
-    /// The records of a chunk record: where they lie when it is uncompressed, else decompressed.
-    fn chunk(&self, record: Record<'_>, context: &dyn Fn() -> String) -> Result<Chunk> {
+    /// Whether the next record is one of the file's own (not a chunk's) with opcode `op`.
+    pub fn next_is(&self, op: u8) -> bool {
+        let in_chunk = match &self.chunk {
+            Chunk::None => false,
+            Chunk::Plain(span) => span.start < span.end,
+            Chunk::Unpacked(records) => records.len() > 0,
+        };
+        !in_chunk && self.map.get(self.at) == Some(&op)
+    }
+
+    /// The records of a chunk record (at byte `at`): where they lie when it is uncompressed (its
+    /// CRC checked, where it has one: 0 means none, as the specification says), else
+    /// decompressed (the library checks the CRC). An error when the CRC differs or the data
+    /// does not decompress or parse.
+    fn chunk(&self, record: Record<'_>, at: usize, context: &dyn Fn() -> String) -> Result<Chunk> {
         let Record::Chunk { header, data } = record else {
             unreachable!("a chunk record parses as a chunk");
         };
-        let mcap_err = |e| Error::mcap(&self.path, context(), e);
+        let what = || format!("{} (the chunk at byte {at})", context());
+        let mcap_err = |e| Error::mcap(&self.path, what(), e);
         if header.compression.is_empty() {
             if let std::borrow::Cow::Borrowed(d) = data {
+                let saved = header.uncompressed_crc;
+                if saved != 0 {
+                    let calculated = crc32fast::hash(d);
+                    if calculated != saved {
+                        let e = mcap::McapError::BadChunkCrc { saved, calculated };
+                        return Err(mcap_err(e));
+                    }
+                }
                 let start = d.as_ptr() as usize - self.map.as_ptr() as usize;
                 return Ok(Chunk::Plain(start..start + d.len()));
             }

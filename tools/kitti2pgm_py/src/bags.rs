@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use kitti2pgm::kitti::velodyne::Scan;
-use kitti2pgm::source::bag::{Bag, Messages};
+use kitti2pgm::source::bag::{Bag, Messages, Next};
 use kitti2pgm::source::pointcloud2::{PointCloud2, TYPE_NAME};
 
 use crate::py_err;
@@ -42,6 +42,9 @@ pub struct BagFrames {
     /// Messages on the topic.
     #[pyo3(get)]
     messages_total: u64,
+    /// Messages on the topic of other types than PointCloud2 (passed over).
+    #[pyo3(get)]
+    skipped_other_types: u64,
 }
 
 #[pymethods]
@@ -66,12 +69,29 @@ impl BagFrames {
                 let cloud = msg.cloud(&what)?;
                 Ok((m.index, msg.stamp, msg.frame_id.clone(), cloud))
             })?;
-            Some(next.and_then(|decoded| decoded))
+            Some(next)
         });
         let Some(decoded) = decoded else {
             return Ok(None);
         };
-        let (index, stamp, frame_id, cloud) = decoded.map_err(py_err)?;
+        let (index, stamp, frame_id, cloud) = match decoded.map_err(py_err)? {
+            Next::Message(m) => m.map_err(py_err)?,
+            // The frames of a damaged chunk fail together; the next call goes on after it.
+            Next::Lost(lost) => {
+                let frames: Vec<String> =
+                    lost.messages.iter().map(|m| m.index.to_string()).collect();
+                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                    "{}: {}; frames lost: {} (iterating again goes on after it)",
+                    lost.file.display(),
+                    lost.damage.error,
+                    if frames.is_empty() {
+                        "none of the topic's by the bag's index".into()
+                    } else {
+                        frames.join(", ")
+                    }
+                )));
+            }
+        };
         let (scan, ring) = Scan::from_cloud(cloud);
         let d = PyDict::new(py);
         d.set_item("index", index)?;
@@ -91,21 +111,26 @@ impl BagFrames {
 /// read_cloud's (points (N, 4) float32 x, y, z, intensity; ring (N,) uint16 or None;
 /// file_index; file_points; dropped) with index (its place on the topic), stamp (header stamp,
 /// nanoseconds) and frame_id. A missing or wrong topic raises ValueError listing the bag's
-/// point cloud topics; a message that does not decode raises when its frame is reached.
+/// point cloud topics; messages of other types on the topic are passed over (counted in
+/// skipped_other_types); a message that does not decode, or a chunk that fails its CRC or its
+/// decompression (its frames together), raises ValueError when reached, and iterating again
+/// goes on after it.
 #[pyfunction]
 #[pyo3(signature = (path, topic=None))]
 fn read_bag(py: Python<'_>, path: PathBuf, topic: Option<String>) -> PyResult<BagFrames> {
-    let (bag, t) = py
+    let (bag, t, skipped_other_types) = py
         .detach(|| {
             let bag = Bag::open(&path)?;
             let t = bag.topic(topic.as_deref(), TYPE_NAME)?;
-            Ok((bag, t))
+            let others = bag.other_types_on(&t.name, TYPE_NAME)?;
+            Ok((bag, t, others))
         })
         .map_err(py_err)?;
     Ok(BagFrames {
-        messages: Mutex::new(bag.messages(&t.name)),
+        messages: Mutex::new(bag.messages(&t)),
         topic: t.name,
         messages_total: t.messages,
+        skipped_other_types,
     })
 }
 

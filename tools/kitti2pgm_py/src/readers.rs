@@ -44,7 +44,8 @@ fn matrix<'py, R: na::Dim, C: na::Dim, S: na::RawStorage<f64, R, C>>(
 /// Returns a dict: points (N, 4) float32 x, y, z, intensity (as stored; 0 where the file has
 /// no intensity), ring (N,) uint16 or None (the ring / channel / laser id field), file_index
 /// (N,) uint32 (the index in the file of each kept point), file_points, dropped (points with a
-/// non-finite value or beyond MAX_RANGE_M).
+/// non-finite value or beyond MAX_RANGE_M), trailing_bytes (bytes after a binary PCD's
+/// declared points, left unread).
 #[pyfunction]
 #[pyo3(signature = (path, *, fields=None))]
 fn read_cloud<'py>(
@@ -59,6 +60,7 @@ fn read_cloud<'py>(
     let cloud = py
         .detach(|| kitti2pgm::source::read_cloud(&path, layout.as_ref()))
         .map_err(py_err)?;
+    let trailing = cloud.trailing_bytes;
     let (scan, ring) = Scan::from_cloud(cloud);
     let d = PyDict::new(py);
     d.set_item("points", scan_array(py, &scan)?)?;
@@ -66,6 +68,7 @@ fn read_cloud<'py>(
     d.set_item("file_index", PyArray1::from_vec(py, scan.file_indices()))?;
     d.set_item("file_points", scan.file_len)?;
     d.set_item("dropped", scan.dropped.len())?;
+    d.set_item("trailing_bytes", trailing)?;
     Ok(d)
 }
 
