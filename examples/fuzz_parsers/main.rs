@@ -7,7 +7,10 @@
 //!
 //! Each round mutates one real fixture file (calibration text, tracklet XML, velodyne scan,
 //! camera PNG, `.npy` map, `.label` file, shard; KITTI object labels and calibration,
-//! SemanticKITTI labels and `calib.txt`, point shard) and hands it to its parser. A parser may refuse
+//! SemanticKITTI labels and `calib.txt`, point shard; a PCD scan, a PointCloud2 message (whose
+//! PCD, as `unpack` writes it, must read as the message does), a ROS 2 bag with zstd chunks and
+//! one with uncompressed chunks, the Velodyne, Hesai and Ouster calibration tables) and hands it
+//! to its parser. A parser may refuse
 //! the input with an error; it must never panic. A panicking input is saved as
 //! `fuzz-crash-<kind>-<seed>-<round>` and the run ends with exit status 1.
 
@@ -24,6 +27,9 @@ use kitti2pgm::kitti::camera::decode_image;
 use kitti2pgm::kitti::tracklets::Tracklets;
 use kitti2pgm::kitti::velodyne::Scan;
 use kitti2pgm::label::ClassMap;
+use kitti2pgm::source::bag::Bag;
+use kitti2pgm::source::pcd;
+use kitti2pgm::source::pointcloud2::PointCloud2;
 use mutate::{mutate, Rng};
 
 type Parser = fn(&[u8], &Path);
@@ -32,6 +38,59 @@ fn via_file(bytes: &[u8], dir: &Path, name: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, bytes).expect("write the mutated file");
     p
+}
+
+/// Every message of every topic of the bag file `b` read (at most 64 a topic).
+fn read_bag(b: &[u8], p: &Path) {
+    let f = via_file(b, p, "b.mcap");
+    let Ok(bag) = Bag::open(&f) else { return };
+    for t in bag.topics().unwrap_or_default() {
+        for m in bag.messages(&t).take(64) {
+            if m.is_err() {
+                break;
+            }
+        }
+    }
+}
+
+/// The fixture bag's first point cloud message, and the fixture bag written again with
+/// uncompressed chunks of about one message each (rosbag2's default chunks are uncompressed).
+fn bag_inputs(fixtures: &Path, work: &Path) -> (Vec<u8>, Vec<u8>) {
+    let bag = Bag::open(&fixtures.join("own_lidar_bag")).expect("the fixture bag");
+    let topic = bag
+        .topic(
+            Some("/velodyne_points"),
+            kitti2pgm::source::pointcloud2::TYPE_NAME,
+        )
+        .expect("its point cloud topic");
+    let messages: Vec<Vec<u8>> = (bag.messages(&topic))
+        .filter_map(|m| m.ok()?.message().map(|m| m.data))
+        .collect();
+    let path = work.join("plain.mcap");
+    let file = std::io::BufWriter::new(std::fs::File::create(&path).expect("plain.mcap"));
+    let options = mcap::WriteOptions::new()
+        .compression(None)
+        .chunk_size(Some(1));
+    let mut w = options.create(file).expect("a writer");
+    let schema = w
+        .add_schema(&topic.type_name, "ros2msg", b"")
+        .expect("a schema");
+    let ch = w
+        .add_channel(schema, &topic.name, "cdr", &Default::default())
+        .expect("a channel");
+    for (i, m) in messages.iter().enumerate() {
+        let header = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: i as u32,
+            log_time: i as u64,
+            publish_time: i as u64,
+        };
+        w.write_to_known_channel(&header, m).expect("a message");
+    }
+    w.finish().expect("the bag's end");
+    drop(w);
+    let plain = std::fs::read(&path).expect("plain.mcap");
+    (messages[0].clone(), plain)
 }
 
 fn main() {
@@ -67,6 +126,8 @@ fn main() {
         .find(|p| p.extension().is_some_and(|e| e == "mcap"))
         .expect("a shard");
     let point_shard = out.join("points/train-00000.mcap");
+    let lidars = fixtures.join("lidars");
+    let (first_message, plain_bag) = bag_inputs(&fixtures, work.path());
     let inputs: Vec<(&str, Vec<u8>, Parser)> = vec![
         ("calib", read(root.join("calib_cam_to_cam.txt")), |b, p| {
             let _ = CalibFile::parse(&String::from_utf8_lossy(b), p)
@@ -162,6 +223,50 @@ fn main() {
                 let _ = s.points();
             }
         }),
+        (
+            "pcd",
+            read(lidars.join("velodyne/vlp16_1673400472138016708.pcd")),
+            |b, p| {
+                let _ = pcd::decode(b, &p.join("s.pcd"));
+            },
+        ),
+        ("pointcloud2", first_message.clone(), |b, p| {
+            // What unpack writes decodes to what read_bag reads, whatever the message.
+            if let Ok(m) = PointCloud2::decode(b, p) {
+                let (layout, records) = m.packed();
+                let file = pcd::encode(&layout, m.width, m.height, &records);
+                if let (Ok(a), Ok(b)) = (m.cloud(p), pcd::decode(&file, p)) {
+                    assert_eq!(a, b, "unpack's PCD reads as the message");
+                }
+            }
+        }),
+        (
+            "bag",
+            read(fixtures.join("own_lidar_bag/own_lidar_bag.mcap")),
+            read_bag,
+        ),
+        ("bag-plain", plain_bag, read_bag),
+        (
+            "velodyne-yaml",
+            read(lidars.join("velodyne/VLP16.yaml")),
+            |b, p| {
+                let _ = kitti2pgm::sensor::read_calibration(&via_file(b, p, "c.yaml"));
+            },
+        ),
+        (
+            "hesai-csv",
+            read(lidars.join("hesai/Pandar40P.csv")),
+            |b, p| {
+                let _ = kitti2pgm::sensor::read_calibration(&via_file(b, p, "c.csv"));
+            },
+        ),
+        (
+            "ouster-json",
+            read(lidars.join("ouster/OS-1-32-G_v2.1.1_1024x10.json")),
+            |b, p| {
+                let _ = kitti2pgm::sensor::read_calibration(&via_file(b, p, "c.json"));
+            },
+        ),
     ];
     std::panic::set_hook(Box::new(|_| {}));
     let mut rng = Rng(seed);

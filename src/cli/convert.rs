@@ -224,7 +224,8 @@ pub struct SensorArgs {
     /// Where the sensor sits in the frame the points are written in, X,Y,Z[,ROLL,PITCH,YAW]
     /// (metres, degrees; ROS's roll-pitch-yaw): for clouds moved to a vehicle frame (a ROS
     /// bag's base_link). The points are moved into the sensor's frame when read, so rows,
-    /// columns and the x, y, z channels are the sensor's.
+    /// columns and the x, y, z channels are the sensor's; points then beyond 500 m are dropped.
+    /// A mounting is at most 100 m from the points' origin.
     #[arg(long, value_name = "X,Y,Z[,R,P,Y]", allow_hyphen_values = true)]
     pub sensor_pose: Option<String>,
     /// The point layout of the scans' flat .bin files (with --sensor or --sensor-calibration):

@@ -193,7 +193,7 @@ fn a_rerun_is_refused_unless_overwrite_which_removes_stale_scans() {
 }
 
 /// A PointCloud2 of `n` points (x, y, z float32 at 0, 4, 8) serialised as little-endian CDR.
-fn cdr_cloud(n: u32, point_step: u32, stamp_sec: i32) -> Vec<u8> {
+pub(super) fn cdr_cloud(n: u32, point_step: u32, stamp_sec: i32) -> Vec<u8> {
     let mut b: Vec<u8> = vec![0, 1, 0, 0];
     let pad = |b: &mut Vec<u8>, a: usize| {
         while !(b.len() - 4).is_multiple_of(a) {
@@ -593,7 +593,7 @@ fn a_bag_given_to_convert_or_check_is_named_with_the_command_that_reads_it() {
 /// channel of its type (`sensor_msgs/msg/PointCloud2` or another), log time = its header stamp
 /// (`i` s and 5 ns, as [`cdr_cloud`] stamps message `i`) so that `times.txt` is the same
 /// whether a frame is read or lost.
-fn write_typed(path: &Path, messages: &[(&str, Vec<u8>)], options: mcap::WriteOptions) {
+pub(super) fn write_typed(path: &Path, messages: &[(&str, Vec<u8>)], options: mcap::WriteOptions) {
     let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
     let mut w = options.create(file).unwrap();
     let mut channels = std::collections::HashMap::new();

@@ -286,3 +286,115 @@ def test_unpack_finds_the_sensor_pose_in_the_bag_s_static_transforms(tmp_path):
     assert "os_sensor" in r.stderr and "base_link, lidar_mount, velodyne" in r.stderr
     assert (out / "sequences" / "00" / "velodyne" / "000000.pcd").is_file()
     assert (out / "sequences" / "00" / "times.txt").is_file()
+
+
+def write_typed_bag(path, messages, ts, compression=None):
+    """A rosbag2 MCAP bag whose one topic /points carries messages of several types (one
+    connection a type, as MCAP's channels): [(msgtype, msg, log_time_ns)]."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+    w = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    if compression:
+        w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    with w:
+        conns = {}
+        for msgtype, msg, t in messages:
+            if msgtype not in conns:
+                conns[msgtype] = w.add_connection("/points", msgtype, typestore=ts)
+            w.write(conns[msgtype], t, ts.serialize_cdr(msg, msgtype))
+
+
+def test_a_flipped_byte_in_an_uncompressed_chunk_fails_its_frame_alone(tmp_path):
+    """Issue 47, defect 2: uncompressed chunks (rosbag2's default) have their CRC checked in
+    read_bag and unpack, and a damaged chunk's frames fail alone. The bag is written by the
+    `mcap` package (CRCs on, as rosbag2's own writer writes them), the messages serialised by
+    rosbags; Python's mcap reader with CRC validation names the same damage. (rosbags' own
+    writer stores CRC 0, "none": no reader can check its chunks.)"""
+    from mcap.reader import make_reader
+    from mcap.stream_reader import CRCValidationError
+    from mcap.writer import CompressionType, Writer
+
+    mb = make_bag()
+    ts = typestore()
+    pts = mb.read_pcd(VLP16)
+    data = ts.serialize_cdr(mb.pointcloud2(ts, pts, 10**18, "v"), PC2)
+    path = tmp_path / "plain.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f, chunk_size=1 << 16, compression=CompressionType.NONE)
+        w.start("ros2", "test")
+        ch = w.register_channel("/v", "cdr", w.register_schema(PC2, "ros2msg", b""))
+        for i in range(5):
+            w.add_message(ch, 10**18 + i, bytes(data), 10**18 + i)
+        w.finish()
+    raw = bytearray(path.read_bytes())
+    raw[len(raw) // 2] ^= 0x01
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(raw))
+    with open(bad, "rb") as f, pytest.raises(CRCValidationError, match="Chunk"):
+        for _ in make_reader(f, validate_crcs=True).iter_messages():
+            pass
+    frames = k2.read_bag(bad, "/v")
+    got, failed = [], []
+    while True:  # a failed chunk raises once; the iteration goes on after it
+        try:
+            got.append(next(frames))
+        except ValueError as e:
+            failed.append(str(e))
+        except StopIteration:
+            break
+    assert len(failed) == 1 and "CRC" in failed[0] and "bad.mcap" in failed[0], failed
+    lost = [i for i in range(5) if i not in [f["index"] for f in got]]
+    assert len(lost) == 1, lost
+    assert failed[0].endswith(f"frames lost: {lost[0]} (iterating again goes on after it)"), failed
+    expected = k2.read_cloud(VLP16)
+    for f in got:
+        np.testing.assert_array_equal(f["points"], expected["points"])
+    r = subprocess.run([BIN, "unpack", str(bad), "--topic", "/v", "--out", str(tmp_path / "root"), "--json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 3, r.stderr
+    j = json.loads(r.stdout)
+    assert j["frames_written"] == 4 and [f["frame"] for f in j["failures"]] == lost, j
+    for i in range(5):
+        scan = tmp_path / "root/sequences/00/velodyne" / f"{i:06d}.pcd"
+        assert scan.exists() == (i != lost[0])
+        assert not scan.exists() or scan.read_bytes() == VLP16.read_bytes()
+
+
+@pytest.mark.parametrize("compression", [None, "zstd"])
+def test_messages_of_another_type_on_the_topic_are_passed_over(tmp_path, compression):
+    """Issue 47, defect 4: four PointCloud2 messages and one std_msgs/String on /points: the
+    clouds are read, the string counted as passed over, the same in read_bag and unpack."""
+    mb = make_bag()
+    ts = typestore()
+    pts = mb.read_pcd(VLP16)
+    String = ts.types["std_msgs/msg/String"]
+    msgs = [(PC2, mb.pointcloud2(ts, pts, i, "v"), i) for i in range(4)]
+    msgs.insert(2, ("std_msgs/msg/String", String(data="hello"), 10))
+    write_typed_bag(tmp_path / "bag", msgs, ts, compression)
+    topics = sorted((t["topic"], t["type"], t["messages"]) for t in k2.bag_topics(tmp_path / "bag"))
+    assert topics == [("/points", PC2, 4), ("/points", "std_msgs/msg/String", 1)]
+    frames = k2.read_bag(tmp_path / "bag", "/points")
+    assert frames.skipped_other_types == 1
+    assert [f["index"] for f in frames] == [0, 1, 2, 3]
+    r = subprocess.run([BIN, "unpack", str(tmp_path / "bag"), "--topic", "/points", "--out", str(tmp_path / "root"),
+                        "--json"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    j = json.loads(r.stdout)
+    assert (j["frames_written"], j["skipped_other_types"]) == (4, 1)
+
+
+def test_an_unfinished_unpack_is_refused_by_dataset(tmp_path):
+    """Issue 47, defect 8: a sequence whose unpack.json says complete: false (a killed unpack)
+    is refused by Dataset as by convert."""
+    root = tmp_path / "root"
+    r = subprocess.run([BIN, "unpack", str(BAG), "--topic", "/velodyne_points", "--out", str(root)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    marker = root / "sequences/00/unpack.json"
+    j = json.loads(marker.read_text())
+    assert j["complete"] is True
+    j["complete"] = False
+    marker.write_text(json.dumps(j))
+    with pytest.raises(ValueError, match=r"unfinished unpack.*--overwrite"):
+        k2.Dataset(root, sensor="vlp16", all_frames=True)

@@ -30,6 +30,27 @@ def test_read_cloud_matches_numpy_on_the_vlp16_pcd():
     np.testing.assert_array_equal(c["ring"], a["channel"])
 
 
+def test_read_cloud_reads_zero_wide_fields_and_trailing_bytes_of_exports(tmp_path):
+    """Issue 47, defect 5: a PCD with a COUNT 0 padding field (zero bytes, as three.js's
+    PCDLoader reads it) and bytes after its points, as labelling tools export them, reads as the
+    numpy reference does; the trailing bytes are counted."""
+    raw = VLP16.read_bytes()
+    start = raw.index(b"DATA binary\n") + len(b"DATA binary\n")
+    head = (raw[:start].decode()
+            .replace("time_stamp\n", "time_stamp _\n").replace("SIZE 4 4 4 1 1 2 4 4 4 4\n", "SIZE 4 4 4 1 1 2 4 4 4 4 4\n")
+            .replace("TYPE F F F U U U F F F U\n", "TYPE F F F U U U F F F U F\n")
+            .replace("COUNT 1 1 1 1 1 1 1 1 1 1\n", "COUNT 1 1 1 1 1 1 1 1 1 1 0\n"))
+    assert "COUNT 1 1 1 1 1 1 1 1 1 1 0" in head
+    path = tmp_path / "export.pcd"
+    path.write_bytes(head.encode() + raw[start:] + bytes(7))
+    c = k2.read_cloud(path)
+    assert c["trailing_bytes"] == 7
+    ref = k2.read_cloud(VLP16)
+    assert ref["trailing_bytes"] == 0
+    np.testing.assert_array_equal(c["points"], ref["points"])
+    np.testing.assert_array_equal(c["ring"], ref["ring"])
+
+
 def test_read_cloud_reads_what_pypcd4_writes_in_every_encoding(tmp_path):
     pypcd4 = pytest.importorskip("pypcd4")
     src = k2.read_cloud(P40)["points"][:, :3]
