@@ -188,9 +188,11 @@ pub fn unpack(
             ),
         });
     }
-    create_dir(&scans)?;
+    // The mark first, then the scans: no moment when scans stand without it.
+    create_dir(&seq)?;
     let mut s = started(bag, topic, &seq)?;
     write_summary(&s, &seq, opts.durability)?;
+    create_dir(&scans)?;
     let mut stamps: Vec<i64> = Vec::new();
     let mut stream = bag.messages(topic);
     loop {

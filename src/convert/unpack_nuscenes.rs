@@ -188,9 +188,10 @@ fn unpack_scene(
     progress: &(dyn Fn() + Sync),
 ) -> Result<SceneIndex> {
     let seq = sequence_dir(&opts.out, s);
-    create_dir(&seq.join("velodyne"))?;
+    create_dir(&seq)?;
     let mut index = scene_index(ds, s, &seq);
     write_index(&index, &seq, opts.durability)?;
+    create_dir(&seq.join("velodyne"))?;
     if s.keyframes.iter().any(|k| k.labels.is_some()) {
         create_dir(&seq.join("labels"))?;
     }

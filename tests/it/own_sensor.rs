@@ -353,11 +353,9 @@ fn the_range_limit_holds_after_the_sensor_pose() {
         [-20.0, 3.0, -1.0],
         [449.0, -3.0, 0.0],
     ];
-    let mut body = format!(
-        "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 5\nHEIGHT 1\n\
-         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 5\nDATA binary\n"
-    )
-    .into_bytes();
+    let mut body = b"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 5\n\
+         HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 5\nDATA binary\n"
+        .to_vec();
     body.extend(pts.iter().flatten().flat_map(|v| v.to_le_bytes()));
     std::fs::write(seq.join("000000.pcd"), body).unwrap();
     let out = t.path().join("out");

@@ -37,7 +37,8 @@ def test_read_cloud_reads_zero_wide_fields_and_trailing_bytes_of_exports(tmp_pat
     raw = VLP16.read_bytes()
     start = raw.index(b"DATA binary\n") + len(b"DATA binary\n")
     head = (raw[:start].decode()
-            .replace("time_stamp\n", "time_stamp _\n").replace("SIZE 4 4 4 1 1 2 4 4 4 4\n", "SIZE 4 4 4 1 1 2 4 4 4 4 4\n")
+            .replace("time_stamp\n", "time_stamp _\n")
+            .replace("SIZE 4 4 4 1 1 2 4 4 4 4\n", "SIZE 4 4 4 1 1 2 4 4 4 4 4\n")
             .replace("TYPE F F F U U U F F F U\n", "TYPE F F F U U U F F F U F\n")
             .replace("COUNT 1 1 1 1 1 1 1 1 1 1\n", "COUNT 1 1 1 1 1 1 1 1 1 1 0\n"))
     assert "COUNT 1 1 1 1 1 1 1 1 1 1 0" in head
