@@ -5,11 +5,15 @@
 #     shard reader (`kitti2pgm_data`) and the trainer (`python -m kitti2pgm_train`, with the
 #     ONNX export extra), the last two editable.
 #
-#   tools/install.sh            # everything (about 6 minutes on 2 cores, most of it compiling)
+#   tools/install.sh            # everything (about 4 minutes on 2 cores, most of it compiling)
 #   tools/install.sh --cli      # the CLI only
 #   tools/install.sh --python   # the Python side only
 #
-# PyPI's torch brings its CUDA libraries (about 4 GB) even for CPU use.
+# The CLI, the module and the tests share one build (the workspace's target/, one feature set:
+# Cargo.toml), so the module compiles only its own crates after the CLI. What was installed from
+# these very sources is not installed again: each step records a digest of its inputs in
+# target/install-stamps/ and says when it skips (a second run takes seconds). Every step prints
+# its time. PyPI's torch brings its CUDA libraries (about 4 GB) even for CPU use.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cli=1
@@ -20,17 +24,55 @@ case "${1:-}" in
   --python) cli=0 ;;
   *) echo "usage: tools/install.sh [--cli | --python]" >&2; exit 2 ;;
 esac
-if [ "$cli" = 1 ]; then
-  if ! command -v cargo >/dev/null 2>&1; then
-    if [ -x "$HOME/.cargo/bin/cargo" ]; then
-      export PATH="$HOME/.cargo/bin:$PATH"
-    else
-      echo "install.sh: the CLI needs Rust (cargo, 1.89 or later): see https://rustup.rs" >&2
-      exit 1
-    fi
+if ! command -v cargo >/dev/null 2>&1; then
+  if [ -x "$HOME/.cargo/bin/cargo" ]; then
+    export PATH="$HOME/.cargo/bin:$PATH"
+  else
+    echo "install.sh: kitti2pgm needs Rust (cargo, 1.89 or later): see https://rustup.rs" >&2
+    exit 1
   fi
-  cargo install --locked --quiet --path .
+fi
+stamps=target/install-stamps
+mkdir -p "$stamps"
+
+# The digest of a step's inputs: the files (their paths and bytes) and the tools' versions.
+digest() {
+  {
+    find "$@" -type f -not -path '*/__pycache__/*' -not -name '*.pyc' -print0 | sort -z |
+      xargs -0 sha256sum
+    rustc --version 2>/dev/null || true
+    python3 -c 'import sys; print(sys.executable, sys.version)'
+    pwd
+  } | sha256sum | cut -d' ' -f1
+}
+
+# Runs a step unless its stamp (target/install-stamps/KEY) holds WANT; records it after the step
+# succeeds. `fresh KEY` forgets a stamp.
+#   step KEY "WHAT" WANT COMMAND...
+step() {
+  local key=$1 what=$2 want=$3 t=$SECONDS
+  shift 3
+  if [ "$(cat "$stamps/$key" 2>/dev/null)" = "$want" ]; then
+    echo "install.sh: $what: skipped (installed from these sources already)"
+    return
+  fi
+  rm -f "$stamps/$key"
+  "$@"
+  echo "$want" >"$stamps/$key"
+  echo "install.sh: $what: $((SECONDS - t)) s"
+}
+fresh() { rm -f "$stamps/$1"; }
+
+rust_sources=(src build.rs proto Cargo.toml Cargo.lock)
+if [ "$cli" = 1 ]; then
   bin="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin"
+  # The stamp holds only while the installed binary is the one this script installed.
+  installed() { sha256sum "$bin/kitti2pgm" 2>/dev/null | cut -c1-16; }
+  have=$(installed)
+  [ -n "$have" ] && [ "$(cat "$stamps/cli-binary" 2>/dev/null)" = "$have" ] || fresh cli
+  step cli "the CLI (cargo install)" "$(digest "${rust_sources[@]}")" \
+    cargo install --locked --quiet --path .
+  installed >"$stamps/cli-binary"
   echo "install.sh: kitti2pgm installed in $bin"
   case ":$PATH:" in
     *":$bin:"*) ;;
@@ -38,7 +80,24 @@ if [ "$cli" = 1 ]; then
   esac
 fi
 if [ "$py" = 1 ]; then
-  python3 -m pip install --quiet --disable-pip-version-check \
-    ./tools/kitti2pgm_py -e tools/kitti2pgm_data -e "tools/trainer[export]"
+  pip=(python3 -m pip install --quiet --disable-pip-version-check)
+  # The module: the library's sources and its own; the stamp holds only while the installed
+  # module is the one this script installed (another checkout may have replaced it).
+  module() {
+    python3 -c 'import glob, hashlib, kitti2pgm, os
+so = glob.glob(os.path.join(os.path.dirname(kitti2pgm.__file__), "*.so"))
+print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 2>/dev/null
+  }
+  have=$(module)
+  [ -n "$have" ] && [ "$(cat "$stamps/module-file" 2>/dev/null)" = "$have" ] || fresh module
+  step module "the Python module (maturin)" \
+    "$(digest "${rust_sources[@]}" tools/kitti2pgm_py/src tools/kitti2pgm_py/Cargo.toml \
+      tools/kitti2pgm_py/pyproject.toml)" \
+    "${pip[@]}" ./tools/kitti2pgm_py
+  module >"$stamps/module-file"
+  python3 -c 'import kitti2pgm_data, kitti2pgm_train' 2>/dev/null || fresh packages
+  step packages "kitti2pgm_data and kitti2pgm_train (editable)" \
+    "$(digest tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml)" \
+    "${pip[@]}" -e tools/kitti2pgm_data -e "tools/trainer[export]"
   echo "install.sh: Python packages kitti2pgm, kitti2pgm_data, kitti2pgm_train installed"
 fi

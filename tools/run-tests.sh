@@ -3,36 +3,70 @@
 # side, so that CI installs exactly what a user does), the test dependencies, the code's own
 # checks (cargo fmt --check, clippy -D warnings, ruff, mypy: ruff.toml and mypy.ini), then the
 # Rust suite (unit, integration on fixtures/, doc tests) and the Python packages' tests (native
-# module, shard reader, trainer, and the README and docs run as written). pip skips what is
-# already installed and keeps its downloads in its cache; cargo reuses its builds.
+# module, shard reader, trainer, and the README and docs run as written). Each step prints its
+# time and the time so far (docs/performance.md, "The test suite").
+#
+# One build serves all: `cargo install` (tools/install.sh) compiles every dependency in the
+# release profile with the one feature set of Cargo.toml; the Python module, clippy (release
+# profile: the build scripts and macros are the install's) and the tests (release profile) then
+# compile only their own crates. The test dependencies installed by pip are installed again only
+# when their list changes (a stamp in target/install-stamps/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 t0=$SECONDS
+t=$SECONDS
+lap() {
+  echo "run-tests.sh: $1: $((SECONDS - t)) s (at $((SECONDS - t0)) s)"
+  t=$SECONDS
+}
 tools/install.sh
+lap "install"
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
-python3 -m pip install --quiet --disable-pip-version-check \
-  -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
+stamps=target/install-stamps
+# The test dependencies: once for a given list (and interpreter), then skipped.
+want=$( (cat tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml
+  python3 -c 'import sys; print(sys.executable, sys.version)'; echo "ruff==0.17.6 mypy==2.4.1"
+  pwd) | sha256sum)
+if [ "$(cat $stamps/test-deps 2>/dev/null)" = "$want" ] && python3 -c 'import pytest, xdist, ruff, mypy' 2>/dev/null; then
+  echo "run-tests.sh: Python test dependencies: skipped (installed for this list already)"
+else
+  python3 -m pip install --quiet --disable-pip-version-check \
+    -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
+  echo "$want" >$stamps/test-deps
+fi
 # ouster-sdk, the Ouster tests' reference decoder, in an environment of its own: it pins
 # rosbags, flask and click to versions the test environment does not share.
-[ -x target/ouster-sdk-venv/bin/python ] || python3 -m venv target/ouster-sdk-venv
-target/ouster-sdk-venv/bin/python -m pip install --quiet --disable-pip-version-check "ouster-sdk==1.0.1"
-export OUSTER_PYTHON="$PWD/target/ouster-sdk-venv/bin/python"
-echo "run-tests.sh: installed in $((SECONDS - t0)) s"
+venv=target/ouster-sdk-venv
+if [ -x $venv/bin/python ] && $venv/bin/python -c 'import ouster.sdk' 2>/dev/null &&
+  [ "$(cat $venv/kitti2pgm-stamp 2>/dev/null)" = "ouster-sdk==1.0.1" ]; then
+  echo "run-tests.sh: ouster-sdk: skipped (its environment holds 1.0.1)"
+else
+  [ -x $venv/bin/python ] || python3 -m venv $venv
+  $venv/bin/python -m pip install --quiet --disable-pip-version-check "ouster-sdk==1.0.1"
+  echo "ouster-sdk==1.0.1" >$venv/kitti2pgm-stamp
+fi
+export OUSTER_PYTHON="$PWD/$venv/bin/python"
+lap "test dependencies"
 # The code's own checks, Rust and Python: formatting, lints (warnings are errors), types.
+# clippy in the release profile: the build scripts and proc macros are then the install's.
 cargo fmt --all --check
-cargo clippy --workspace --all-targets --locked --quiet -- -D warnings
+cargo clippy --release --workspace --all-targets --locked --quiet -- -D warnings
 python3 -m ruff check tools
 python3 -m mypy
-echo "run-tests.sh: formatting, lints and types clean at $((SECONDS - t0)) s"
+lap "formatting, lints and types clean"
 # In the release profile: `cargo install` (tools/install.sh) has just built every dependency
-# there, so the tests compile only the crate's own test targets, and run optimised.
-# The tests that need ../shared are #[ignore = "needs ../shared"]: run them where it is.
+# there, so the tests compile only the crate's own test targets and the dev-dependencies, and
+# run optimised. The tests that need ../shared are #[ignore = "needs ../shared"]: run them
+# where it is.
 if [ -d ../shared/kitti ]; then
   cargo test --release --locked -- --include-ignored
 else
   echo "run-tests.sh: ../shared is absent: the tests that need it are ignored (cargo lists them)"
   cargo test --release --locked
 fi
-# The binary the Python tests drive: the one the Rust tests ran.
-KITTI2PGM_BIN="$PWD/target/release/kitti2pgm" python3 -m pytest -q tools
+lap "Rust tests"
+# The binary the Python tests drive: the one the Rust tests ran. Two workers (pytest-xdist):
+# the docs test (every README command in order, two thirds of the time) runs beside the rest.
+KITTI2PGM_BIN="$PWD/target/release/kitti2pgm" python3 -m pytest -q -n 2 tools
+lap "Python tests"
 echo "run-tests.sh: done in $((SECONDS - t0)) s"

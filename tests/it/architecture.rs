@@ -305,3 +305,62 @@ fn no_function_over_80_lines() {
         .collect();
     assert!(long.is_empty(), "functions over 80 lines: {long:?}");
 }
+
+/// Each crate's features as one build resolves them (`cargo tree -e features` of `args`):
+/// "name version" -> features.
+fn resolved_features(args: &[&str]) -> BTreeMap<String, BTreeSet<String>> {
+    let out = std::process::Command::new(env!("CARGO"))
+        .args([
+            "tree",
+            "--locked",
+            "--offline",
+            "--prefix",
+            "none",
+            "-f",
+            "{p} {f}",
+        ])
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo tree runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut found: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let [name, version, rest @ ..] = words.as_slice() else {
+            continue;
+        };
+        // A path package shows its path, a proc macro "(proc-macro)", a repeat "(*)".
+        let features = rest.iter().filter(|w| !w.starts_with('('));
+        found
+            .entry(format!("{name} {version}"))
+            .or_default()
+            .extend(features.flat_map(|f| f.split(',')).map(str::to_string));
+    }
+    found
+}
+
+/// One feature set for the whole build (issue 48): the CLI's install, the Python module's
+/// build and the tests resolve the same features for every crate they share, so that each
+/// compiles once and the others reuse it (Cargo.toml's unification list). A dependency whose
+/// features differ between them fails here, naming the crate and the features.
+#[test]
+fn the_cli_the_module_and_the_tests_share_one_feature_set() {
+    let install = resolved_features(&["-p", "kitti2pgm", "-e", "normal,build"]);
+    let module = resolved_features(&["-p", "kitti2pgm-py", "-e", "normal,build"]);
+    let tests = resolved_features(&["-p", "kitti2pgm", "-e", "normal,build,dev"]);
+    assert!(install.len() > 100, "{install:?}");
+    for (what, other) in [("the Python module", &module), ("the tests", &tests)] {
+        let differ: Vec<String> = (install.iter())
+            .filter_map(|(k, f)| {
+                let o = other.get(k)?;
+                (o != f).then(|| format!("{k}: CLI {f:?}, {what} {o:?}"))
+            })
+            .collect();
+        assert!(differ.is_empty(), "features differ: {differ:#?}");
+    }
+}
