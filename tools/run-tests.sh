@@ -27,7 +27,7 @@ stamps=target/install-stamps
 want=$( (cat tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml
   python3 -c 'import sys; print(sys.executable, sys.version)'; echo "ruff==0.17.6 mypy==2.4.1"
   pwd) | sha256sum)
-if [ "$(cat $stamps/test-deps 2>/dev/null)" = "$want" ] && python3 -c 'import pytest, xdist, ruff, mypy' 2>/dev/null; then
+if [ "$(cat $stamps/test-deps 2>/dev/null)" = "$want" ] && python3 -c 'import pytest, ruff, mypy' 2>/dev/null; then
   echo "run-tests.sh: Python test dependencies: skipped (installed for this list already)"
 else
   python3 -m pip install --quiet --disable-pip-version-check \
@@ -65,8 +65,8 @@ else
   cargo test --release --locked
 fi
 lap "Rust tests"
-# The binary the Python tests drive: the one the Rust tests ran. Two workers (pytest-xdist):
-# the docs test (every README command in order, two thirds of the time) runs beside the rest.
-KITTI2PGM_BIN="$PWD/target/release/kitti2pgm" python3 -m pytest -q -n 2 tools
+# The binary the Python tests drive: the one the Rust tests ran. One process: two workers
+# (pytest-xdist) took 251 s instead of 170 s on 2 cores, torch's threads of both fighting.
+KITTI2PGM_BIN="$PWD/target/release/kitti2pgm" python3 -m pytest -q tools
 lap "Python tests"
 echo "run-tests.sh: done in $((SECONDS - t0)) s"
