@@ -34,18 +34,21 @@ else
     -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
   echo "$want" >$stamps/test-deps
 fi
-# ouster-sdk, the Ouster tests' reference decoder, in an environment of its own: it pins
-# rosbags, flask and click to versions the test environment does not share.
-venv=target/ouster-sdk-venv
-if [ -x $venv/bin/python ] && $venv/bin/python -c 'import ouster.sdk' 2>/dev/null &&
-  [ "$(cat $venv/kitti2pgm-stamp 2>/dev/null)" = "ouster-sdk==1.0.1" ]; then
-  echo "run-tests.sh: ouster-sdk: skipped (its environment holds 1.0.1)"
+# ouster-sdk, the Ouster tests' reference decoder, in an environment of its own (it pins
+# rosbags, flask and click to versions the test environment does not share), made once per
+# version and Python and kept in the user's cache, so that every checkout reuses it.
+pyver=$(python3 -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+venv="${XDG_CACHE_HOME:-$HOME/.cache}/kitti2pgm/ouster-sdk-1.0.1-py$pyver"
+if [ -x "$venv/bin/python" ] && "$venv/bin/python" -c 'import ouster.sdk' 2>/dev/null &&
+  [ "$(cat "$venv/kitti2pgm-stamp" 2>/dev/null)" = "ouster-sdk==1.0.1" ]; then
+  echo "run-tests.sh: ouster-sdk: skipped (its environment in $venv holds 1.0.1)"
 else
-  [ -x $venv/bin/python ] || python3 -m venv $venv
-  $venv/bin/python -m pip install --quiet --disable-pip-version-check "ouster-sdk==1.0.1"
-  echo "ouster-sdk==1.0.1" >$venv/kitti2pgm-stamp
+  rm -rf "$venv"
+  python3 -m venv "$venv"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "ouster-sdk==1.0.1"
+  echo "ouster-sdk==1.0.1" >"$venv/kitti2pgm-stamp"
 fi
-export OUSTER_PYTHON="$PWD/$venv/bin/python"
+export OUSTER_PYTHON="$venv/bin/python"
 lap "test dependencies"
 # The code's own checks, Rust and Python: formatting, lints (warnings are errors), types.
 # clippy in the release profile: the build scripts and proc macros are then the install's.
