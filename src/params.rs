@@ -95,8 +95,9 @@ impl MapParams {
 
 /// Reads the scan at `path` as a conversion with `sensor` does: its `.bin` records in the
 /// declared layout (`--fields`), and with a sensor its points moved into the sensor's frame
-/// (those then beyond the range limit dropped, as the readers drop them) and the beam row (and Ouster column) of every point ([`SensorParams::beam_rows`]). The one place
-/// that decides it, for `convert`, `check`, `unproject` and `score`.
+/// (those then beyond the range limit dropped, as the readers drop them) and the beam row (and
+/// Ouster column) of every point ([`SensorParams::beam_rows`]). The one place that decides it,
+/// for `convert`, `check`, `unproject` and `score`.
 pub fn read_scan(sensor: Option<&SensorParams>, path: &Path) -> Result<(Scan, Option<BeamRowsOf>)> {
     let layout = sensor.map(SensorParams::layout).transpose()?.flatten();
     let (mut scan, mut rings) = Scan::read_with_rings(path, layout.as_ref())?;

@@ -99,12 +99,8 @@ pub struct UnpackSummary {
     /// false is an interrupted unpack, which the readers refuse
     /// ([`crate::source::unpacked::refuse_unfinished`]). Summaries of earlier versions, written
     /// at the end only, are complete.
-    #[serde(default = "complete")]
+    #[serde(default = "crate::source::unpacked::complete_by_default")]
     pub complete: bool,
-}
-
-fn complete() -> bool {
-    true
 }
 
 /// One decoded frame, ready to write.

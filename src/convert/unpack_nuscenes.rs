@@ -59,12 +59,8 @@ pub struct SceneIndex {
     /// False from the scene's first write until its last (an interrupted unpack: the readers
     /// refuse the sequence, [`crate::source::unpacked::refuse_unfinished`]); indexes of earlier
     /// versions, written at the end only, are complete.
-    #[serde(default = "complete")]
+    #[serde(default = "crate::source::unpacked::complete_by_default")]
     pub complete: bool,
-}
-
-fn complete() -> bool {
-    true
 }
 
 /// What an unpack of a nuScenes root did.

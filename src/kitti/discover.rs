@@ -115,8 +115,7 @@ fn raw_like(dir: &Path) -> Result<bool> {
 }
 
 /// The sequences at `dir`: itself when it holds `velodyne/`, else `sequences/<NN>` (or `<NN>`)
-/// folders with scans.
-/// A sequence an unpack began and never finished is refused
+/// folders with scans. A sequence an unpack began and never finished is refused
 /// ([`crate::source::unpacked::refuse_unfinished`]).
 fn sequences(dir: &Path) -> Result<Vec<Drive>> {
     let folders = if has_scans(dir) {

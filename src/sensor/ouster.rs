@@ -50,12 +50,12 @@ fn numbers(v: &Value, path: &Path, key: &str) -> Result<Vec<f64>> {
         .collect()
 }
 
-/// `lidar_to_sensor_transform` (row-major 4x4, millimetres) as a rigid motion in metres.
 /// The largest offset inside a unit that a metadata file may state (the beam origin's from the
 /// lidar's, the lidar's from the sensor's): Ouster's are tens of millimetres; a metre or more
 /// is a damaged or made-up file, whose points would all miss the beam model.
 const MAX_INTERNAL_OFFSET_MM: f64 = 1000.0;
 
+/// `lidar_to_sensor_transform` (row-major 4x4, millimetres) as a rigid motion in metres.
 fn sensor_frame(root: &Value, path: &Path) -> Result<na::Isometry3<f64>> {
     let key = "lidar_to_sensor_transform";
     let v = field(root, &["lidar_intrinsics"], key).ok_or_else(|| {
@@ -82,7 +82,7 @@ fn sensor_frame(root: &Value, path: &Path) -> Result<na::Isometry3<f64>> {
             format!(
                 "{key} moves the lidar {} mm from the sensor's origin: not an Ouster unit's \
                  (tens of millimetres; at most {MAX_INTERNAL_OFFSET_MM} mm taken)",
-                crate::error::shown(translation.norm() * 1000.0)
+                crate::error::shown(norm * 1000.0)
             ),
         ));
     }

@@ -15,15 +15,16 @@ pub const BAG_MARKER: &str = "unpack.json";
 /// A nuScenes scene's index in its sequence folder.
 pub const NUSCENES_MARKER: &str = "nuscenes.json";
 
-/// The part of a mark the readers need; a mark of an earlier version, written only at the end,
-/// has no `complete` and is complete.
+/// The part of a mark the readers need.
 #[derive(Deserialize)]
 struct Mark {
-    #[serde(default = "complete")]
+    #[serde(default = "complete_by_default")]
     complete: bool,
 }
 
-fn complete() -> bool {
+/// The `complete` of a mark without one: an earlier version's, written only at the end (the
+/// marks' serde default, here and in their writers' types).
+pub fn complete_by_default() -> bool {
     true
 }
 

@@ -82,6 +82,8 @@ pub struct Bag {
     pub path: PathBuf,
     /// Its MCAP files, in order.
     pub files: Vec<PathBuf>,
+    /// Its topics, once read ([`Bag::topics`]).
+    topics: std::sync::OnceLock<Vec<Topic>>,
 }
 
 #[derive(serde::Deserialize)]
@@ -116,6 +118,7 @@ impl Bag {
             return Ok(Bag {
                 path: path.into(),
                 files: vec![path.into()],
+                topics: Default::default(),
             });
         }
         let meta = path.join("metadata.yaml");
@@ -172,13 +175,18 @@ impl Bag {
                 .iter()
                 .map(|f| path.join(f))
                 .collect(),
+            topics: Default::default(),
         })
     }
 
     /// The bag's topics with their message counts over all its files: one entry a topic and
     /// message type (MCAP's channels: one topic can carry messages of several types), sorted by
-    /// name and type.
+    /// name and type. Read once (from the summaries, or by a pass over a file without one) and
+    /// kept: finding a topic, its other types and the static transforms ask again.
     pub fn topics(&self) -> Result<Vec<Topic>> {
+        if let Some(known) = self.topics.get() {
+            return Ok(known.clone());
+        }
         let mut all: BTreeMap<(String, String), Topic> = BTreeMap::new();
         for file in &self.files {
             for t in file_topics(file)? {
@@ -191,7 +199,10 @@ impl Bag {
                 }
             }
         }
-        Ok(all.into_values().collect())
+        Ok(self
+            .topics
+            .get_or_init(|| all.into_values().collect())
+            .clone())
     }
 
     /// Messages on the topic `name` of other types than `type_name` (left out when reading it).
