@@ -12,8 +12,8 @@
 # The CLI, the module and the tests share one build (the workspace's target/, one feature set:
 # Cargo.toml), so the module compiles only its own crates after the CLI. What was installed from
 # these very sources is not installed again: each step records a digest of its inputs in
-# target/install-stamps/ and says when it skips (a second run takes seconds). Every step prints
-# its time. PyPI's torch brings its CUDA libraries (about 4 GB) even for CPU use.
+# target/install-stamps/ (tools/stamps.sh) and says when it skips (a second run takes seconds).
+# Every step prints its time. PyPI's torch brings its CUDA libraries (about 4 GB) even for CPU use.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cli=1
@@ -32,36 +32,9 @@ if ! command -v cargo >/dev/null 2>&1; then
     exit 1
   fi
 fi
-stamps=target/install-stamps
-mkdir -p "$stamps"
-
-# The digest of a step's inputs: the files (their paths and bytes) and the tools' versions.
-digest() {
-  {
-    find "$@" -type f -not -path '*/__pycache__/*' -not -name '*.pyc' -print0 | sort -z |
-      xargs -0 sha256sum
-    rustc --version 2>/dev/null || true
-    python3 -c 'import sys; print(sys.executable, sys.version)'
-    pwd
-  } | sha256sum | cut -d' ' -f1
-}
-
-# Runs a step unless its stamp (target/install-stamps/KEY) holds WANT; records it after the step
-# succeeds. `fresh KEY` forgets a stamp.
-#   step KEY "WHAT" WANT COMMAND...
-step() {
-  local key=$1 what=$2 want=$3 t=$SECONDS
-  shift 3
-  if [ "$(cat "$stamps/$key" 2>/dev/null)" = "$want" ]; then
-    echo "install.sh: $what: skipped (installed from these sources already)"
-    return
-  fi
-  rm -f "$stamps/$key"
-  "$@"
-  echo "$want" >"$stamps/$key"
-  echo "install.sh: $what: $((SECONDS - t)) s"
-}
-fresh() { rm -f "$stamps/$1"; }
+who=install.sh
+# shellcheck source=tools/stamps.sh
+. tools/stamps.sh
 
 rust_sources=(src build.rs proto Cargo.toml Cargo.lock)
 if [ "$cli" = 1 ]; then

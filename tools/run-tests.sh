@@ -22,18 +22,15 @@ lap() {
 tools/install.sh
 lap "install"
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
-stamps=target/install-stamps
+who=run-tests.sh
+# shellcheck source=tools/stamps.sh
+. tools/stamps.sh
 # The test dependencies: once for a given list (and interpreter), then skipped.
-want=$( (cat tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml
-  python3 -c 'import sys; print(sys.executable, sys.version)'; echo "ruff==0.17.6 mypy==2.4.1"
-  pwd) | sha256sum)
-if [ "$(cat $stamps/test-deps 2>/dev/null)" = "$want" ] && python3 -c 'import pytest, ruff, mypy' 2>/dev/null; then
-  echo "run-tests.sh: Python test dependencies: skipped (installed for this list already)"
-else
+python3 -c 'import pytest, ruff, mypy' 2>/dev/null || fresh test-deps
+step test-deps "Python test dependencies" \
+  "$(digest tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml tools/run-tests.sh)" \
   python3 -m pip install --quiet --disable-pip-version-check \
-    -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
-  echo "$want" >$stamps/test-deps
-fi
+  -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
 # ouster-sdk, the Ouster tests' reference decoder, in an environment of its own (it pins
 # rosbags, flask and click to versions the test environment does not share), made once per
 # version and Python and kept in the user's cache, so that every checkout reuses it.
