@@ -43,13 +43,17 @@ mkdir -p "$out"
 "$KITTI2PGM" --no-progress split "$raw" --out "$out/data" "${split[@]}"
 "$KITTI2PGM" --no-progress stats "$out/data" --imageset "$out/data/ImageSet" --json > "$out/stats.json"
 per_gpu=$((batch / gpus))
+# One process: the trainer itself (torchrun's launcher would start a second Python and torch,
+# and a rendezvous, for nothing); several: torchrun, one process a GPU.
+launch=(python3)
+[ "$gpus" -gt 1 ] && launch=(torchrun --standalone --nproc_per_node "$gpus")
 for m in squeezeseg pointseg; do
   for i in xyzdi xyzdirgb xyzdi+dirgb; do
     run=$out/runs/$m-$i
     if [ ! -f "$run/eval.json" ]; then
       resume=()
       [ -f "$run/checkpoint.pt" ] && resume=(--resume)
-      torchrun --standalone --nproc_per_node "$gpus" -m kitti2pgm_train train --shards "$out/data/shards" \
+      "${launch[@]}" -m kitti2pgm_train train --shards "$out/data/shards" \
         --model "$m" --input "$i" --stats "$out/stats.json" --class-weights reference --batch "$per_gpu" \
         --steps "$steps" --width-mult "$width" --out "$run" "${resume[@]}" ${EXTRA:-}
       python3 -m kitti2pgm_train evaluate --run "$run" --shards "$out/data/shards" --json ${EVAL:-} > /dev/null
