@@ -12,17 +12,17 @@ use kitti2pgm::convert::labels::FrameLabels;
 use kitti2pgm::convert::{convert_frame, process, ConvertOptions};
 use kitti2pgm::format::npy::encode_f32;
 use kitti2pgm::format::{atomic_write, Durability};
-use kitti2pgm::kitti::calib::Calibration;
-use kitti2pgm::kitti::camera::read_image;
-use kitti2pgm::kitti::velodyne::Scan;
-use kitti2pgm::kitti::Drive;
 use kitti2pgm::label::{ClassMap, Labeller};
 use kitti2pgm::plan::DrivePlan;
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::camera::{CameraProjector, Sampling};
 use kitti2pgm::project::{project, project_beams, project_cloud, Augment, Cloud, PgmSpec};
 use kitti2pgm::source::bag::{Bag, MessageRef};
+use kitti2pgm::source::kitti::calib::Calibration;
+use kitti2pgm::source::kitti::camera::read_image;
+use kitti2pgm::source::kitti::Drive;
 use kitti2pgm::source::pointcloud2::{PointCloud2, TYPE_NAME};
+use kitti2pgm::source::Scan;
 
 /// The same allocator as the binary, so that stage costs match what `convert` pays (set up as
 /// the binary sets it up: [`kitti2pgm::alloc::tune_mimalloc`], called by each group).
@@ -118,7 +118,7 @@ fn stages(c: &mut Criterion) {
     let cloud = Cloud {
         labels: Some(&labels.class),
         instance: Some(&labels.instance),
-        ..Cloud::of_points(&scan.points, &scan.reflectance)
+        ..Cloud::of_points(&scan.points, &scan.intensity)
     };
     let full = PgmSpec {
         cols: 2048,
@@ -222,7 +222,7 @@ fn read(c: &mut Criterion) {
         let n = kitti2pgm::source::points_in_file(path).unwrap();
         g.throughput(Throughput::Elements(n));
         g.bench_function(name, |b| {
-            b.iter(|| Scan::read_with_rings(black_box(path), None).unwrap())
+            b.iter(|| kitti2pgm::source::read_file(black_box(path), None).unwrap())
         });
     }
     // Another sensor's beam rows from its table (no ring field: the Pandar40P scan, 40 beams).

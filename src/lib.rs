@@ -32,7 +32,7 @@ pub mod error;
 pub mod format;
 pub mod fs;
 pub mod geom;
-pub mod kitti;
+
 #[macro_use]
 mod names;
 pub mod label;

@@ -5,18 +5,14 @@
 //! ([`crate::format::shard::metadata`]), and it is read back typed by the reports
 //! ([`crate::report::truth::GroundTruth`]), so that `score` and `stats` never guess the map.
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::kitti::velodyne::Scan;
 use crate::label::ClassMap;
 use crate::plan::selection::FrameSelection;
 use crate::plan::split::SplitRule;
 use crate::project::camera::RgbOptions;
 use crate::project::{Channels, PgmSpec};
-use crate::sensor::params::{BeamRowsOf, SensorParams};
 
 /// What every converted frame's content depends on.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -50,25 +46,6 @@ impl Default for MapParams {
 }
 
 impl MapParams {
-    /// Reads the scan at `path` and projects it as a conversion with these parameters does
-    /// (another sensor's pose, beam rows and columns), keeping the cell of every point: what
-    /// carries map predictions back to points (`unproject`, `score` per point). The scan's
-    /// points are in the sensor's frame, as the map's.
-    pub fn project_scan(&self, path: &Path) -> Result<(Scan, crate::project::Projection)> {
-        let (scan, beams) = read_scan(self.sensor.as_ref(), path)?;
-        let proj = match &beams {
-            Some(b) => crate::project::project_beams_with_point_cells(
-                &scan.points,
-                &self.spec,
-                &b.rows,
-                b.beams,
-                b.columns.as_deref(),
-            ),
-            None => crate::project::project_with_point_cells(&scan.points, &self.spec),
-        };
-        Ok((scan, proj))
-    }
-
     /// The channels of the `.npy` maps these parameters make.
     pub fn channels(&self) -> Channels {
         Channels::npy(self.rgb.is_some())
@@ -91,25 +68,6 @@ impl MapParams {
         }
         Ok(())
     }
-}
-
-/// Reads the scan at `path` as a conversion with `sensor` does: its `.bin` records in the
-/// declared layout (`--fields`), and with a sensor its points moved into the sensor's frame
-/// (those then beyond the range limit dropped, as the readers drop them) and the beam row (and
-/// Ouster column) of every point ([`SensorParams::beam_rows`]). The one place that decides it,
-/// for `convert`, `check`, `unproject` and `score`.
-pub fn read_scan(sensor: Option<&SensorParams>, path: &Path) -> Result<(Scan, Option<BeamRowsOf>)> {
-    let layout = sensor.map(SensorParams::layout).transpose()?.flatten();
-    let (mut scan, mut rings) = Scan::read_with_rings(path, layout.as_ref())?;
-    if let Some(pose) = sensor.and_then(|s| s.pose) {
-        // The range limit holds in the sensor's frame: points the pose carries past it go.
-        pose.to_sensor_frame(&mut scan.points);
-        scan.drop_beyond_range(rings.as_mut());
-    }
-    let beams = sensor
-        .map(|s| s.beam_rows(&scan.points, rings.as_deref(), path))
-        .transpose()?;
-    Ok((scan, beams))
 }
 
 /// Chunk compression of shards.

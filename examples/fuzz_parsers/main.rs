@@ -22,12 +22,11 @@ use std::time::{Duration, Instant};
 
 use kitti2pgm::format::shard::Shard;
 use kitti2pgm::format::{label_file, pgm};
-use kitti2pgm::kitti::calib::CalibFile;
-use kitti2pgm::kitti::camera::decode_image;
-use kitti2pgm::kitti::tracklets::Tracklets;
-use kitti2pgm::kitti::velodyne::Scan;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::source::bag::Bag;
+use kitti2pgm::source::kitti::calib::CalibFile;
+use kitti2pgm::source::kitti::camera::decode_image;
+use kitti2pgm::source::kitti::tracklets::Tracklets;
 use kitti2pgm::source::pcd;
 use kitti2pgm::source::pointcloud2::PointCloud2;
 use mutate::{mutate, Rng};
@@ -131,7 +130,7 @@ fn main() {
     let inputs: Vec<(&str, Vec<u8>, Parser)> = vec![
         ("calib", read(root.join("calib_cam_to_cam.txt")), |b, p| {
             let _ = CalibFile::parse(&String::from_utf8_lossy(b), p)
-                .and_then(|f| kitti2pgm::kitti::calib::CamToCam::from_file(&f));
+                .and_then(|f| kitti2pgm::source::kitti::calib::CamToCam::from_file(&f));
         }),
         (
             "tracklets",
@@ -144,7 +143,7 @@ fn main() {
             "bin",
             read(drive.join("velodyne_points/data/0000000000.bin")),
             |b, p| {
-                if let Ok(scan) = Scan::from_bytes(b, p) {
+                if let Ok(scan) = kitti2pgm::source::kitti::velodyne::decode(b, p) {
                     let _ = kitti2pgm::project::project(&scan.points, &Default::default());
                 }
             },
@@ -185,14 +184,16 @@ fn main() {
             "object-labels",
             read(fixtures.join("kitti_object/training/label_2/000001.txt")),
             |b, p| {
-                let _ = kitti2pgm::kitti::object::parse(&String::from_utf8_lossy(b), p);
+                let _ = kitti2pgm::source::kitti::object::parse(&String::from_utf8_lossy(b), p);
             },
         ),
         (
             "object-calib",
             read(fixtures.join("kitti_object/training/calib/000001.txt")),
             |b, p| {
-                if let Ok(c) = kitti2pgm::kitti::calib::FrameCalib::read(&via_file(b, p, "c.txt")) {
+                if let Ok(c) =
+                    kitti2pgm::source::kitti::calib::FrameCalib::read(&via_file(b, p, "c.txt"))
+                {
                     if let Some(m) = c.velo_to_rect().try_inverse() {
                         let _ = kitti2pgm::geom::nearest_rotation(
                             &m.fixed_view::<3, 3>(0, 0).into_owned(),
@@ -214,7 +215,8 @@ fn main() {
             "semantickitti-calib",
             read(fixtures.join("semantickitti/sequences/00/calib.txt")),
             |b, p| {
-                let _ = kitti2pgm::kitti::calib::FrameCalib::read(&via_file(b, p, "calib.txt"));
+                let _ =
+                    kitti2pgm::source::kitti::calib::FrameCalib::read(&via_file(b, p, "calib.txt"));
             },
         ),
         ("point-shard", read(point_shard), |b, p| {

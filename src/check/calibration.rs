@@ -9,9 +9,9 @@ use serde::Serialize;
 use super::read::DriveRead;
 use super::{CheckName as C, Collector, Severity as S};
 use crate::geom::{check_rotation, na, Matrix3x4, Point3};
-use crate::kitti::calib::CAM_TO_CAM;
-use crate::kitti::Layout;
 use crate::project::camera::pixel;
+use crate::source::kitti::calib::CAM_TO_CAM;
+use crate::source::kitti::Layout;
 
 /// Checks the form of the calibration matrices a drive uses.
 pub(crate) fn check_files(r: &DriveRead, c: &mut Collector) {
@@ -47,7 +47,7 @@ pub(crate) fn check_files(r: &DriveRead, c: &mut Collector) {
     }
 }
 
-fn frame_calib(c: &mut Collector, file: &Path, fc: &crate::kitti::calib::FrameCalib) {
+fn frame_calib(c: &mut Collector, file: &Path, fc: &crate::source::kitti::calib::FrameCalib) {
     rect_angle(c, file, "R0_rect", &fc.r0_rect);
     for (i, p) in fc.p.iter().enumerate() {
         projection(c, file, &format!("P{i}"), p, None);

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use super::read::{frames_in, missing, DriveRead};
 use super::{frame_ranges, layouts, CheckName as C, Collector, Severity as S};
 use crate::error::Result;
-use crate::kitti::velodyne::POINT_BYTES;
-use crate::kitti::{discover_as, Drive, Layout};
+use crate::source::kitti::velodyne::POINT_BYTES;
+use crate::source::kitti::{discover_as, Drive, Layout};
 
 /// The drives under `root`: what `convert` finds, or else drive-named folders holding a
 /// `tracklet_labels.xml` (a folder of annotations without scans).
@@ -93,7 +93,7 @@ fn list_scans(drive: &Drive, r: &mut DriveRead, c: &mut Collector) {
                     r.scans.insert(f, n as usize);
                 }
                 None => {
-                    let e = crate::source::read_cloud(&path, layout.as_ref()).err();
+                    let e = crate::source::read_file(&path, layout.as_ref()).err();
                     let why = e.map_or("cannot be read".to_string(), |e| e.to_string());
                     c.add(C::Read, S::Error, &path, Some(f), None, why);
                 }

@@ -5,11 +5,11 @@
 use super::read::{frames_in, missing, read_or_note, DriveRead, LayoutRead};
 use super::{frame_ranges, CheckName as C, Collector, Severity as S};
 use crate::geom::Matrix3x4;
-use crate::kitti::calib::{Calibration, FrameCalib, CAM_TO_CAM, VELO_TO_CAM};
-use crate::kitti::object;
-use crate::kitti::timestamps::{self, Timestamp};
-use crate::kitti::tracklets::Tracklets;
-use crate::kitti::{poses, Drive};
+use crate::source::kitti::calib::{Calibration, FrameCalib, CAM_TO_CAM, VELO_TO_CAM};
+use crate::source::kitti::object;
+use crate::source::kitti::timestamps::{self, Timestamp};
+use crate::source::kitti::tracklets::Tracklets;
+use crate::source::kitti::{poses, Drive};
 
 /// A raw drive's velodyne timestamps and OXTS records, the latter compared with the scans.
 fn read_raw_records(

@@ -31,7 +31,7 @@ pub use picture::Pictures;
 pub use thresholds::{SizeRange, Thresholds};
 
 use crate::error::Result;
-use crate::kitti::Layout;
+use crate::source::kitti::Layout;
 
 /// The object a finding is about: its index in the file (tracklet number, `label_2` line,
 /// SemanticKITTI instance id) and its type.

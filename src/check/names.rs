@@ -1,7 +1,7 @@
 //! The names of the checks and of the severities: one spelling each, shared by the CLI, the
 //! JSON and the docs.
 
-use crate::kitti::Layout;
+use crate::source::kitti::Layout;
 
 /// How bad a finding is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]

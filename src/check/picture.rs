@@ -9,13 +9,13 @@ use super::read::DriveRead;
 use super::{CheckName, CheckOptions, Collector, Finding};
 use crate::draw::boxes::{bird_eye, camera_overlay, Drawn};
 use crate::error::Result;
-use crate::kitti::velodyne::Scan;
 use crate::label::{ClassMap, LabelBox};
+use crate::source::Scan;
 
 /// Draws findings' pictures, reading each drive's annotations once.
 pub struct Pictures<'a> {
     opts: &'a CheckOptions,
-    drives: BTreeMap<String, crate::kitti::Drive>,
+    drives: BTreeMap<String, crate::source::kitti::Drive>,
     read: BTreeMap<String, DriveRead>,
 }
 
@@ -65,7 +65,7 @@ impl<'a> Pictures<'a> {
             if !image.is_file() {
                 return Ok(None);
             }
-            let img = crate::kitti::camera::read_image(&image)?;
+            let img = crate::source::kitti::camera::read_image(&image)?;
             return Ok(Some(camera_overlay(&img, &scan.points, &proj, &title)));
         }
         let ghosts = if f.check == CheckName::AnnotationEnds {

@@ -8,12 +8,12 @@ use std::path::Path;
 use super::{frame_ranges, CheckName as C, Collector, DriveInventory, ObjectRef, Severity as S};
 use crate::error::Result;
 use crate::geom::Matrix3x4;
-use crate::kitti::calib::{Calibration, FrameCalib};
-use crate::kitti::object::ObjectLabel;
-use crate::kitti::timestamps::Timestamp;
-use crate::kitti::tracklets::{Occlusion, Pose, Tracklet, Tracklets};
-use crate::kitti::{Drive, Layout};
 use crate::label::LabelBox;
+use crate::source::kitti::calib::{Calibration, FrameCalib};
+use crate::source::kitti::object::ObjectLabel;
+use crate::source::kitti::timestamps::Timestamp;
+use crate::source::kitti::tracklets::{Occlusion, Pose, Tracklet, Tracklets};
+use crate::source::kitti::{Drive, Layout};
 
 /// A drive's annotations, calibration and file lists, read once.
 #[derive(Debug)]

@@ -15,8 +15,8 @@ use crate::geom::{Matrix3x4, Point3, Real};
 use crate::sensor::params::RowsFrom;
 use crate::sensor::SensorParams;
 
-use crate::kitti::Layout;
 use crate::label::LabelBox;
+use crate::source::kitti::Layout;
 
 /// A box of one frame, and what the scan says of it.
 #[derive(Debug, Clone)]
@@ -150,7 +150,7 @@ fn frame(
     let path = r.drive.scan_path(f);
     // The rows as convert decides them: a ring field's ids must be the sensor's beams, points
     // placed by the table may fit none.
-    let scan = match crate::params::read_scan(sensor, &path) {
+    let scan = match crate::sensor::read_scan(sensor, &path) {
         Ok((scan, beams)) => {
             if let Some(b) = beams.filter(|b| b.from == RowsFrom::BeamTable) {
                 out.off_model = Some((b.off_model, scan.len()));
@@ -176,7 +176,7 @@ fn frame(
             out.overlap = overlap_share(&scan.points, &proj, size);
         }
         if sampled {
-            match crate::kitti::camera::read_image(&image_path) {
+            match crate::source::kitti::camera::read_image(&image_path) {
                 Ok(img) => out.edges = Some(edge_scores(&scan.points, &proj, &img)),
                 Err(e) => out.error = Some(e.to_string()),
             }

@@ -9,8 +9,8 @@ use super::read::DriveRead;
 use super::{CheckName as C, Collector, ObjectRef, Severity as S};
 use crate::format::label_file;
 use crate::geom::{na, Point3};
-use crate::kitti::velodyne::Scan;
 use crate::label::ClassMap;
+use crate::source::Scan;
 
 /// SemanticKITTI's moving classes: raw ids 252-259 (`moving-car` ... `moving-other-vehicle`).
 pub const MOVING_IDS: std::ops::RangeInclusive<u32> = 252..=259;

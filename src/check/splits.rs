@@ -5,8 +5,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use super::read::DriveRead;
 use super::{CheckName as C, CheckOptions, Collector, Severity as S};
 use crate::format::imageset;
-use crate::kitti::FrameId;
 use crate::plan::split::{assign, SplitRule};
+use crate::source::kitti::FrameId;
 
 /// Per class counts (object poses, or labelled points) of each annotated frame of a drive.
 #[derive(Debug, Default)]
@@ -89,7 +89,7 @@ fn val_frames(
         let mut m = BTreeMap::new();
         for id in l
             .iter()
-            .filter(|id| id.layout != crate::kitti::Layout::Object)
+            .filter(|id| id.layout != crate::source::kitti::Layout::Object)
         {
             *m.entry(id.drive_name()).or_default() += 1;
         }

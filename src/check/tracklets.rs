@@ -7,8 +7,8 @@ use std::path::Path;
 use super::read::DriveRead;
 use super::{frame_ranges, CheckName as C, Collector, ObjectRef, Severity as S};
 use crate::geom::{Point3, Real};
-use crate::kitti::tracklets::{Tracklet, Tracklets};
 use crate::label::LabelBox;
+use crate::source::kitti::tracklets::{Tracklet, Tracklets};
 
 /// Runs the annotation-only box checks of a drive.
 pub(crate) fn check(r: &DriveRead, c: &mut Collector) {

@@ -3,12 +3,12 @@
 use std::path::PathBuf;
 
 use clap::{Args as ClapArgs, ValueEnum};
-use kitti2pgm::kitti::Layout;
 use kitti2pgm::params::ShardCompression;
 use kitti2pgm::project::camera::Sampling;
 use kitti2pgm::project::{MapPreset, RowMode};
 use kitti2pgm::sensor::presets::Sensor;
 use kitti2pgm::sensor::{RingOrder, SensorParams, SensorPose};
+use kitti2pgm::source::kitti::Layout;
 
 /// `kitti2pgm split`.
 #[derive(Debug, ClapArgs)]

@@ -14,7 +14,7 @@ pub struct CheckArgs {
     pub root: Option<PathBuf>,
     /// The input layout, when not the one the root shows.
     #[arg(long, value_enum)]
-    pub source: Option<kitti2pgm::kitti::Layout>,
+    pub source: Option<kitti2pgm::source::kitti::Layout>,
     /// Switch these checks off (comma separated; `--list` names them).
     #[arg(long, value_delimiter = ',', value_name = "CHECK")]
     pub skip: Vec<CheckName>,

@@ -4,13 +4,13 @@ use anyhow::Context;
 use kitti2pgm::convert::{convert, ConvertOptions, FrameOutcome};
 use kitti2pgm::format::layout::OutputDir;
 use kitti2pgm::format::summary::ConvertSummary;
-use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::{ConvertParams, MapParams, ShardParams};
 use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::{MapChoice, RowMode};
+use kitti2pgm::source::kitti::Layout;
 
 use super::{progress, Global};
 use crate::cli::{ConvertArgs, FormatArg};
@@ -277,7 +277,7 @@ fn points_and_cells(t: &mut String, s: &ConvertSummary) {
     let _ = writeln!(t, "points              {:>12}", s.points);
     let _ = writeln!(t, "non-finite dropped  {:>12}", s.dropped_nonfinite);
     if s.dropped_out_of_range > 0 {
-        let max = kitti2pgm::kitti::velodyne::MAX_RANGE_M;
+        let max = kitti2pgm::source::kitti::velodyne::MAX_RANGE_M;
         let _ = writeln!(t, "beyond {max} m dropped {:>12}", s.dropped_out_of_range);
     }
     let _ = writeln!(t, "points in FOV       {:>12}", p.in_fov);

@@ -20,7 +20,7 @@ fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome>
     use kitti2pgm::report::unproject::load_point_frame;
     let gt = a.gt.as_ref().map(OutputDir::new);
     let recorded = match &gt {
-        Some(d) => summary::read(&d.summary_path())?.map(|s| s.params.map.class_map),
+        Some(d) => summary::read(&d.summary_path())?.map(|s| s.params.map),
         None => None,
     };
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
@@ -34,12 +34,16 @@ fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome>
             );
         }
         for (id, path) in &preds.files {
-            let map = recorded
-                .clone()
+            let map = (recorded.as_ref().map(|m| m.class_map.clone()))
                 .unwrap_or_else(|| ClassMap::default_for(id.layout));
-            let f = load_point_frame(raw, id, path, &map, gt.as_ref())?;
+            // The scan as its conversion read it: its layout, pose and beam rows.
+            let sensor = recorded.as_ref().and_then(|m| m.sensor.as_ref());
+            let f = load_point_frame(raw, id, path, &map, gt.as_ref(), sensor)?;
             let no_truth = vec![None; f.pred.len()];
-            let (rings, _) = kitti2pgm::project::rings(&f.scan.points);
+            let rings = match f.beam_rows.clone() {
+                Some(rows) => Some(rows),
+                None => kitti2pgm::project::rings(&f.scan.points).0,
+            };
             let caption = format!(
                 "{id}: per-point prediction{}",
                 if f.truth.is_none() {

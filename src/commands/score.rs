@@ -6,7 +6,6 @@ use std::fmt::Write as _;
 use anyhow::Context;
 use kitti2pgm::draw::charts::{confusion_chart, frame_chart};
 use kitti2pgm::format::{imageset, png};
-use kitti2pgm::kitti::FrameId;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::project::unproject::Method;
 use kitti2pgm::report::score::{
@@ -14,6 +13,7 @@ use kitti2pgm::report::score::{
     Protocol, ScoreOptions, ScoreReport,
 };
 use kitti2pgm::report::truth::{GroundTruth, Provenance};
+use kitti2pgm::source::kitti::FrameId;
 
 use super::completeness;
 
@@ -52,7 +52,7 @@ fn options(
     let sequence = gt
         .frames
         .iter()
-        .any(|f| f.layout == kitti2pgm::kitti::Layout::Sequence);
+        .any(|f| f.layout == kitti2pgm::source::kitti::Layout::Sequence);
     let by_default = sequence
         && a.raw.is_some()
         && !a.points

@@ -8,15 +8,15 @@ use crate::error::{Error, Result};
 use crate::format::shard::viz::VizFrame;
 use crate::format::{label_file, pgm};
 use crate::fs::Inputs;
-use crate::kitti::camera::decode_image;
-use crate::kitti::velodyne::Scan;
-use crate::kitti::FrameId;
 use crate::label::ClassCounts;
 use crate::params::MapParams;
 use crate::plan::DrivePlan;
 use crate::project::camera::CameraProjector;
 use crate::project::frame::{assemble, CellColours, PgmFrame, PointValues};
 use crate::project::{project, project_beams, ProjectionStats};
+use crate::source::kitti::camera::decode_image;
+use crate::source::kitti::FrameId;
+use crate::source::Scan;
 
 /// What converting one frame found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -196,7 +196,7 @@ pub fn load(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<Loa
 fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<LoadedFrame> {
     let id = dp.drive.frame_id(frame);
     let scan_path = dp.drive.scan_path(frame);
-    let (scan, beams) = crate::params::read_scan(map.sensor.as_ref(), &scan_path)?;
+    let (scan, beams) = crate::sensor::read_scan(map.sensor.as_ref(), &scan_path)?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
     let mut png = None;
     let camera = match &map.rgb {
@@ -261,7 +261,7 @@ impl LoadedFrame {
         out.inputs = inputs;
         if viz == Viz::On {
             let file_idx = scan.file_indices();
-            let points = scan.points.iter().zip(&scan.reflectance).zip(&file_idx);
+            let points = scan.points.iter().zip(&scan.intensity).zip(&file_idx);
             out.viz = Some(VizFrame {
                 points: points
                     .map(|((p, r), &fi)| (*p, *r, out.point_class[fi as usize]))

@@ -12,12 +12,12 @@
 
 use crate::error::{Error, Result};
 use crate::format::label_file;
-use crate::kitti::calib::FrameCalib;
-use crate::kitti::object;
-use crate::kitti::velodyne::Scan;
-use crate::kitti::Layout;
 use crate::label::{ClassMap, LabelBox, Labeller, PointLabels};
 use crate::plan::DrivePlan;
+use crate::source::kitti::calib::FrameCalib;
+use crate::source::kitti::object;
+use crate::source::kitti::Layout;
+use crate::source::Scan;
 
 /// The labels of one frame.
 #[derive(Debug, Clone)]

@@ -30,8 +30,8 @@ use crate::format::layout::{self, OutputDir};
 use crate::format::{npy, Durability};
 use crate::fs::inputs::Change;
 use crate::fs::{Fingerprint, Inputs};
-use crate::kitti::FrameId;
 use crate::plan::{DrivePlan, Reconverted, Restart};
+use crate::source::kitti::FrameId;
 
 /// Name of the lock file in the output folder.
 pub const LOCK_FILE: &str = ".kitti2pgm.lock";

@@ -21,12 +21,12 @@ use crate::format::shard::points::PointsOf;
 use crate::format::shard::{
     shard_is_intact, FrameMsg, PointsMsg, ShardKind, ShardMetadata, ShardWriter,
 };
-use crate::kitti::FrameId;
 use crate::params::ShardParams;
 use crate::plan::split::{assign, Split};
 use crate::plan::Failed;
 use crate::plan::{DrivePlan, Plan};
 use crate::project::rings;
+use crate::source::kitti::FrameId;
 
 /// The frames of one shard.
 #[derive(Debug, Clone)]
@@ -241,7 +241,7 @@ fn shard_frame(
             let msg = PointsMsg::build(
                 PointsOf {
                     points: &l.scan.points,
-                    intensity: &l.scan.reflectance,
+                    intensity: &l.scan.intensity,
                     rings: ring.as_deref(),
                     class: &l.labels.points.class,
                     instance: &l.labels.points.instance,

@@ -385,7 +385,7 @@ fn finish(
         }
     }
     let zero = stamps.first().copied().unwrap_or(0);
-    let times = crate::kitti::poses::times_text(stamps.iter().map(|t| t - zero));
+    let times = crate::source::kitti::poses::times_text(stamps.iter().map(|t| t - zero));
     atomic_write(&seq.join("times.txt"), times.as_bytes(), durability)?;
     s.complete = true;
     write_summary(s, seq, durability)

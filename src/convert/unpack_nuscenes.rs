@@ -16,9 +16,6 @@ use crate::format::{atomic_write, create_dir, Durability};
 use crate::source::nuscenes::{Keyframe, NuScenes, Scene};
 use crate::source::unpacked::NUSCENES_MARKER;
 
-/// Bytes of one nuScenes point (x, y, z, intensity, ring index as float32).
-const POINT_BYTES: u64 = 20;
-
 /// What to unpack and where to.
 #[derive(Debug, Clone)]
 pub struct NuScenesOptions {
@@ -222,7 +219,7 @@ fn unpack_scene(
         summary.removed_stale += crate::fs::remove_if_there(f)? as u64;
     }
     let zero = index.first_timestamp_us.unwrap_or(0);
-    let times = crate::kitti::poses::times_text(
+    let times = crate::source::kitti::poses::times_text(
         (s.keyframes.iter()).map(|k| (k.timestamp_us - zero) * 1000),
     );
     atomic_write(&seq.join("times.txt"), times.as_bytes(), opts.durability)?;
@@ -241,16 +238,17 @@ struct Written {
 /// One keyframe: its scan linked (or copied) in, its labels checked against it and written.
 fn unpack_frame(k: &Keyframe, seq: &Path, i: usize, d: Durability) -> Result<Written> {
     let meta = crate::fs::regular(&k.scan)?;
-    if meta.len() % POINT_BYTES != 0 {
+    let step = crate::source::nuscenes::point_layout().step as u64;
+    if meta.len() % step != 0 {
         return Err(Error::format(
             &k.scan,
             format!(
-                "{} bytes: not whole nuScenes points of {POINT_BYTES} bytes",
+                "{} bytes: not whole nuScenes points of {step} bytes",
                 meta.len()
             ),
         ));
     }
-    let points = meta.len() / POINT_BYTES;
+    let points = meta.len() / step;
     // The labels are checked before anything is written: a scan never lands without the
     // labels it has.
     let classes = match &k.labels {

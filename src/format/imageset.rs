@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::kitti::FrameId;
+use crate::source::kitti::FrameId;
 
 /// Reads an ImageSet list; blank lines are ignored, anything else must be a frame id.
 pub fn read(path: &Path) -> Result<Vec<FrameId>> {

@@ -18,8 +18,8 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::fs::Inputs;
-use crate::kitti::FrameId;
 use crate::params::ConvertParams;
+use crate::source::kitti::FrameId;
 
 /// Name of the journal in the output folder.
 pub const JOURNAL_FILE: &str = ".kitti2pgm-frames";

@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::format::Durability;
-use crate::kitti::{FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
+use crate::source::kitti::{FrameId, Layout};
 
 /// The class written (low 16 bits of a `.label` entry) for a point without a prediction (outside
 /// the map), in the class-id layout of KITTI raw and object predictions.

@@ -16,7 +16,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::kitti::FrameId;
+use crate::source::kitti::FrameId;
 
 /// Folder of the `.npy` maps.
 pub const LIDAR_2D: &str = "lidar_2d";
@@ -138,7 +138,7 @@ pub fn sequence_predictions_dir(pred: &Path, seq: &str) -> PathBuf {
 /// `labels/<drive>/<frame>.label`.
 pub fn point_prediction_path(out: &Path, id: &FrameId) -> PathBuf {
     match id.layout {
-        crate::kitti::Layout::Sequence => sequence_predictions_dir(out, &id.drive_name())
+        crate::source::kitti::Layout::Sequence => sequence_predictions_dir(out, &id.drive_name())
             .join(format!("{}.label", id.frame_name())),
         _ => OutputDir::new(out).label_path(id),
     }

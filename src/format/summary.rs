@@ -46,7 +46,7 @@ pub struct ConvertSummary {
     pub changed_inputs: Vec<String>,
     /// The dataset the frames come from (its layout).
     #[serde(default)]
-    pub source: crate::kitti::Layout,
+    pub source: crate::source::kitti::Layout,
     /// How the map was chosen: the preset, why (asked for, or the source's default) and the
     /// values given on their own (`preset full (the default for SemanticKITTI)`).
     #[serde(default, deserialize_with = "origin_or_empty")]

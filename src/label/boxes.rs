@@ -17,7 +17,7 @@
 
 use super::classes::ClassId;
 use crate::geom::{na, Iso3, Point3, Real, Vector3};
-use crate::kitti::tracklets::{Pose, Tracklet};
+use crate::source::kitti::tracklets::{Pose, Tracklet};
 use parry3d::query::PointQuery;
 use parry3d::shape::Cuboid;
 
@@ -77,7 +77,7 @@ impl LabelBox {
     /// velodyne frame with `rect_to_velo`, the inverse of `R0_rect * Tr_velo_to_cam`.
     pub fn from_object(
         index: usize,
-        obj: &crate::kitti::object::ObjectLabel,
+        obj: &crate::source::kitti::object::ObjectLabel,
         rect_to_velo: &na::Matrix4<f64>,
         class: ClassId,
     ) -> LabelBox {

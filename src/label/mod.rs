@@ -18,7 +18,7 @@ pub use boxes::{LabelBox, Labeller, PointLabels};
 pub use classes::{ClassId, ClassInfo, ClassMap};
 pub use counts::ClassCounts;
 
-use crate::kitti::tracklets::Tracklets;
+use crate::source::kitti::tracklets::Tracklets;
 
 /// The boxes of `tracklets` present at `frame`, each of the class `map` gives its object type.
 pub fn tracklet_boxes(tracklets: &Tracklets, frame: u32, map: &ClassMap) -> Vec<LabelBox> {

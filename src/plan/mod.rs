@@ -18,11 +18,11 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::fs::Inputs;
 use crate::geom::Matrix3x4;
-use crate::kitti::calib::{Calibration, FrameCalib};
-use crate::kitti::timestamps::{self, Timestamp};
-use crate::kitti::tracklets::{ObjectType, Tracklets};
-use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::label::{tracklet_boxes, ClassMap, LabelBox};
+use crate::source::kitti::calib::{Calibration, FrameCalib};
+use crate::source::kitti::timestamps::{self, Timestamp};
+use crate::source::kitti::tracklets::{ObjectType, Tracklets};
+use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
 pub use selection::{FrameSelection, Reconverted, Restart, SkipReason};
 
 /// A day's calibration (or why it could not be read), and the files read for it.
@@ -138,7 +138,10 @@ impl DrivePlan {
             Some(c) => {
                 crate::fs::note(&self.calib_inputs);
                 let size = c.cam_to_cam.cameras[camera as usize].size_rect;
-                let file = self.drive.date_dir().join(crate::kitti::calib::CAM_TO_CAM);
+                let file = self
+                    .drive
+                    .date_dir()
+                    .join(crate::source::kitti::calib::CAM_TO_CAM);
                 Ok((
                     c.velo_to_image(camera as usize),
                     Some([size.x, size.y]),
@@ -206,9 +209,9 @@ impl From<String> for Failed {
         if let Ok(id) = s.parse::<FrameId>() {
             return Failed::Frame(id);
         }
-        let drive = crate::kitti::parse_drive_name(&s).is_some()
+        let drive = crate::source::kitti::parse_drive_name(&s).is_some()
             || s == "object"
-            || crate::kitti::sequence_number(&s).is_some();
+            || crate::source::kitti::sequence_number(&s).is_some();
         if drive {
             Failed::Drive(s)
         } else {
@@ -267,7 +270,7 @@ impl Plan {
             map.name,
             dp.drive.dir.display(),
             match dp.drive.layout {
-                crate::kitti::Layout::Sequence => "per-point labels need a learning_map",
+                crate::source::kitti::Layout::Sequence => "per-point labels need a learning_map",
                 _ => "boxes need object types mapped to classes",
             },
             map.name(map.background)

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::kitti::tracklets::Tracklets;
+use crate::source::kitti::tracklets::Tracklets;
 
 /// Which frames of a drive are converted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]

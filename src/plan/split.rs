@@ -18,8 +18,8 @@ use serde::{Deserialize, Serialize};
 
 use super::selection::FrameSelection;
 use crate::error::{Error, Result};
-use crate::kitti::tracklets::Tracklets;
-use crate::kitti::{discover_as, Drive, FrameId, Layout};
+use crate::source::kitti::tracklets::Tracklets;
+use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
 
 /// SqueezeSeg's validation drives (all of 2011_09_26).
 pub const SQUEEZESEG_VAL: [u32; 8] = [64, 70, 79, 84, 86, 87, 91, 93];
@@ -113,7 +113,7 @@ impl SplitRule {
             .map(str::trim)
             .filter(|s| !s.is_empty())
         {
-            let key = if let Some((date, n)) = crate::kitti::parse_drive_name(item) {
+            let key = if let Some((date, n)) = crate::source::kitti::parse_drive_name(item) {
                 Some((date, n))
             } else if item.len() == 15 && item.as_bytes()[10] == b'_' {
                 item[11..].parse().ok().map(|n| (item[..10].to_string(), n))

@@ -1,7 +1,7 @@
 //! PROJECT: velodyne points to camera pixels, and colour sampling for the RGB channels.
 //!
 //! A velodyne point `p` maps to homogeneous pixel `(u w, v w, w) = P_rect_0c * R_rect_00 *
-//! Tr_velo_to_cam * (p, 1)` ([`crate::kitti::calib::Calibration::velo_to_image`]). It has a colour
+//! Tr_velo_to_cam * (p, 1)` ([`crate::source::kitti::calib::Calibration::velo_to_image`]). It has a colour
 //! when it is in front of the camera (`w > 0`) and its sample falls inside the image. Pixel
 //! coordinates have integer values at pixel centres (KITTI / OpenCV): pixel (0, 0) covers
 //! u in [-0.5, 0.5).
@@ -13,7 +13,7 @@
 use serde::Serialize;
 
 use crate::geom::{floor_i64, Matrix3x4, Point3};
-use crate::kitti::camera::RgbImage;
+use crate::source::kitti::camera::RgbImage;
 
 /// How a colour is read at a sub-pixel position.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

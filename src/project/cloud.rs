@@ -16,9 +16,9 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::geom::Point3;
-use crate::kitti::velodyne::{MAX_RANGE_M, REFLECTANCE_RANGE};
 use crate::label::ClassId;
 use crate::simd::first_where;
+use crate::source::kitti::velodyne::{MAX_RANGE_M, REFLECTANCE_RANGE};
 
 /// A cloud to project: one entry per point in every array, in scan order.
 #[derive(Debug, Clone, Copy)]
@@ -389,7 +389,7 @@ fn pick<T: Copy>(kept: &[u32], v: &[T]) -> Vec<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kitti::velodyne::Scan;
+    use crate::source::Scan;
 
     #[test]
     fn culling_leaves_the_map_unchanged() {
@@ -397,7 +397,7 @@ mod tests {
             "fixtures/raw/2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000000.bin",
         );
         let scan = Scan::read(&path).unwrap();
-        let cloud = Cloud::of_points(&scan.points, &scan.reflectance);
+        let cloud = Cloud::of_points(&scan.points, &scan.intensity);
         let n = scan.len();
         let (class, instance) = (vec![1u8; n], vec![0u16; n]);
         let none = |_: usize| None;

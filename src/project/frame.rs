@@ -13,8 +13,8 @@ use super::cells16;
 use super::channels::{Channel, Channels};
 use super::{Projection, EMPTY};
 use crate::geom::Point3;
-use crate::kitti::velodyne::Scan;
 use crate::label::{ClassCounts, ClassId, PointLabels};
+use crate::source::Scan;
 
 /// One frame as a Polar Grid Map.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -72,7 +72,7 @@ impl<'a> PointValues<'a> {
     pub fn of_scan(scan: &'a Scan, labels: &'a PointLabels) -> PointValues<'a> {
         PointValues {
             points: &scan.points,
-            intensity: &scan.reflectance,
+            intensity: &scan.intensity,
             class: &labels.class,
             instance: &labels.instance,
         }

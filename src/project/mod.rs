@@ -294,6 +294,29 @@ fn beams_impl(
     project_impl(points, spec, cells, Rows::Beams(rows, beams), geometry, 1)
 }
 
+/// Reads the scan at `path` ([`crate::sensor::read_scan`]) and projects it as a conversion with
+/// the map `spec` and `sensor` does (another sensor's pose, beam rows and columns), keeping the
+/// cell of every point: what carries map predictions back to points (`unproject`, `score` per
+/// point). The scan's points are in the sensor's frame, as the map's.
+pub fn project_scan(
+    spec: &PgmSpec,
+    sensor: Option<&crate::sensor::SensorParams>,
+    path: &std::path::Path,
+) -> crate::error::Result<(crate::source::Scan, Projection)> {
+    let (scan, beams) = crate::sensor::read_scan(sensor, path)?;
+    let proj = match &beams {
+        Some(b) => project_beams_with_point_cells(
+            &scan.points,
+            spec,
+            &b.rows,
+            b.beams,
+            b.columns.as_deref(),
+        ),
+        None => project_with_point_cells(&scan.points, spec),
+    };
+    Ok((scan, proj))
+}
+
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),
 /// for scoring per point.
 pub fn project_with_point_cells(points: &[Point3], spec: &PgmSpec) -> Projection {

@@ -5,7 +5,7 @@
 
 use super::{PgmSpec, RowMode};
 use crate::geom::Degrees;
-use crate::kitti::Layout;
+use crate::source::kitti::Layout;
 
 /// A named map layout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -127,8 +127,8 @@ pub(crate) fn row_source<'a>(points: &[Point3], spec: &PgmSpec, rows: Rows<'a>) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kitti::velodyne::Scan;
     use crate::rng::SplitMix;
+    use crate::source::Scan;
 
     /// The rule of [`rings`] point by point, as first written: the reference.
     fn rings_one_by_one(points: &[Point3]) -> (Option<Vec<u8>>, usize) {

@@ -14,8 +14,8 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::format::label_file;
-use crate::kitti::{discover_as, Drive, Layout};
 use crate::label::ClassMap;
+use crate::source::kitti::{discover_as, Drive, Layout};
 
 /// One thing wrong with a submission.
 #[derive(Debug, Clone, PartialEq, Serialize)]

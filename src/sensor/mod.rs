@@ -19,6 +19,7 @@ pub mod ouster;
 pub mod params;
 pub mod pose;
 pub mod presets;
+mod read;
 mod slopes;
 pub mod velodyne;
 
@@ -28,6 +29,7 @@ use serde::{Deserialize, Serialize};
 
 pub use params::{SensorParams, SensorSource};
 pub use pose::SensorPose;
+pub use read::read_scan;
 
 use crate::error::{Error, Result};
 use crate::geom::{na, Degrees, Point3};

@@ -150,7 +150,7 @@ impl SensorParams {
     }
 
     /// A scan of this sensor in its terms (`points` already in the sensor's frame:
-    /// [`crate::params::read_scan`] applies the pose): every point's beam row, from the scan's
+    /// [`crate::sensor::read_scan`] applies the pose): every point's beam row, from the scan's
     /// ring field where it has one (its ids must be the sensor's beams; `path` names the scan),
     /// else the table's nearest beam.
     pub fn beam_rows(

@@ -1,6 +1,6 @@
 //! Point layouts: the fields of one point record (name, type, count, offset), as PCD headers,
 //! PointCloud2 messages and `--fields` declarations describe them, and their decoding into a
-//! [`LidarCloud`](super::LidarCloud) (the `decode` module).
+//! [`Scan`](super::Scan) (the `decode` module).
 //!
 //! Roles by field name: `x`, `y`, `z` (required); the intensity is the first of `intensity`,
 //! `reflectivity`, `reflectance`, `remission`, `i`; the beam id the first of `ring`, `channel`,

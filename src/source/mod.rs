@@ -1,13 +1,14 @@
-//! READ: point clouds of any spinning LiDAR, beside the KITTI family ([`crate::kitti`]).
+//! READ: every input the tool reads: KITTI's family and the point clouds of any spinning LiDAR.
 //!
 //! Each format has one reader module: [`pcd`] (PCD v0.7: `ascii`, `binary`,
 //! `binary_compressed`; it writes `binary` too), [`bin`] (flat records of a declared layout,
 //! nuScenes' `.pcd.bin` among them), [`bag`] (ROS 2 bags in MCAP, streamed) with
 //! [`pointcloud2`] (their `sensor_msgs/msg/PointCloud2` messages), [`nuscenes`] (nuScenes'
 //! tables: its scenes, LIDAR_TOP keyframes and lidarseg labels); [`fields`] describes and
-//! decodes point records for all of them. Every reader gives a
-//! [`LidarCloud`]: the finite points in file order, their intensity as stored, and the beam id
-//! of every point where the data has a ring / channel / laser id field. Which beam each point
+//! decodes point records for all of them; [`kitti`] reads the KITTI family (raw drives,
+//! odometry sequences, the object set). Every reader gives the neutral [`Scan`] ([`scan`]):
+//! the kept points in file order, their intensity as stored, and the beam id of every point
+//! where the data has a ring / channel / laser id field. Which beam each point
 //! belongs to without such a field is the sensor model's job ([`crate::sensor`]).
 
 pub mod bag;
@@ -15,18 +16,20 @@ pub mod bin;
 mod cdr;
 mod decode;
 pub mod fields;
+pub mod kitti;
 pub mod nuscenes;
 pub mod pcd;
 pub mod pointcloud2;
+pub mod scan;
 pub mod tf;
 pub mod unpacked;
 
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::geom::Point3;
 
 pub use fields::{Field, FieldType, PointLayout};
+pub use scan::{DropRule, Scan};
 
 /// What to do with `path` when it is a recording that `convert` does not read as it is (a ROS 2
 /// bag, another kind of bag, a nuScenes root): the command that makes a sequence folder of it,
@@ -81,51 +84,6 @@ pub fn needs_unpack(path: &Path) -> Option<String> {
     None
 }
 
-/// A cloud as read: finite points in file order with their intensity and, where the data has
-/// one, their beam id.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct LidarCloud {
-    /// Finite points within [`MAX_RANGE_M`](crate::geom::MAX_RANGE_M), in file order, sensor frame, metres.
-    pub points: Vec<Point3>,
-    /// Intensity of each point as stored (0 where the data has none).
-    pub intensity: Vec<f32>,
-    /// Whether the data has an intensity field.
-    pub has_intensity: bool,
-    /// Beam id of each point (the ring / channel / laser id field), where the data has one.
-    pub ring: Option<Vec<u16>>,
-    /// Points in the file, kept or not.
-    pub file_len: usize,
-    /// File indices of the dropped points (a non-finite coordinate or intensity: a non-dense
-    /// cloud's NaN points; or beyond [`MAX_RANGE_M`](crate::geom::MAX_RANGE_M)), ascending.
-    pub dropped: Vec<u32>,
-    /// How many of `dropped` were finite but beyond [`MAX_RANGE_M`](crate::geom::MAX_RANGE_M).
-    pub dropped_out_of_range: usize,
-    /// Bytes after the declared points, left unread (a `binary` PCD some exporters pad).
-    pub trailing_bytes: usize,
-}
-
-impl LidarCloud {
-    pub(crate) fn with_capacity(n: usize, intensity: bool, ring: bool) -> LidarCloud {
-        LidarCloud {
-            points: Vec::with_capacity(n),
-            intensity: Vec::with_capacity(n),
-            has_intensity: intensity,
-            ring: ring.then(|| Vec::with_capacity(n)),
-            ..Default::default()
-        }
-    }
-
-    /// Number of kept points.
-    pub fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// Whether no point was kept.
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
-    }
-}
-
 /// Whether `path` names a KITTI `.bin` scan (a `.bin` that is not nuScenes' `.pcd.bin`).
 pub fn is_kitti_bin(path: &Path) -> bool {
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
@@ -156,31 +114,32 @@ pub fn points_in_file_as(path: &Path, layout: Option<&PointLayout>) -> Option<u6
         return (meta.len() % step == 0).then(|| meta.len() / step);
     }
     let step = if name.ends_with(".pcd.bin") {
-        bin::nuscenes_layout().step
+        nuscenes::point_layout().step
     } else if name.ends_with(".bin") {
-        bin::kitti_layout().step
+        kitti::velodyne::POINT_BYTES
     } else {
         return None;
     };
     Some(meta.len() / step as u64)
 }
 
-/// Reads a point cloud file by its name: `.pcd` (PCD), `.pcd.bin` (nuScenes: x, y, z,
-/// intensity, ring as float32), or `.bin` with `layout` (KITTI's x, y, z, reflectance float32
-/// when none is given).
-pub fn read_cloud(path: &Path, layout: Option<&PointLayout>) -> Result<LidarCloud> {
+/// Reads a scan file by its name: `.pcd` (PCD), `.pcd.bin` (nuScenes: x, y, z, intensity, ring
+/// as float32), or `.bin`: records of `layout` where one is declared (`--fields`), else KITTI's
+/// x, y, z, reflectance float32 with KITTI's drop rule ([`kitti::velodyne`]). The one function
+/// that turns a file into a [`Scan`]; reading it as its conversion did (a sensor's pose, beam
+/// rows) is [`crate::sensor::read_scan`].
+pub fn read_file(path: &Path, layout: Option<&PointLayout>) -> Result<Scan> {
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
     if name.ends_with(".pcd") {
         return pcd::read(path);
     }
-    if name.ends_with(".pcd.bin") && layout.is_none() {
-        return bin::read(path, &bin::nuscenes_layout());
+    match layout {
+        Some(l) if name.ends_with(".bin") => bin::read(path, l),
+        None if name.ends_with(".pcd.bin") => bin::read(path, &nuscenes::point_layout()),
+        None if name.ends_with(".bin") => kitti::velodyne::read(path),
+        _ => Err(Error::format(
+            path,
+            "not a point cloud kitti2pgm reads: expected .pcd, .pcd.bin (nuScenes) or .bin",
+        )),
     }
-    if name.ends_with(".bin") {
-        return bin::read(path, layout.unwrap_or(&bin::kitti_layout()));
-    }
-    Err(Error::format(
-        path,
-        "not a point cloud kitti2pgm reads: expected .pcd, .pcd.bin (nuScenes) or .bin",
-    ))
 }

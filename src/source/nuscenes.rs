@@ -16,6 +16,19 @@ use serde::de::{DeserializeOwned, DeserializeSeed, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
+use crate::source::{FieldType, PointLayout};
+
+/// A LIDAR_TOP `.pcd.bin` record: `x,y,z,intensity,ring:f32` (20 bytes; the ring index a
+/// whole number stored as a float).
+pub fn point_layout() -> PointLayout {
+    PointLayout::packed(&[
+        ("x", FieldType::F32),
+        ("y", FieldType::F32),
+        ("z", FieldType::F32),
+        ("intensity", FieldType::F32),
+        ("ring", FieldType::F32),
+    ])
+}
 
 /// A nuScenes dataset: its scenes with their LIDAR_TOP keyframes.
 #[derive(Debug, Clone, PartialEq)]

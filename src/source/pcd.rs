@@ -6,14 +6,14 @@
 //! Any field order, sizes and types are read; a field of `COUNT 0` is zero bytes wide and read as
 //! nothing (three.js's PCDLoader and labelling tools' exports write such padding); bytes after
 //! the declared points of `binary` data are left and counted
-//! ([`LidarCloud::trailing_bytes`]); an organised cloud (`HEIGHT` > 1) is read row by
+//! ([`Scan::trailing_bytes`]); an organised cloud (`HEIGHT` > 1) is read row by
 //! row; NaN points (a non-dense cloud's empty pixels) are dropped and counted. `VIEWPOINT` is
 //! read and not applied (the points are taken in the sensor frame, as drivers write them).
 
 use std::path::Path;
 
 use super::fields::{Field, FieldType, PointLayout};
-use super::LidarCloud;
+use super::Scan;
 use crate::error::{Error, Result};
 use crate::fs::{self, Limit};
 
@@ -71,7 +71,7 @@ pub fn encode(layout: &PointLayout, width: usize, height: usize, records: &[u8])
 }
 
 /// Reads a PCD file.
-pub fn read(path: &Path) -> Result<LidarCloud> {
+pub fn read(path: &Path) -> Result<Scan> {
     let bytes = fs::read(path, Limit::Data)?;
     decode(&bytes, path)
 }
@@ -261,7 +261,7 @@ pub fn header(bytes: &[u8], path: &Path) -> Result<PcdHeader> {
 }
 
 /// Decodes the bytes of a PCD file; `path` names it in errors.
-pub fn decode(bytes: &[u8], path: &Path) -> Result<LidarCloud> {
+pub fn decode(bytes: &[u8], path: &Path) -> Result<Scan> {
     let h = header(bytes, path)?;
     let body = &bytes[h.data_start..];
     let (n, step) = (h.points, h.layout.step);
@@ -359,7 +359,7 @@ fn widened(layout: &PointLayout) -> PointLayout {
 }
 
 /// Decodes `ascii` data: one line of values per point (every value of every field).
-fn ascii(body: &[u8], h: &PcdHeader, path: &Path) -> Result<LidarCloud> {
+fn ascii(body: &[u8], h: &PcdHeader, path: &Path) -> Result<Scan> {
     let text = std::str::from_utf8(body)
         .map_err(|e| Error::format(path, format!("ascii data is not text: {e}")))?;
     let wide = widened(&h.layout);

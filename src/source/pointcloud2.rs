@@ -1,12 +1,12 @@
 //! `sensor_msgs/msg/PointCloud2`, as ROS 2 serialises it (CDR, either byte order): the header
 //! stamp and frame, the point fields, and the rows of point records (`row_step` bytes a row,
-//! `point_step` a point), decoded into a [`LidarCloud`] or repacked for a PCD file.
+//! `point_step` a point), decoded into a [`Scan`] or repacked for a PCD file.
 
 use std::path::Path;
 
 use super::cdr::{Cdr, CdrResult};
 use super::fields::{Field, FieldType, PointLayout};
-use super::LidarCloud;
+use super::Scan;
 use crate::error::{Error, Result};
 
 /// The ROS 2 type name this module decodes.
@@ -172,7 +172,7 @@ impl<'a> PointCloud2<'a> {
 
     /// The cloud: finite points in message order (row by row), intensity and ring where the
     /// fields have them.
-    pub fn cloud(&self, what: &Path) -> Result<LidarCloud> {
+    pub fn cloud(&self, what: &Path) -> Result<Scan> {
         self.layout.decode(&self.records(), self.points(), what)
     }
 

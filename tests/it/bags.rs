@@ -974,7 +974,7 @@ fn unpack_holds_the_root_and_marks_its_sequence_unfinished_until_the_end() {
             serde_json::from_str(&std::fs::read_to_string(&marker).unwrap()).unwrap();
         seen.lock().unwrap().push(j["complete"].clone());
         // Meanwhile the sequence is refused.
-        let e = kitti2pgm::kitti::discover_as(&root, None).unwrap_err();
+        let e = kitti2pgm::source::kitti::discover_as(&root, None).unwrap_err();
         assert!(
             matches!(e, kitti2pgm::Error::UnfinishedUnpack { .. }),
             "{e}"
@@ -986,7 +986,7 @@ fn unpack_holds_the_root_and_marks_its_sequence_unfinished_until_the_end() {
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&marker).unwrap()).unwrap();
     assert_eq!(j["complete"], true);
-    assert!(kitti2pgm::kitti::discover_as(&root, None).is_ok());
+    assert!(kitti2pgm::source::kitti::discover_as(&root, None).is_ok());
 }
 
 /// Issue 47's smaller defects on bags: a `metadata.yaml` listing one file twice, an `.mcap`

@@ -36,7 +36,7 @@ fn cloud_map(
         instance: Some(&l.labels.points.instance),
         colours: rgb.as_deref(),
         colour_valid: valid.as_deref(),
-        ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+        ..Cloud::of_points(&l.scan.points, &l.scan.intensity)
     };
     project_cloud(&cloud, spec, aug).unwrap()
 }
@@ -81,7 +81,7 @@ fn cloud_projection_is_the_conversion() {
                 rings: r.as_deref(),
                 labels: Some(&l.labels.points.class),
                 instance: Some(&l.labels.points.instance),
-                ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+                ..Cloud::of_points(&l.scan.points, &l.scan.intensity)
             };
             if !rgb {
                 assert_eq!(project_cloud(&given, &spec, None).unwrap().frame, conv.pgm);
@@ -184,17 +184,17 @@ fn augmentation_drops_scales_and_refuses_bad_input() {
     // Bad arrays are named.
     let mut pts = l.scan.points.clone();
     pts[7].y = f32::NAN;
-    let bad = Cloud::of_points(&pts, &l.scan.reflectance);
+    let bad = Cloud::of_points(&pts, &l.scan.intensity);
     let e = project_cloud(&bad, &spec, None).unwrap_err().to_string();
     assert!(e.contains("point 7 is not finite"), "{e}");
-    let short = Cloud::of_points(&l.scan.points, &l.scan.reflectance[1..]);
+    let short = Cloud::of_points(&l.scan.points, &l.scan.intensity[1..]);
     let e = project_cloud(&short, &spec, None).unwrap_err().to_string();
     assert!(e.contains("intensity has"), "{e}");
     let r = vec![64u8; l.scan.len()];
     let e = project_cloud(
         &Cloud {
             rings: Some(&r),
-            ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+            ..Cloud::of_points(&l.scan.points, &l.scan.intensity)
         },
         &spec,
         None,
@@ -248,7 +248,7 @@ fn both_code_paths_project_the_same() {
         let (r, _) = rings(&l.scan.points);
         let given = Cloud {
             rings: r.as_deref(),
-            ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+            ..Cloud::of_points(&l.scan.points, &l.scan.intensity)
         };
         let half = PgmSpec {
             rows: 32,
@@ -332,7 +332,7 @@ fn threads_change_nothing() {
     let plain = Cloud {
         labels: Some(&l.labels.points.class),
         instance: Some(&l.labels.points.instance),
-        ..Cloud::of_points(&l.scan.points, &l.scan.reflectance)
+        ..Cloud::of_points(&l.scan.points, &l.scan.intensity)
     };
     let ring = rings(&l.scan.points).0.expect("a whole scan");
     let upside_down: Vec<u8> = ring.iter().map(|r| 63 - r).collect();

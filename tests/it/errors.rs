@@ -68,7 +68,7 @@ fn a_listed_frame_the_ground_truth_lacks_is_named() {
     convert_fixtures_in_process(&out);
     let gt = GroundTruth::open(&out).unwrap();
     let preds = Predictions::index(&out.join("lidar_2d")).unwrap();
-    let missing: kitti2pgm::kitti::FrameId = "2011_09_26_0001_0000000007".parse().unwrap();
+    let missing: kitti2pgm::source::kitti::FrameId = "2011_09_26_0001_0000000007".parse().unwrap();
     let opts = UnprojectOptions {
         method: Method::Cell,
         raw: fixtures(),

@@ -1,11 +1,11 @@
 //! LABEL: the labeller against an independent inside-box check, and on real frames.
 
 use kitti2pgm::geom::{Point3, Real};
-use kitti2pgm::kitti::tracklets::{
+use kitti2pgm::label::{ClassId, ClassMap, LabelBox, Labeller};
+use kitti2pgm::source::kitti::tracklets::{
     ObjectType, Occlusion, Pose, PoseState, Tracklet, Tracklets, Truncation,
 };
-use kitti2pgm::kitti::velodyne::Scan;
-use kitti2pgm::label::{ClassId, ClassMap, LabelBox, Labeller};
+use kitti2pgm::source::Scan;
 use proptest::prelude::*;
 
 use crate::util::*;

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use kitti2pgm::sensor::{self, presets::Sensor, RingOrder, SensorModel};
-use kitti2pgm::source::{self, pcd, LidarCloud};
+use kitti2pgm::source::{self, pcd, Scan};
 
 /// `../shared/lidars` where present, else `fixtures/lidars` (a subset).
 fn lidars() -> PathBuf {
@@ -68,7 +68,7 @@ fn scans() -> Vec<(PathBuf, PathBuf, Sensor)> {
 }
 
 /// Largest difference between a point's elevation and its row's beam, degrees.
-fn worst_fit(cloud: &LidarCloud, model: &SensorModel, rows: &[u8]) -> f64 {
+fn worst_fit(cloud: &Scan, model: &SensorModel, rows: &[u8]) -> f64 {
     cloud
         .points
         .iter()
@@ -136,7 +136,7 @@ fn the_nuscenes_keyframe_has_its_ring_column_and_32_beams() {
         .map(|e| e.unwrap().path())
         .find(|p| p.to_string_lossy().ends_with(".pcd.bin"))
         .unwrap();
-    let cloud = source::read_cloud(&path, None).unwrap();
+    let cloud = source::read_file(&path, None).unwrap();
     assert_eq!(cloud.file_len, 34_688);
     let ring = cloud.ring.as_ref().unwrap();
     assert_eq!(ring.iter().copied().max(), Some(31));
@@ -540,7 +540,7 @@ fn an_unknown_sensor_or_a_bad_calibration_stops_before_any_work() {
 
 #[test]
 fn a_pcd_beside_the_bin_of_its_frame_is_named_not_read() {
-    use kitti2pgm::kitti::Drive;
+    use kitti2pgm::source::kitti::Drive;
     let t = super::util::tmp();
     let vlp = lidars().join("velodyne/vlp16_1673400472138016708.pcd");
     let bin = super::util::fixture("semantickitti/sequences/00/velodyne/000000.bin");
@@ -587,7 +587,7 @@ fn zero_wide_fields_trailing_bytes_and_ascii_ranges() {
     let got = pcd::decode(&padded, Path::new("export.pcd")).unwrap();
     assert_eq!(got.trailing_bytes, 13);
     assert_eq!(
-        LidarCloud {
+        Scan {
             trailing_bytes: 0,
             ..got
         },

@@ -27,7 +27,7 @@ fn label_of(x: f32, y: f32, z: f32) -> u32 {
 /// labels by region of the unmoved points.
 fn labelled_root(dir: &Path, seqs: &[&str], lift: f32) -> PathBuf {
     let vlp = super::util::fixture("own_lidar/sequences/00/velodyne/000000.pcd");
-    let cloud = kitti2pgm::source::read_cloud(&vlp, None).unwrap();
+    let cloud = kitti2pgm::source::read_file(&vlp, None).unwrap();
     let root = dir.join("root");
     for seq in seqs {
         let d = root.join("sequences").join(seq);
@@ -226,12 +226,15 @@ fn unproject_moves_the_points_by_the_sensor_pose_as_convert_did() {
     assert!(acc > 0.999, "{acc}");
 }
 
-#[test]
-fn flat_bin_scans_of_a_declared_layout_convert_as_their_pcd() {
-    // The VLP-16 scan as 16-byte records (x, y, z f32, intensity u8, a pad byte, ring u16).
-    let t = tmp();
+/// The declared layout of [`flat_root`]'s records.
+const FLAT_FIELDS: &str = "x,y,z:f32,intensity:u8,_:u8,ring:u16";
+
+/// A root holding the VLP-16 scan as 16-byte records of [`FLAT_FIELDS`] (x, y, z f32, intensity
+/// u8, a pad byte, ring u16): the size of KITTI's records, and not KITTI's; `wide`: 4 bytes of
+/// padding more a record ([`FLAT_FIELDS`] then `,_:u32`), a size KITTI's records do not divide.
+fn flat_root(dir: &Path, wide: bool) -> PathBuf {
     let vlp = super::util::fixture("own_lidar/sequences/00/velodyne/000000.pcd");
-    let cloud = kitti2pgm::source::read_cloud(&vlp, None).unwrap();
+    let cloud = kitti2pgm::source::read_file(&vlp, None).unwrap();
     let rings = cloud.ring.clone().unwrap();
     let mut bytes = Vec::new();
     for ((p, i), r) in cloud.points.iter().zip(&cloud.intensity).zip(&rings) {
@@ -240,11 +243,84 @@ fn flat_bin_scans_of_a_declared_layout_convert_as_their_pcd() {
         }
         bytes.extend_from_slice(&[*i as u8, 0]);
         bytes.extend_from_slice(&r.to_le_bytes());
+        if wide {
+            bytes.extend_from_slice(&[0; 4]);
+        }
     }
-    let root = t.path().join("flat");
+    let root = dir.join("flat");
     std::fs::create_dir_all(root.join("sequences/00/velodyne")).unwrap();
     std::fs::write(root.join("sequences/00/velodyne/000000.bin"), &bytes).unwrap();
-    let fields = "x,y,z:f32,intensity:u8,_:u8,ring:u16";
+    root
+}
+
+/// The VLP-16 scan's PCD alone in a root.
+fn pcd_root(dir: &Path) -> PathBuf {
+    let vlp = super::util::fixture("own_lidar/sequences/00/velodyne/000000.pcd");
+    let root = dir.join("pcd");
+    std::fs::create_dir_all(root.join("sequences/00/velodyne")).unwrap();
+    std::fs::copy(&vlp, root.join("sequences/00/velodyne/000000.pcd")).unwrap();
+    root
+}
+
+/// Issue 49: `preview --raw` read a declared-layout `.bin` as KITTI's records (the layout the
+/// conversion recorded ignored): it now reads every scan as its conversion did, so the same
+/// predictions drawn over the flat root and over the PCD root give the same picture.
+#[test]
+fn preview_raw_reads_a_declared_layout_bin_as_its_conversion_did() {
+    let t = tmp();
+    let base = ["--sensor", "vlp16", "--all-frames", "--cols", "1024"];
+    let mut pictures = Vec::new();
+    let wide = format!("{FLAT_FIELDS},_:u32");
+    for (name, root, extra) in [
+        (
+            "flat",
+            flat_root(t.path(), true),
+            &["--fields", wide.as_str()][..],
+        ),
+        ("pcd", pcd_root(t.path()), &[][..]),
+    ] {
+        let conv = t.path().join(format!("{name}-conv"));
+        let (code, _, err) = convert_json(&root, &conv, &[&base[..], extra].concat());
+        assert_eq!(code, 0, "{err}");
+        let pred = t.path().join(format!("{name}-pred"));
+        predictions_from_maps(&conv, &pred);
+        let up = t.path().join(format!("{name}-up"));
+        ok(&[
+            "unproject",
+            "--gt",
+            s(&conv),
+            "--pred",
+            s(&pred),
+            "--raw",
+            s(&root),
+            "--out",
+            s(&up),
+        ]);
+        let pics = t.path().join(format!("{name}-pics"));
+        ok(&[
+            "preview",
+            s(&up),
+            "--raw",
+            s(&root),
+            "--gt",
+            s(&conv),
+            "--out",
+            s(&pics),
+        ]);
+        pictures.push(std::fs::read(pics.join("00_000000.png")).unwrap());
+    }
+    assert!(
+        pictures[0] == pictures[1],
+        "the flat root's picture differs from the PCD's"
+    );
+}
+
+#[test]
+fn flat_bin_scans_of_a_declared_layout_convert_as_their_pcd() {
+    let t = tmp();
+    let vlp = super::util::fixture("own_lidar/sequences/00/velodyne/000000.pcd");
+    let root = flat_root(t.path(), false);
+    let fields = FLAT_FIELDS;
     let base = ["--sensor", "vlp16", "--all-frames", "--cols", "1024"];
     let (code, j, err) = convert_json(
         &root,

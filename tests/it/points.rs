@@ -3,9 +3,9 @@
 
 use kitti2pgm::format::label_file;
 use kitti2pgm::format::shard::{Shard, ShardKind};
-use kitti2pgm::kitti::velodyne::Scan;
 use kitti2pgm::project::rings;
 use kitti2pgm::report::inspect::inspect;
+use kitti2pgm::source::Scan;
 
 use crate::util::*;
 
@@ -40,7 +40,7 @@ fn point_shards_hold_the_converters_points_and_labels() {
             let pts = p.points_f32();
             for (k, q) in pts.iter().enumerate() {
                 let s = scan.points[k];
-                assert_eq!(*q, [s.x, s.y, s.z, scan.reflectance[k]]);
+                assert_eq!(*q, [s.x, s.y, s.z, scan.intensity[k]]);
             }
             assert_eq!(p.ring, rings(&scan.points).0.unwrap());
             // Labels are the .label file's (written beside), point for point.

@@ -1,8 +1,8 @@
 //! PROJECT: rings, rows, columns and fill on real scans.
 
-use kitti2pgm::kitti::velodyne::Scan;
-use kitti2pgm::kitti::{discover, Drive};
 use kitti2pgm::project::{project, rings, PgmSpec, RowMode, EMPTY, LASERS};
+use kitti2pgm::source::kitti::{discover, Drive};
+use kitti2pgm::source::Scan;
 use proptest::prelude::*;
 
 use crate::util::*;

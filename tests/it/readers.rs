@@ -1,12 +1,14 @@
 //! READ: the real calibration, tracklet, timestamp and OXTS files.
 
 use kitti2pgm::geom::na;
-use kitti2pgm::kitti::calib::Calibration;
-use kitti2pgm::kitti::oxts::Oxts;
-use kitti2pgm::kitti::tracklets::{ObjectType, Occlusion, PoseState, Tracklets, Truncation};
-use kitti2pgm::kitti::velodyne::Scan;
-use kitti2pgm::kitti::{discover, timestamps};
 use kitti2pgm::label::ClassMap;
+use kitti2pgm::source::kitti::calib::Calibration;
+use kitti2pgm::source::kitti::oxts::Oxts;
+use kitti2pgm::source::kitti::tracklets::{
+    ObjectType, Occlusion, PoseState, Tracklets, Truncation,
+};
+use kitti2pgm::source::kitti::{discover, timestamps};
+use kitti2pgm::source::Scan;
 
 use crate::util::*;
 
@@ -148,5 +150,39 @@ fn real_scan_reads() {
     let s = Scan::read(&fixture_drive(1).join("velodyne_points/data/0000000000.bin")).unwrap();
     assert_eq!(s.file_len, 1936240 / 16);
     assert_eq!(s.len(), s.file_len);
-    assert!(s.reflectance.iter().all(|r| (0.0..=1.0).contains(r)));
+    assert!(s.intensity.iter().all(|r| (0.0..=1.0).contains(r)));
+}
+
+/// Issue 49: one drop rule per kind of source, stated once. A KITTI `.bin` with two
+/// reflectances outside 0-1 gave 114,278 points through the Python module's `read_cloud` (the
+/// point cloud reader) and 114,276 through the converter's reading; every reading function now
+/// gives the same points, those two dropped.
+#[test]
+fn every_reading_function_gives_the_same_points_of_one_file() {
+    use kitti2pgm::project::{project_scan, PgmSpec};
+    use kitti2pgm::source::kitti::velodyne;
+    let src = fixture_drive(1).join("velodyne_points/data/0000000000.bin");
+    let mut bytes = std::fs::read(&src).unwrap();
+    for (at, v) in [(100usize, 1.5f32), (2000, -0.5)] {
+        bytes[at * 16 + 12..at * 16 + 16].copy_from_slice(&v.to_le_bytes());
+    }
+    let t = tmp();
+    let path = t.path().join("0000000000.bin");
+    std::fs::write(&path, &bytes).unwrap();
+    let n = bytes.len() / 16;
+    let scans = [
+        Scan::read(&path).unwrap(),
+        kitti2pgm::source::read_file(&path, None).unwrap(),
+        velodyne::decode(&bytes, &path).unwrap(),
+        kitti2pgm::sensor::read_scan(None, &path).unwrap().0,
+        project_scan(&PgmSpec::default(), None, &path).unwrap().0,
+    ];
+    for s in &scans {
+        assert_eq!((s.file_len, s.len()), (n, n - 2));
+        assert_eq!(
+            (s.dropped.as_slice(), s.dropped_out_of_range),
+            ([100, 2000].as_slice(), 2)
+        );
+        assert_eq!(s, &scans[0]);
+    }
 }

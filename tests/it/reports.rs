@@ -4,7 +4,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use kitti2pgm::format::npy::read_f32;
-use kitti2pgm::kitti::tracklets::Tracklets;
+use kitti2pgm::source::kitti::tracklets::Tracklets;
 
 use crate::util::*;
 

@@ -191,8 +191,8 @@ fn every_prediction_format_gives_the_same_score() {
 /// Rewrites a scan keeping, in the front field of view, only the point that wins each cell, so
 /// that no cell holds two points.
 fn deduplicated_raw(t: &Path) -> PathBuf {
-    use kitti2pgm::kitti::velodyne::Scan;
     use kitti2pgm::project::{project, PgmSpec, EMPTY};
+    use kitti2pgm::source::Scan;
     let root = fixture_copy(t);
     let bin =
         root.join("2011_09_26/2011_09_26_drive_0052_sync/velodyne_points/data/0000000000.bin");
@@ -210,7 +210,7 @@ fn deduplicated_raw(t: &Path) -> PathBuf {
         if spec.column(p).is_some() && !winners.contains(&(i as u32)) {
             continue;
         }
-        for v in [p.x, p.y, p.z, scan.reflectance[i]] {
+        for v in [p.x, p.y, p.z, scan.intensity[i]] {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }

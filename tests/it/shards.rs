@@ -309,7 +309,7 @@ fn failed_frames_are_left_out_and_recorded() {
     assert_eq!(
         md.failed,
         ["2011_09_26_0001_0000000045"
-            .parse::<kitti2pgm::kitti::FrameId>()
+            .parse::<kitti2pgm::source::kitti::FrameId>()
             .unwrap()]
     );
     assert_eq!(shard.frames().0.len(), 2);

@@ -6,9 +6,9 @@ use std::path::Path;
 
 use kitti2pgm::format::npy::read_f32;
 use kitti2pgm::geom::na;
-use kitti2pgm::kitti::calib::FrameCalib;
-use kitti2pgm::kitti::object;
 use kitti2pgm::label::ClassMap;
+use kitti2pgm::source::kitti::calib::FrameCalib;
+use kitti2pgm::source::kitti::object;
 
 use crate::util::*;
 

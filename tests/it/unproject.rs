@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use kitti2pgm::format::label_file;
 use kitti2pgm::format::npy::read_f32;
-use kitti2pgm::kitti::velodyne::Scan;
 use kitti2pgm::project::{project_with_point_cells, PgmSpec, EMPTY};
+use kitti2pgm::source::Scan;
 
 use crate::util::*;
 

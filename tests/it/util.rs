@@ -141,7 +141,8 @@ pub fn convert_fixtures_in_process(out: &Path) -> kitti2pgm::format::summary::Co
     let plan = Plan::build_as(&fixtures(), FrameSelection::Annotated, None).unwrap();
     let opts = ConvertOptions {
         map_origin: Some(
-            kitti2pgm::project::MapChoice::default().origin(Some(kitti2pgm::kitti::Layout::Raw)),
+            kitti2pgm::project::MapChoice::default()
+                .origin(Some(kitti2pgm::source::kitti::Layout::Raw)),
         ),
         ..ConvertOptions::new(out)
     };

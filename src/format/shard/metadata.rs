@@ -7,8 +7,8 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::error::{Error, NotAFrameId, Result};
-use crate::kitti::FrameId;
 use crate::params::ConvertParams;
+use crate::source::kitti::FrameId;
 
 /// What the metadata record of a shard says.
 #[derive(Debug, Clone, PartialEq, Default, Serialize)]

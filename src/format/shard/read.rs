@@ -13,7 +13,7 @@ use super::message::{FrameMsg, PointsMsg};
 use super::metadata::ShardMetadata;
 use super::{ShardKind, METADATA_NAME, POINTS_TOPIC, PREDICTION_TOPIC};
 use crate::error::{Error, Result};
-use crate::kitti::FrameId;
+use crate::source::kitti::FrameId;
 
 /// Whether a message's channel carries `schema` (messages are selected by schema, never by
 /// topic alone: a visualisation topic may share a name's prefix or a user's tool may rename).

@@ -108,8 +108,8 @@ fn the_lane_kernels_are_the_scalar_one_point_for_point() {
         Scaled,
         Emptied,
     }
-    use crate::kitti::velodyne::Scan;
     use crate::project::{norm, project_with_point_cells, MapPreset};
+    use crate::source::Scan;
     let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
     let scan = Scan::read(&bin).unwrap();
@@ -179,8 +179,8 @@ fn the_lane_kernels_are_the_scalar_one_point_for_point() {
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn the_keys_decide_nearly_every_block_of_a_real_scan() {
-    use crate::kitti::velodyne::Scan;
     use crate::project::{norm, project_with_point_cells, MapPreset};
+    use crate::source::Scan;
     let bin = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
     let scan = Scan::read(&bin).unwrap();

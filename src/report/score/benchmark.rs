@@ -17,9 +17,9 @@ use super::predictions::{PredictionKind, Predictions};
 use super::{FrameScore, ScoreOptions};
 use crate::error::{Error, Result};
 use crate::format::label_file;
-use crate::kitti::{Drive, FrameId};
 use crate::label::{ClassId, ClassMap};
 use crate::report::truth::GroundTruth;
+use crate::source::kitti::{Drive, FrameId};
 
 /// What the entries of a `.label` file are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -7,10 +7,10 @@ use super::predictions::{read_cell_prediction, PredictionKind, Predictions};
 use super::{FrameMaps, FrameScore, Protocol, ScoreOptions};
 use crate::error::{Error, Result};
 use crate::format::label_file;
-use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::project::unproject::{unproject, Method, PointsInMap};
 use crate::project::EMPTY;
 use crate::report::truth::GroundTruth;
+use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
 
 /// Where a scan's points fall in the map, for the point protocol and per-point predictions.
 #[derive(Default)]
@@ -41,7 +41,8 @@ fn scan_cells(gt: &GroundTruth, id: &FrameId, opts: &ScoreOptions) -> Result<Sca
     })?;
     let drive = raw_drive(raw, id)?;
     let path = drive.scan_path(id.frame);
-    let (scan, proj) = gt.params.project_scan(&path)?;
+    let (scan, proj) =
+        crate::project::project_scan(&gt.params.spec, gt.params.sensor.as_ref(), &path)?;
     let file_idx = scan.file_indices();
     let cell_winner_file = proj
         .cell_point

@@ -23,9 +23,9 @@ use std::path::PathBuf;
 use serde::Serialize;
 
 use crate::error::Result;
-use crate::kitti::FrameId;
 use crate::label::ClassMap;
 use crate::report::truth::GroundTruth;
+use crate::source::kitti::FrameId;
 pub use confusion::Confusion;
 pub use frame::score_frame;
 pub use predictions::{

@@ -14,9 +14,9 @@ use serde::Serialize;
 use crate::error::{Error, NotAFrameId, Result};
 use crate::format::npy::{read_any, NpyArray};
 use crate::format::shard::Shard;
-use crate::kitti::{parse_drive_name, FrameId};
 use crate::label::{ClassId, ClassMap};
 use crate::project::{Channel, Channels};
+use crate::source::kitti::{parse_drive_name, FrameId};
 
 /// The kind of a prediction file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

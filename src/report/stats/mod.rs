@@ -16,10 +16,10 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::format::summary::{self, ConvertSummary};
-use crate::kitti::tracklets::{Occlusion, PoseState, Tracklets, Truncation};
-use crate::kitti::{discover, FrameId};
 use crate::label::{ClassCounts, ClassMap};
 use crate::report::truth::GroundTruth;
+use crate::source::kitti::tracklets::{Occlusion, PoseState, Tracklets, Truncation};
+use crate::source::kitti::{discover, FrameId};
 use acc::Acc;
 
 /// Version of the JSON layout; bumped when a key changes meaning.

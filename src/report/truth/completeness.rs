@@ -13,7 +13,7 @@ use crate::format::journal::{self, JOURNAL_FILE};
 use crate::format::layout::{self, OutputDir};
 use crate::format::shard::Shard;
 use crate::format::summary;
-use crate::kitti::FrameId;
+use crate::source::kitti::FrameId;
 
 /// Whether a reader accepts the output of an unfinished (running, killed) conversion.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

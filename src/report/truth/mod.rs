@@ -17,11 +17,11 @@ use crate::format::layout::{self, OutputDir};
 use crate::format::pgm::{self, PgmFile};
 use crate::format::shard::{Shard, ShardKind};
 use crate::format::summary;
-use crate::kitti::{discover_as, Drive, FrameId, Layout};
 use crate::label::ClassMap;
 use crate::params::MapParams;
 use crate::project::camera::{RgbOptions, Sampling};
 use crate::project::PgmFrame;
+use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
 
 pub mod completeness;
 

@@ -30,11 +30,11 @@ use super::truth::GroundTruth;
 use crate::error::{Error, Result};
 use crate::format::layout::OutputDir;
 use crate::format::{label_file, Durability};
-use crate::kitti::velodyne::Scan;
-use crate::kitti::{FrameId, Layout};
 use crate::label::{ClassId, ClassMap};
 use crate::project::norm;
 use crate::project::unproject::{unproject, Method, MethodKind, PointsInMap};
+use crate::source::kitti::{FrameId, Layout};
+use crate::source::Scan;
 
 pub use crate::format::label_file::NOT_PREDICTED;
 
@@ -136,7 +136,8 @@ fn one(
         })?;
     let drive = raw_drive(&opts.raw, id)?;
     let scan_path = drive.scan_path(id.frame);
-    let (scan, proj) = gt.params.project_scan(&scan_path)?;
+    let (scan, proj) =
+        crate::project::project_scan(&gt.params.spec, gt.params.sensor.as_ref(), &scan_path)?;
     if let Some(dir) = &gt.dir {
         let recorded = dir.label_path(id);
         if let Ok(meta) = std::fs::metadata(&recorded) {
@@ -344,15 +345,19 @@ pub fn point_truth(
 
 /// A scan with its per-point predictions and truth, each per kept point (the scan's order).
 pub struct PointFrame {
-    /// The scan as read.
+    /// The scan as its conversion read it ([`crate::sensor::read_scan`]).
     pub scan: Scan,
+    /// The beam row of every kept point, where a sensor model gave them (`None`: KITTI's
+    /// HDL-64E, rows from the scan order).
+    pub beam_rows: Option<Vec<u8>>,
     /// Each point's predicted class (`None`: not predicted).
     pub pred: Vec<Option<ClassId>>,
     /// Each point's true class, when there is a truth ([`point_truth`]).
     pub truth: Option<Vec<Option<ClassId>>>,
 }
 
-/// Reads frame `id`'s scan under `raw`, its per-point predictions from `pred_path` (which must
+/// Reads frame `id`'s scan under `raw` as the conversion with `sensor` read it (its declared
+/// `.bin` layout, pose and beam rows), its per-point predictions from `pred_path` (which must
 /// hold one entry per point of the scan) and its truth.
 pub fn load_point_frame(
     raw: &Path,
@@ -360,9 +365,10 @@ pub fn load_point_frame(
     pred_path: &Path,
     map: &ClassMap,
     gt: Option<&OutputDir>,
+    sensor: Option<&crate::sensor::SensorParams>,
 ) -> Result<PointFrame> {
     let scan_path = raw_drive(raw, id)?.scan_path(id.frame);
-    let scan = Scan::read(&scan_path)?;
+    let (scan, beams) = crate::sensor::read_scan(sensor, &scan_path)?;
     let pred = read_point_predictions(pred_path, id, map)?;
     if pred.len() != scan.file_len {
         return Err(Error::LabelCount {
@@ -383,6 +389,7 @@ pub fn load_point_frame(
     Ok(PointFrame {
         pred: pick(&pred),
         truth: truth.as_deref().map(pick),
+        beam_rows: beams.map(|b| b.rows),
         scan,
     })
 }

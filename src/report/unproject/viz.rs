@@ -6,10 +6,10 @@ use super::{load_point_frame, UnprojectOptions};
 use crate::error::{Error, Result};
 use crate::format::layout::point_prediction_path;
 use crate::fs::Role;
-use crate::kitti::FrameId;
 use crate::label::ClassId;
 use crate::report::score::Predictions;
 use crate::report::truth::GroundTruth;
+use crate::source::kitti::FrameId;
 
 /// Refuses a visualisation file `viz` that is, lies inside or holds an input of the run: the
 /// ground truth, the map predictions, the dataset, or the per-point predictions' folder.
@@ -77,6 +77,7 @@ pub fn write_viz(
             &point_prediction_path(&opts.out, id),
             map,
             gt.dir.as_ref(),
+            gt.params.sensor.as_ref(),
         )?;
         let mut v = VizFrame {
             colours: colours.clone(),
@@ -91,7 +92,7 @@ pub fn write_viz(
                 Some(t) if map.is_scored(t) && t != p => wrong,
                 _ => p,
             };
-            v.points.push((f.scan.points[i], f.scan.reflectance[i], c));
+            v.points.push((f.scan.points[i], f.scan.intensity[i], c));
         }
         let time = k as u64 * 100_000_000;
         channels.write(&mut w, &v, k as u32, time).map_err(merr)?;

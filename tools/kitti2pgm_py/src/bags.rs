@@ -8,7 +8,6 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use kitti2pgm::kitti::velodyne::Scan;
 use kitti2pgm::source::bag::{Bag, Messages, Next};
 use kitti2pgm::source::pointcloud2::{PointCloud2, TYPE_NAME};
 
@@ -92,7 +91,8 @@ impl BagFrames {
                 )));
             }
         };
-        let (scan, ring) = Scan::from_cloud(cloud);
+        let mut scan = cloud;
+        let ring = scan.ring.take();
         let d = PyDict::new(py);
         d.set_item("index", index)?;
         d.set_item("stamp", stamp.nanos())?;

@@ -11,7 +11,6 @@ use pyo3::types::{PyDict, PyList};
 
 use kitti2pgm::convert::frame::{load, Viz};
 use kitti2pgm::geom::Degrees;
-use kitti2pgm::kitti::Layout;
 use kitti2pgm::label::ClassMap;
 use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
@@ -19,6 +18,7 @@ use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Cloud, PgmSpec};
 use kitti2pgm::sensor::params::SensorParams;
 use kitti2pgm::sensor::{RingOrder, SensorPose};
+use kitti2pgm::source::kitti::Layout;
 
 use crate::readers::{box_dict, class_map_of, scan_array, to_py};
 use crate::{py_err, spec_of, MapArgs};
@@ -339,7 +339,7 @@ impl Dataset {
                     .map(|c| c.iter().map(|v| v.unwrap_or([0.0; 3])).collect());
                 let cloud = Cloud {
                     points: &l.scan.points,
-                    intensity: &l.scan.reflectance,
+                    intensity: &l.scan.intensity,
                     rings: l.beams.as_ref().map(|b| &b.rows[..]),
                     beams: l
                         .beams

@@ -17,11 +17,11 @@ use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use kitti2pgm::kitti::Layout;
 use kitti2pgm::project::{
     project_cloud_on, Augment, Cloud, CloudProjection, IntensityKind, MapChoice, MapPreset,
     PgmSpec, RowMode, EMPTY,
 };
+use kitti2pgm::source::kitti::Layout;
 
 use arrays::{colours_arg, points_arg, vec_arg};
 
@@ -425,7 +425,10 @@ fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
         sensors.set_item(s.as_str(), s.model_table().beams())?;
     }
     m.add("SENSORS", sensors)?;
-    m.add("MAX_RANGE_M", kitti2pgm::kitti::velodyne::MAX_RANGE_M)?;
+    m.add(
+        "MAX_RANGE_M",
+        kitti2pgm::source::kitti::velodyne::MAX_RANGE_M,
+    )?;
     m.add_function(wrap_pyfunction!(project, m)?)?;
     m.add_function(wrap_pyfunction!(rings, m)?)?;
     m.add_function(wrap_pyfunction!(unproject::unproject, m)?)?;

@@ -10,9 +10,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use kitti2pgm::geom::{na, Iso3, Matrix3x4, Real, Vector3};
-use kitti2pgm::kitti::calib::{Calibration, FrameCalib};
-use kitti2pgm::kitti::velodyne::Scan;
 use kitti2pgm::label::{ClassMap, LabelBox, Labeller};
+use kitti2pgm::source::kitti::calib::{Calibration, FrameCalib};
+use kitti2pgm::source::Scan;
 
 use crate::arrays::points_arg;
 use crate::py_err;
@@ -39,7 +39,8 @@ fn matrix<'py, R: na::Dim, C: na::Dim, S: na::RawStorage<f64, R, C>>(
 
 /// Reads a point cloud of any spinning LiDAR: a PCD file (ascii, binary, binary_compressed),
 /// nuScenes' `.pcd.bin`, or a flat `.bin` of the declared `fields` (e.g.
-/// "x,y,z,intensity,ring:f32"; KITTI's x, y, z, reflectance float32 by default).
+/// "x,y,z,intensity,ring:f32"; KITTI's x, y, z, reflectance float32 by default, with KITTI's
+/// rule: a reflectance outside 0-1 is a corrupt point, dropped as the converter drops it).
 ///
 /// Returns a dict: points (N, 4) float32 x, y, z, intensity (as stored; 0 where the file has
 /// no intensity), ring (N,) uint16 or None (the ring / channel / laser id field), file_index
@@ -57,11 +58,10 @@ fn read_cloud<'py>(
         .map(|f| kitti2pgm::source::PointLayout::declared(&f))
         .transpose()
         .map_err(py_err)?;
-    let cloud = py
-        .detach(|| kitti2pgm::source::read_cloud(&path, layout.as_ref()))
+    let mut scan = py
+        .detach(|| kitti2pgm::source::read_file(&path, layout.as_ref()))
         .map_err(py_err)?;
-    let trailing = cloud.trailing_bytes;
-    let (scan, ring) = Scan::from_cloud(cloud);
+    let (trailing, ring) = (scan.trailing_bytes, scan.ring.take());
     let d = PyDict::new(py);
     d.set_item("points", scan_array(py, &scan)?)?;
     d.set_item("ring", ring.map(|r| PyArray1::from_vec(py, r)))?;
@@ -99,7 +99,7 @@ pub(crate) fn scan_array<'py>(py: Python<'py>, scan: &Scan) -> PyResult<Bound<'p
     let flat: Vec<f32> = scan
         .points
         .iter()
-        .zip(&scan.reflectance)
+        .zip(&scan.intensity)
         .flat_map(|(p, &r)| [p.x, p.y, p.z, r])
         .collect();
     PyArray1::from_vec(py, flat).reshape([scan.len(), 4])
@@ -161,7 +161,7 @@ fn read_frame_calibration<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound
 #[pyfunction]
 fn read_tracklets<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
     let t = py
-        .detach(|| kitti2pgm::kitti::tracklets::Tracklets::read(&path))
+        .detach(|| kitti2pgm::source::kitti::tracklets::Tracklets::read(&path))
         .map_err(py_err)?;
     to_py(py, &t.tracklets)
 }
@@ -170,7 +170,7 @@ fn read_tracklets<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, Py
 /// rotation_y), in the rectified camera 0 frame as written.
 #[pyfunction]
 fn read_object_labels<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyList>> {
-    let objs = kitti2pgm::kitti::object::read(&path).map_err(py_err)?;
+    let objs = kitti2pgm::source::kitti::object::read(&path).map_err(py_err)?;
     let out = PyList::empty(py);
     for o in objs {
         let d = PyDict::new(py);
@@ -306,7 +306,7 @@ fn label_points<'py>(
 }
 
 /// A frame id from its string (`2011_09_26_0001_0000000010`, `00_000000`, `000042`).
-fn frame_id(frame: &str) -> PyResult<kitti2pgm::kitti::FrameId> {
+fn frame_id(frame: &str) -> PyResult<kitti2pgm::source::kitti::FrameId> {
     frame
         .parse()
         .map_err(|e: kitti2pgm::error::NotAFrameId| PyValueError::new_err(e.to_string()))

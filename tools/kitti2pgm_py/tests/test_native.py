@@ -492,3 +492,21 @@ def test_point_predictions_are_written_where_and_as_unproject_writes_them(tmp_pa
         k2.write_point_predictions(tmp_path, "000042", np.array([9]), class_map="kitti-paper-4")
     with pytest.raises(ValueError, match="not a frame id"):
         k2.write_point_predictions(tmp_path, "frame7", np.array([1]), class_map="kitti-paper-4")
+
+
+def test_every_reading_function_gives_the_same_points_of_one_file(tmp_path):
+    """Issue 49: a KITTI .bin with two reflectances outside 0-1 gave 114,278 points through
+    read_cloud and 114,276 through read_scan and the converter; KITTI's drop rule is now the one
+    rule of its source, whichever function reads it."""
+    src = pathlib.Path(__file__).resolve().parents[3] / "fixtures/raw/2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000000.bin"
+    raw = np.fromfile(src, dtype="<f4").reshape(-1, 4).copy()
+    raw[100, 3], raw[2000, 3] = 1.5, -0.5
+    path = tmp_path / "0000000000.bin"
+    raw.tofile(path)
+    keep = np.ones(len(raw), bool)
+    keep[[100, 2000]] = False
+    cloud = k2.read_cloud(str(path))
+    pts, index = k2.read_scan(str(path), with_file_index=True)
+    assert cloud["file_points"] == len(raw) and cloud["dropped"] == 2
+    assert np.array_equal(cloud["points"], raw[keep]) and np.array_equal(pts, raw[keep])
+    assert np.array_equal(cloud["file_index"], np.flatnonzero(keep)) and np.array_equal(index, cloud["file_index"])
