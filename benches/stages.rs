@@ -53,7 +53,7 @@ fn stages(c: &mut Criterion) {
     let scan = Scan::read(&scan_path).unwrap();
     let img = read_image(&img_path).unwrap();
     let classes = ClassMap::kitti_paper();
-    let boxes = dp.boxes(f, &classes);
+    let boxes = dp.label_boxes(f, &classes);
     let spec = PgmSpec::default();
     let cam = CameraProjector {
         velo_to_image: dp.camera(0, 2).unwrap().0,
@@ -63,7 +63,7 @@ fn stages(c: &mut Criterion) {
     // Labelling is part of processing a frame.
     let labelled = || FrameLabels::from_boxes(boxes.clone(), &scan, &classes);
 
-    let map = kitti2pgm::params::MapParams {
+    let map = kitti2pgm::provenance::MapParams {
         spec,
         class_map: classes.clone(),
         ..Default::default()
@@ -332,7 +332,11 @@ fn labelling(c: &mut Criterion) {
                 let centre = na::Translation3::new(60.0 * r() - 30.0, 60.0 * r() - 30.0, -0.95);
                 let yaw = na::UnitQuaternion::from_euler_angles(0.0, 0.0, 6.0 * r());
                 let half = Vector3::new(2.15, 0.9, 0.75);
-                LabelBox::centred(1, i as u16 + 1, half, Iso3::from_parts(centre, yaw))
+                let geometry = kitti2pgm::source::boxes::Box3 {
+                    pose: Iso3::from_parts(centre, yaw),
+                    half_extents: half,
+                };
+                LabelBox::of(&geometry, 1, i as u16 + 1)
             })
             .collect();
         let lab = Labeller::new(&boxes, 0);

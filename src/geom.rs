@@ -12,9 +12,9 @@
 
 pub use parry3d::na;
 
-/// Scalar of point data and labelling (the velodyne stores float32).
+/// Scalar of point data and labelling (scans store float32).
 pub type Real = f32;
-/// A position in the velodyne frame, metres.
+/// A position in a scan's frame (the sensor's, or KITTI's velodyne frame), metres.
 pub type Point3 = na::Point3<Real>;
 /// A displacement or extent, metres.
 pub type Vector3 = na::Vector3<Real>;

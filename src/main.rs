@@ -56,7 +56,7 @@ fn main() -> ExitCode {
             let message = chain_text(&e);
             eprintln!("kitti2pgm: error: {message}");
             let hint = commands::hint(&e);
-            if let Some(hint) = hint {
+            if let Some(hint) = &hint {
                 eprintln!("kitti2pgm: hint: {hint}");
             }
             let library = e.chain().find_map(|c| c.downcast_ref::<kitti2pgm::Error>());

@@ -11,7 +11,7 @@ use super::{CheckName as C, Collector, Severity as S};
 use crate::geom::{check_rotation, na, Matrix3x4, Point3};
 use crate::project::camera::pixel;
 use crate::source::kitti::calib::CAM_TO_CAM;
-use crate::source::kitti::Layout;
+use crate::source::kitti::DatasetKind;
 
 /// Checks the form of the calibration matrices a drive uses.
 pub(crate) fn check_files(r: &DriveRead, c: &mut Collector) {
@@ -250,8 +250,8 @@ pub(crate) fn judge(
 /// The calibration file of a drive's camera (for findings).
 pub(crate) fn camera_file(r: &DriveRead, frame: u32) -> std::path::PathBuf {
     let d = &r.drive;
-    match d.layout {
-        Layout::Raw => d.date_dir().join(CAM_TO_CAM),
+    match d.dataset {
+        DatasetKind::Raw => d.date_dir().join(CAM_TO_CAM),
         _ => d.calib_path(frame),
     }
 }

@@ -7,18 +7,18 @@ use super::read::{frames_in, missing, DriveRead};
 use super::{frame_ranges, layouts, CheckName as C, Collector, Severity as S};
 use crate::error::Result;
 use crate::source::kitti::velodyne::POINT_BYTES;
-use crate::source::kitti::{discover_as, Drive, Layout};
+use crate::source::kitti::{discover_as, DatasetKind, Drive};
 
 /// The drives under `root`: what `convert` finds, or else drive-named folders holding a
 /// `tracklet_labels.xml` (a folder of annotations without scans).
-pub(crate) fn drives(root: &Path, layout: Option<Layout>) -> Result<Vec<Drive>> {
+pub(crate) fn drives(root: &Path, layout: Option<DatasetKind>) -> Result<Vec<Drive>> {
     let found = discover_as(root, layout);
     if let Ok(d) = &found {
         if !d.drives.is_empty() {
             return Ok(d.drives.clone());
         }
     }
-    if matches!(layout, None | Some(Layout::Raw)) && root.is_dir() {
+    if matches!(layout, None | Some(DatasetKind::Raw)) && root.is_dir() {
         let mut drives: Vec<Drive> = crate::fs::sorted_dir(root)?
             .iter()
             .filter(|p| p.join("tracklet_labels.xml").is_file())
@@ -40,8 +40,8 @@ pub(crate) fn read_drive(drive: &Drive, c: &mut Collector) -> DriveRead {
     list_scans(drive, &mut r, c);
     let width = drive.frame_id(0).frame_name().len();
     for cam in 0..4u8 {
-        let dir = match drive.layout {
-            Layout::Raw => drive.dir.join(format!("image_{cam:02}/data")),
+        let dir = match drive.dataset {
+            DatasetKind::Raw => drive.dir.join(format!("image_{cam:02}/data")),
             _ => drive.dir.join(format!("image_{cam}")),
         };
         if dir.is_dir() {
@@ -55,10 +55,10 @@ pub(crate) fn read_drive(drive: &Drive, c: &mut Collector) -> DriveRead {
             r.images.insert(cam, frames);
         }
     }
-    match drive.layout {
-        Layout::Raw => layouts::read_raw(drive, &mut r, c),
-        Layout::Sequence => layouts::read_sequence(drive, &mut r, c),
-        Layout::Object => layouts::read_object(drive, &mut r, c),
+    match drive.dataset {
+        DatasetKind::Raw => layouts::read_raw(drive, &mut r, c),
+        DatasetKind::Sequence => layouts::read_sequence(drive, &mut r, c),
+        DatasetKind::Object => layouts::read_object(drive, &mut r, c),
     }
     compare_images(drive, &r, c);
     r
@@ -159,7 +159,7 @@ fn compare_images(drive: &Drive, r: &DriveRead, c: &mut Collector) {
             );
         }
     }
-    if !scans.is_empty() && !r.images.contains_key(&2) && drive.layout != Layout::Sequence {
+    if !scans.is_empty() && !r.images.contains_key(&2) && drive.dataset != DatasetKind::Sequence {
         c.add(
             C::Inventory,
             S::Note,

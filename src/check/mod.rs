@@ -31,7 +31,7 @@ pub use picture::Pictures;
 pub use thresholds::{SizeRange, Thresholds};
 
 use crate::error::Result;
-use crate::source::kitti::Layout;
+use crate::source::kitti::DatasetKind;
 
 /// The object a finding is about: its index in the file (tracklet number, `label_2` line,
 /// SemanticKITTI instance id) and its type.
@@ -97,7 +97,7 @@ pub struct CheckReport {
     /// The root checked.
     pub root: PathBuf,
     /// Its layout.
-    pub layout: Layout,
+    pub layout: DatasetKind,
     /// Checks run, in order.
     pub checks: Vec<CheckName>,
     /// Per drive: what was there.
@@ -125,7 +125,7 @@ impl CheckReport {
 #[derive(Debug, Clone)]
 pub struct CheckOptions {
     /// The layout, when not the one the root shows.
-    pub layout: Option<Layout>,
+    pub layout: Option<DatasetKind>,
     /// Checks switched off.
     pub skip: Vec<CheckName>,
     /// Read the scans (the checks that need them); false: annotations, calibration and file
@@ -243,7 +243,7 @@ pub fn check(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<CheckReport> {
     let drives = inventory::drives(root, opts.layout)?;
-    let layout = drives.first().map(|d| d.layout).unwrap_or_default();
+    let layout = drives.first().map(|d| d.dataset).unwrap_or_default();
     let mut report = CheckReport {
         version: 1,
         root: root.to_path_buf(),

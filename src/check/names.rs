@@ -1,7 +1,7 @@
 //! The names of the checks and of the severities: one spelling each, shared by the CLI, the
 //! JSON and the docs.
 
-use crate::source::kitti::Layout;
+use crate::source::kitti::DatasetKind;
 
 /// How bad a finding is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -89,11 +89,13 @@ impl CheckName {
     }
 
     /// Whether it means anything for `layout`.
-    pub fn applies_to(self, layout: Layout) -> bool {
+    pub fn applies_to(self, layout: DatasetKind) -> bool {
         use CheckName::*;
         match layout {
-            Layout::Raw => !matches!(self, LabelCount | LabelIds | InstanceClasses | MovingStatic),
-            Layout::Sequence => !matches!(
+            DatasetKind::Raw => {
+                !matches!(self, LabelCount | LabelIds | InstanceClasses | MovingStatic)
+            }
+            DatasetKind::Sequence => !matches!(
                 self,
                 BoxSize
                     | PoseJump
@@ -104,7 +106,7 @@ impl CheckName {
                     | AnnotationEnds
                     | AnnotationFalloff
             ),
-            Layout::Object => !matches!(
+            DatasetKind::Object => !matches!(
                 self,
                 PoseJump
                     | YawFlip

@@ -13,7 +13,7 @@ use crate::source::kitti::calib::{Calibration, FrameCalib};
 use crate::source::kitti::object::ObjectLabel;
 use crate::source::kitti::timestamps::Timestamp;
 use crate::source::kitti::tracklets::{Occlusion, Pose, Tracklet, Tracklets};
-use crate::source::kitti::{Drive, Layout};
+use crate::source::kitti::{DatasetKind, Drive};
 
 /// A drive's annotations, calibration and file lists, read once.
 #[derive(Debug)]
@@ -58,19 +58,19 @@ pub(crate) enum LayoutRead {
 
 impl LayoutRead {
     /// Nothing read yet, for `layout`.
-    fn empty(layout: Layout) -> LayoutRead {
+    fn empty(layout: DatasetKind) -> LayoutRead {
         match layout {
-            Layout::Raw => LayoutRead::Raw {
+            DatasetKind::Raw => LayoutRead::Raw {
                 tracklets: None,
                 timestamps: None,
                 calib: None,
             },
-            Layout::Sequence => LayoutRead::Sequence {
+            DatasetKind::Sequence => LayoutRead::Sequence {
                 calib: None,
                 poses: None,
                 label_frames: Vec::new(),
             },
-            Layout::Object => LayoutRead::Object {
+            DatasetKind::Object => LayoutRead::Object {
                 objects: BTreeMap::new(),
             },
         }
@@ -88,7 +88,7 @@ impl DriveRead {
             },
             scans: BTreeMap::new(),
             images: BTreeMap::new(),
-            layout: LayoutRead::empty(drive.layout),
+            layout: LayoutRead::empty(drive.dataset),
         }
     }
 
@@ -182,7 +182,11 @@ impl DriveRead {
                         index: i as u32,
                         kind: tr.object_type.as_str().into(),
                     },
-                    label_box: LabelBox::new(i, tr, p, 0),
+                    label_box: LabelBox::of(
+                        &tr.box_at(p),
+                        0,
+                        u16::try_from(i + 1).unwrap_or(u16::MAX),
+                    ),
                     ghost: false,
                     visible: p.occlusion == Occlusion::Visible,
                 });
@@ -194,7 +198,11 @@ impl DriveRead {
                             index: i as u32,
                             kind: tr.object_type.as_str().into(),
                         },
-                        label_box: LabelBox::new(i, tr, &pose, 0),
+                        label_box: LabelBox::of(
+                            &tr.box_at(&pose),
+                            0,
+                            u16::try_from(i + 1).unwrap_or(u16::MAX),
+                        ),
                         ghost: true,
                         visible: false,
                     });
@@ -213,7 +221,11 @@ impl DriveRead {
                         index: i as u32,
                         kind: o.kind.clone(),
                     },
-                    label_box: LabelBox::from_object(i, o, &rect_to_velo, 0),
+                    label_box: LabelBox::of(
+                        &o.box_in_velodyne(&rect_to_velo),
+                        0,
+                        u16::try_from(i + 1).unwrap_or(u16::MAX),
+                    ),
                     ghost: false,
                     visible: false,
                 });

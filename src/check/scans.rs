@@ -16,7 +16,7 @@ use crate::sensor::params::RowsFrom;
 use crate::sensor::SensorParams;
 
 use crate::label::LabelBox;
-use crate::source::kitti::Layout;
+use crate::source::kitti::DatasetKind;
 
 /// A box of one frame, and what the scan says of it.
 #[derive(Debug, Clone)]
@@ -95,7 +95,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
     if let Some(p) = &sensor {
         beam_model(r, &seen, c, &p.name);
     }
-    if r.drive.layout == Layout::Sequence {
+    if r.drive.dataset == DatasetKind::Sequence {
         semantic::moving_static(r, c);
     }
     seen.iter().filter(|s| s.error.is_none()).count()
@@ -116,13 +116,13 @@ fn sample(r: &DriveRead, frames: &[u32], t: &Thresholds) -> Vec<u32> {
 
 /// Camera 2's projection and image size at a frame, when known.
 pub(crate) fn camera_at(r: &DriveRead, f: u32) -> Option<(Matrix3x4, Option<[f64; 2]>)> {
-    match r.drive.layout {
-        Layout::Raw => r.calib().map(|c| {
+    match r.drive.dataset {
+        DatasetKind::Raw => r.calib().map(|c| {
             let s = c.cam_to_cam.cameras[2].size_rect;
             (c.velo_to_image(2), Some([s.x, s.y]))
         }),
-        Layout::Sequence => r.frame_calib().map(|c| (c.velo_to_image(2), None)),
-        Layout::Object => r.object(f).map(|(_, c)| (c.velo_to_image(2), None)),
+        DatasetKind::Sequence => r.frame_calib().map(|c| (c.velo_to_image(2), None)),
+        DatasetKind::Object => r.object(f).map(|(_, c)| (c.velo_to_image(2), None)),
     }
 }
 

@@ -54,8 +54,8 @@ fn val_frames(
     c: &mut Collector,
 ) -> Option<BTreeSet<FrameId>> {
     let Some(dir) = &opts.imageset else {
-        let layout = all.first()?.layout;
-        return assign(&SplitRule::default_for(layout), all).ok();
+        let dataset = all.first()?.dataset;
+        return assign(&SplitRule::default_for(dataset), all).ok();
     };
     let read = |name: &str, c: &mut Collector| -> Option<Vec<FrameId>> {
         let path = dir.join(name);
@@ -89,7 +89,7 @@ fn val_frames(
         let mut m = BTreeMap::new();
         for id in l
             .iter()
-            .filter(|id| id.layout != crate::source::kitti::Layout::Object)
+            .filter(|id| id.dataset != crate::source::kitti::DatasetKind::Object)
         {
             *m.entry(id.drive_name()).or_default() += 1;
         }

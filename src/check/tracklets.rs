@@ -270,7 +270,12 @@ fn overlaps_raw(c: &mut Collector, t: &Tracklets) {
     for frame in 0..t.end_frame() {
         let boxes: Vec<(usize, LabelBox)> = t
             .at(frame)
-            .map(|(i, tr, p)| (i, LabelBox::new(i, tr, p, 0)))
+            .map(|(i, tr, p)| {
+                (
+                    i,
+                    LabelBox::of(&tr.box_at(p), 0, u16::try_from(i + 1).unwrap_or(u16::MAX)),
+                )
+            })
             .collect();
         for (k, (ia, a)) in boxes.iter().enumerate() {
             for (ib, b) in &boxes[k + 1..] {

@@ -3,12 +3,12 @@
 use std::path::PathBuf;
 
 use clap::{Args as ClapArgs, ValueEnum};
-use kitti2pgm::params::ShardCompression;
 use kitti2pgm::project::camera::Sampling;
 use kitti2pgm::project::{MapPreset, RowMode};
+use kitti2pgm::provenance::ShardCompression;
 use kitti2pgm::sensor::presets::Sensor;
 use kitti2pgm::sensor::{RingOrder, SensorParams, SensorPose};
-use kitti2pgm::source::kitti::Layout;
+use kitti2pgm::source::kitti::DatasetKind;
 
 /// `kitti2pgm split`.
 #[derive(Debug, ClapArgs)]
@@ -17,9 +17,10 @@ pub struct SplitArgs {
     /// drive, sequence or split folder).
     #[arg(value_name = "ROOT")]
     pub raw_root: PathBuf,
-    /// Force the input layout instead of detecting it.
-    #[arg(long, value_enum)]
-    pub source: Option<Layout>,
+    /// Force the kind of dataset instead of detecting it (`--source`, its older name, is
+    /// still taken).
+    #[arg(long, value_enum, alias = "source")]
+    pub dataset: Option<DatasetKind>,
     /// Output folder: the lists go to DIR/ImageSet/.
     #[arg(long, short, value_name = "DIR")]
     pub out: PathBuf,
@@ -41,12 +42,13 @@ pub struct ConvertArgs {
     /// (sequences/<NN>/) or one sequence folder; a KITTI object root (training/, testing/) or
     /// one split folder; another LiDAR's sequence folders (.pcd, .pcd.bin, .bin with
     /// --fields; a ROS 2 bag or a nuScenes root after `kitti2pgm unpack`). The layout is
-    /// detected (see --source).
+    /// detected (see --dataset).
     #[arg(value_name = "ROOT")]
     pub raw_root: PathBuf,
-    /// Force the input layout instead of detecting it.
-    #[arg(long, value_enum)]
-    pub source: Option<Layout>,
+    /// Force the kind of dataset instead of detecting it (`--source`, its older name, is
+    /// still taken).
+    #[arg(long, value_enum, alias = "source")]
+    pub dataset: Option<DatasetKind>,
     /// Class map: a built-in one by the name outputs record (kitti-paper-4: background, car,
     /// pedestrian, cyclist; semantic-kitti: SemanticKITTI's 20 classes; nuscenes: the
     /// nuScenes-lidarseg benchmark's 16 classes and ignore), or a

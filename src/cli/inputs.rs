@@ -12,9 +12,10 @@ pub struct CheckArgs {
     /// their tracklet_labels.xml.
     #[arg(value_name = "ROOT", required_unless_present = "list")]
     pub root: Option<PathBuf>,
-    /// The input layout, when not the one the root shows.
-    #[arg(long, value_enum)]
-    pub source: Option<kitti2pgm::source::kitti::Layout>,
+    /// The kind of dataset, when not the one the root shows (`--source`, its older name, is
+    /// still taken).
+    #[arg(long, value_enum, alias = "source")]
+    pub dataset: Option<kitti2pgm::source::kitti::DatasetKind>,
     /// Switch these checks off (comma separated; `--list` names them).
     #[arg(long, value_delimiter = ',', value_name = "CHECK")]
     pub skip: Vec<CheckName>,
@@ -99,18 +100,10 @@ pub struct UnpackArgs {
     /// nuScenes-lidarseg labels (convert with --class-map nuscenes --sensor hdl32e).
     #[arg(value_name = "BAG|NUSCENES_ROOT")]
     pub bag: PathBuf,
-    /// The sensor_msgs/msg/PointCloud2 topic to unpack (without it, or with a wrong one, the
-    /// error lists the bag's point cloud topics).
-    #[arg(long, value_name = "TOPIC")]
-    pub topic: Option<String>,
-    /// The dataset root to write: ROOT/sequences/<NN>/velodyne/<frame6>.pcd, times.txt and
-    /// unpack.json.
+    /// The dataset root to write: ROOT/sequences/<NN>/velodyne/<frame6>.pcd (.pcd.bin for
+    /// nuScenes), times.txt and unpack.json (nuscenes.json).
     #[arg(long, value_name = "ROOT", required_unless_present = "list")]
     pub out: Option<PathBuf>,
-    /// The sequence number NN (one bag is one sequence).
-    #[arg(long, default_value_t = 0, value_name = "NN",
-          value_parser = clap::value_parser!(u32).range(0..=99))]
-    pub sequence: u32,
     /// Replace the scans of an earlier unpack into the same sequence (scans past the new last
     /// frame are removed).
     #[arg(long)]
@@ -119,22 +112,68 @@ pub struct UnpackArgs {
     /// (keyframes, labelled keyframes), and stop.
     #[arg(long)]
     pub list: bool,
-    /// The sensor's frame (velodyne, os_sensor...): its pose in the clouds' frame (a base_link)
-    /// is found through the bag's /tf_static, recorded in unpack.json and printed as the
-    /// --sensor-pose that convert takes.
-    #[arg(long, value_name = "FRAME")]
-    pub sensor_frame: Option<String>,
-    /// nuScenes: the version to read (the folder of its tables: v1.0-mini, v1.0-trainval...);
-    /// without it, the one the root holds.
-    #[arg(long, value_name = "VERSION")]
-    pub nuscenes_version: Option<String>,
-    /// nuScenes: only these scenes (scene-0061,scene-0103,...); all without it.
-    #[arg(long, value_name = "SCENES", value_delimiter = ',')]
-    pub scenes: Vec<String>,
     /// Flush every file to the device before it is renamed into place.
     #[arg(long)]
     pub sync: bool,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Options for a ROS 2 bag.
+    #[command(flatten)]
+    pub from_bag: BagUnpackArgs,
+    /// Options for a nuScenes root.
+    #[command(flatten)]
+    pub from_nuscenes: NuScenesUnpackArgs,
+}
+
+/// `kitti2pgm unpack BAG`: what only a bag takes.
+#[derive(Debug, ClapArgs)]
+#[command(next_help_heading = "ROS 2 bags")]
+pub struct BagUnpackArgs {
+    /// The sensor_msgs/msg/PointCloud2 topic to unpack (without it, or with a wrong one, the
+    /// error lists the bag's point cloud topics).
+    #[arg(long, value_name = "TOPIC")]
+    pub topic: Option<String>,
+    /// The sequence number NN (one bag is one sequence).
+    #[arg(long, value_name = "NN", value_parser = clap::value_parser!(u32).range(0..=99))]
+    pub sequence: Option<u32>,
+    /// The sensor's frame (velodyne, os_sensor...): its pose in the clouds' frame (a base_link)
+    /// is found through the bag's /tf_static, recorded in unpack.json and printed as the
+    /// --sensor-pose that convert takes.
+    #[arg(long, value_name = "FRAME")]
+    pub sensor_frame: Option<String>,
+}
+
+impl BagUnpackArgs {
+    /// The flags given, by name.
+    pub fn given(&self) -> Vec<&'static str> {
+        let mut out = Vec::new();
+        out.extend(self.topic.as_ref().map(|_| "--topic"));
+        out.extend(self.sequence.map(|_| "--sequence"));
+        out.extend(self.sensor_frame.as_ref().map(|_| "--sensor-frame"));
+        out
+    }
+}
+
+/// `kitti2pgm unpack NUSCENES_ROOT`: what only a nuScenes root takes.
+#[derive(Debug, ClapArgs)]
+#[command(next_help_heading = "nuScenes roots")]
+pub struct NuScenesUnpackArgs {
+    /// The version to read (the folder of its tables: v1.0-mini, v1.0-trainval...); without
+    /// it, the one the root holds.
+    #[arg(long, value_name = "VERSION")]
+    pub nuscenes_version: Option<String>,
+    /// Only these scenes (scene-0061,scene-0103,...); all without it.
+    #[arg(long, value_name = "SCENES", value_delimiter = ',')]
+    pub scenes: Vec<String>,
+}
+
+impl NuScenesUnpackArgs {
+    /// The flags given, by name.
+    pub fn given(&self) -> Vec<&'static str> {
+        let mut out = Vec::new();
+        out.extend(self.nuscenes_version.as_ref().map(|_| "--nuscenes-version"));
+        out.extend((!self.scenes.is_empty()).then_some("--scenes"));
+        out
+    }
 }

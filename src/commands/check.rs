@@ -14,7 +14,7 @@ use crate::Outcome;
 impl CheckArgs {
     fn options(&self) -> anyhow::Result<CheckOptions> {
         let mut o = CheckOptions {
-            layout: self.source,
+            layout: self.dataset,
             scans: !self.no_scans,
             imageset: self.imageset.clone(),
             sensor: self.sensor.params()?,

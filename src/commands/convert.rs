@@ -5,12 +5,12 @@ use kitti2pgm::convert::{convert, ConvertOptions, FrameOutcome};
 use kitti2pgm::format::layout::OutputDir;
 use kitti2pgm::format::summary::ConvertSummary;
 use kitti2pgm::label::ClassMap;
-use kitti2pgm::params::{ConvertParams, MapParams, ShardParams};
 use kitti2pgm::plan::split::SplitRule;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::RgbOptions;
 use kitti2pgm::project::{MapChoice, RowMode};
-use kitti2pgm::source::kitti::Layout;
+use kitti2pgm::provenance::{ConvertParams, MapParams, ShardParams};
+use kitti2pgm::source::kitti::DatasetKind;
 
 use super::{progress, Global};
 use crate::cli::{ConvertArgs, FormatArg};
@@ -18,7 +18,7 @@ use crate::Outcome;
 
 impl ConvertArgs {
     /// The library's parameters (validated by the library).
-    fn params(&self, class_map: ClassMap, layout: Layout) -> kitti2pgm::Result<ConvertParams> {
+    fn params(&self, class_map: ClassMap, layout: DatasetKind) -> kitti2pgm::Result<ConvertParams> {
         let shard_params = ShardParams {
             compression: self.compression,
             frames_per_shard: self.shard_frames,
@@ -104,7 +104,7 @@ impl ConvertArgs {
 }
 
 pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
-    let source = a.source;
+    let source = a.dataset;
     let selection = if a.all_frames {
         FrameSelection::All
     } else {

@@ -37,16 +37,55 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
 }
 
 /// The option that answers a library error, for the line after it: the library names no flag.
-pub fn hint(e: &anyhow::Error) -> Option<&'static str> {
+pub fn hint(e: &anyhow::Error) -> Option<String> {
     use kitti2pgm::Error;
     e.chain().find_map(|c| match c.downcast_ref::<Error>()? {
-        Error::MissingPrediction { .. } => {
-            Some("--missing-as-background scores frames without a prediction as all background")
+        Error::MissingPrediction { .. } => Some(
+            "--missing-as-background scores frames without a prediction as all background".into(),
+        ),
+        Error::NeedsScans { .. } => Some("pass the dataset root with --raw ROOT".into()),
+        Error::Unfinished { .. } => {
+            Some("--partial reads it anyway (and the report says PARTIAL)".into())
         }
-        Error::NeedsScans { .. } => Some("pass the dataset root with --raw ROOT"),
-        Error::Unfinished { .. } => Some("--partial reads it anyway (and the report says PARTIAL)"),
+        Error::Input { path, .. } => {
+            kitti2pgm::source::Recording::of(path).map(|r| unpack_hint(path, &r))
+        }
         _ => None,
     })
+}
+
+/// The commands that make a sequence folder of the recording `r` at `path`.
+fn unpack_hint(path: &std::path::Path, r: &kitti2pgm::source::Recording) -> String {
+    use kitti2pgm::source::Recording;
+    let shown = path.display();
+    match r {
+        Recording::Ros2Bag { clouds } => {
+            let (topic, listed) = match clouds.as_slice() {
+                [one] => (one.clone(), String::new()),
+                [] => (
+                    "TOPIC".into(),
+                    format!("; `kitti2pgm unpack {shown} --list` lists its topics"),
+                ),
+                many => (
+                    "TOPIC".into(),
+                    format!("; its point cloud topics: {}", many.join(", ")),
+                ),
+            };
+            format!(
+                "make it a sequence folder first, `kitti2pgm unpack {shown} --topic {topic} --out \
+                 ROOT`, then convert ROOT{listed}"
+            )
+        }
+        Recording::Ros1Bag | Recording::Sqlite3Bag => format!(
+            "convert it to an MCAP bag first (`rosbags-convert --src {shown} --dst BAG \
+             --dst-storage mcap`, docs/sources.md), then `kitti2pgm unpack BAG --topic TOPIC --out \
+             ROOT`"
+        ),
+        Recording::NuScenes => format!(
+            "make its scenes sequence folders first, `kitti2pgm unpack {shown} --out ROOT`, then \
+             convert ROOT with --sensor hdl32e --class-map nuscenes"
+        ),
+    }
 }
 
 impl Global {

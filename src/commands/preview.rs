@@ -35,7 +35,7 @@ fn run_points(a: &PreviewArgs, raw: &std::path::Path) -> anyhow::Result<Outcome>
         }
         for (id, path) in &preds.files {
             let map = (recorded.as_ref().map(|m| m.class_map.clone()))
-                .unwrap_or_else(|| ClassMap::default_for(id.layout));
+                .unwrap_or_else(|| ClassMap::default_for(id.dataset));
             // The scan as its conversion read it: its layout, pose and beam rows.
             let sensor = recorded.as_ref().and_then(|m| m.sensor.as_ref());
             let f = load_point_frame(raw, id, path, &map, gt.as_ref(), sensor)?;

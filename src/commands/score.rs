@@ -52,7 +52,7 @@ fn options(
     let sequence = gt
         .frames
         .iter()
-        .any(|f| f.layout == kitti2pgm::source::kitti::Layout::Sequence);
+        .any(|f| f.dataset == kitti2pgm::source::kitti::DatasetKind::Sequence);
     let by_default = sequence
         && a.raw.is_some()
         && !a.points

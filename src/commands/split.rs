@@ -13,7 +13,7 @@ pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
         &a.out,
         &[(kitti2pgm::fs::Role::Dataset, a.raw_root.as_path())],
     )?;
-    let source = a.source;
+    let source = a.dataset;
     let rule = a.split.rule()?;
     let selection = if a.all_frames {
         FrameSelection::All
@@ -51,7 +51,7 @@ pub fn run(a: SplitArgs) -> anyhow::Result<Outcome> {
             // A frame split (the object set), or no val at all.
             println!("val    {:>8}", lists.val.len());
         } else {
-            let units = lists.all.first().map_or("drives", |id| id.layout.units());
+            let units = lists.all.first().map_or("drives", |id| id.dataset.units());
             println!(
                 "val    {:>8}  ({} {units}: {})",
                 lists.val.len(),

@@ -2,7 +2,9 @@
 //! ([`kitti2pgm::convert::unpack`]).
 
 use anyhow::Context;
-use kitti2pgm::convert::unpack::{unpack, UnpackOptions, UnpackSummary};
+use kitti2pgm::convert::unpack::{
+    unpack, UnpackOptions, UnpackOutcome, UnpackReport, UnpackSummary,
+};
 use kitti2pgm::source::bag::{Bag, Topic};
 
 use super::Global;
@@ -87,17 +89,44 @@ fn print_summary(s: &UnpackSummary) {
     }
 }
 
+/// The command's outcome for an unpack that ended as `o`: `empty` says a recording held no
+/// frame, `none` that no frame unpacked.
+pub(super) fn outcome(o: UnpackOutcome, empty: String, none: String) -> Outcome {
+    match o {
+        UnpackOutcome::Done => Outcome::Ok,
+        UnpackOutcome::Partial => Outcome::Partial,
+        UnpackOutcome::Empty => Outcome::Failed(empty),
+        UnpackOutcome::NoneUnpacked => Outcome::Failed(none),
+    }
+}
+
+/// Refuses the options of the other kind of recording: `given` (by name), which are for `kind`.
+fn refuse_other(input: &std::path::Path, given: &[&str], kind: &str) -> anyhow::Result<()> {
+    if given.is_empty() {
+        return Ok(());
+    }
+    anyhow::bail!(
+        "{}: {} {} for {kind}",
+        input.display(),
+        given.join(", "),
+        if given.len() == 1 { "is" } else { "are" }
+    )
+}
+
 pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
     if kitti2pgm::source::nuscenes::is_root(&a.bag) {
+        refuse_other(
+            &a.bag,
+            &a.from_bag.given(),
+            "bags (it is a nuScenes root: one scene is one sequence, numbered as the scene)",
+        )?;
         return super::unpack_nuscenes::run(a, g);
     }
-    if a.nuscenes_version.is_some() || !a.scenes.is_empty() {
-        anyhow::bail!(
-            "{}: --nuscenes-version and --scenes are for a nuScenes root (a folder with \
-             v1.0-*/sample_data.json)",
-            a.bag.display()
-        );
-    }
+    refuse_other(
+        &a.bag,
+        &a.from_nuscenes.given(),
+        "a nuScenes root (a folder with v1.0-*/sample_data.json)",
+    )?;
     let bag = Bag::open(&a.bag)?;
     if a.list {
         print_topics(&bag, &bag.topics()?, a.json)?;
@@ -106,15 +135,15 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
     let out = a.out.context("--out ROOT is needed")?;
     kitti2pgm::fs::refuse_overlap(&out, &[(kitti2pgm::fs::Role::Dataset, a.bag.as_path())])?;
     let topic = bag.topic(
-        a.topic.as_deref(),
+        a.from_bag.topic.as_deref(),
         kitti2pgm::source::pointcloud2::TYPE_NAME,
     )?;
     let opts = UnpackOptions {
         out,
-        sequence: a.sequence,
+        sequence: a.from_bag.sequence.unwrap_or(0),
         overwrite: a.overwrite,
         durability: super::durability(a.sync),
-        sensor_frame: a.sensor_frame.clone(),
+        sensor_frame: a.from_bag.sensor_frame.clone(),
     };
     let pb = super::progress::bar(topic.messages, g.progress, "unpacking");
     let s = g
@@ -126,11 +155,9 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
     } else {
         print_summary(&s);
     }
-    let clean = s.failures.is_empty() && s.damaged.is_empty();
-    Ok(match (clean, s.frames_written) {
-        (true, 0) => Outcome::Failed(format!("{} has no message to unpack", s.topic)),
-        (true, _) => Outcome::Ok,
-        (false, 0) => Outcome::Failed(format!("no frame of {} unpacked", s.topic)),
-        (false, _) => Outcome::Partial,
-    })
+    Ok(outcome(
+        s.outcome(),
+        format!("{} has no message to unpack", s.topic),
+        format!("no frame of {} unpacked", s.topic),
+    ))
 }

@@ -1,8 +1,8 @@
 //! `kitti2pgm unpack NUSCENES_ROOT`: a nuScenes root's LIDAR_TOP keyframes -> sequence folders
-//! ([`kitti2pgm::convert::unpack_nuscenes`]).
+//! ([`kitti2pgm::convert::unpack::nuscenes`]); called by [`super::unpack`].
 
 use anyhow::Context;
-use kitti2pgm::convert::unpack_nuscenes::{unpack_nuscenes, NuScenesOptions, NuScenesSummary};
+use kitti2pgm::convert::unpack::{unpack_nuscenes, NuScenesOptions, NuScenesSummary, UnpackReport};
 use kitti2pgm::source::nuscenes::NuScenes;
 
 use super::Global;
@@ -60,19 +60,13 @@ fn print_summary(s: &NuScenesSummary) {
         println!("removed stale   {:>10}", s.removed_stale);
     }
     for f in &s.failures {
-        println!("FAILED {} frame {:06}: {}", f.scene, f.frame, f.error);
+        let scene = f.scene.as_deref().unwrap_or("?");
+        println!("FAILED {scene} frame {:06}: {}", f.frame, f.error);
     }
 }
 
 pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
-    if a.topic.is_some() || a.sequence != 0 || a.sensor_frame.is_some() {
-        anyhow::bail!(
-            "{} is a nuScenes root: --topic, --sequence and --sensor-frame are for bags (one scene is one \
-             sequence, numbered as the scene)",
-            a.bag.display()
-        );
-    }
-    let ds = NuScenes::open(&a.bag, a.nuscenes_version.as_deref())?;
+    let ds = NuScenes::open(&a.bag, a.from_nuscenes.nuscenes_version.as_deref())?;
     if a.list {
         print_scenes(&ds, a.json)?;
         return Ok(Outcome::Ok);
@@ -81,7 +75,7 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
     kitti2pgm::fs::refuse_overlap(&out, &[(kitti2pgm::fs::Role::Dataset, a.bag.as_path())])?;
     let opts = NuScenesOptions {
         out,
-        scenes: a.scenes,
+        scenes: a.from_nuscenes.scenes,
         overwrite: a.overwrite,
         durability: super::durability(a.sync),
     };
@@ -102,10 +96,9 @@ pub fn run(a: UnpackArgs, g: &Global) -> anyhow::Result<Outcome> {
             println!("first sequence  {}", first.sequence_dir.display());
         }
     }
-    Ok(match (s.failures.is_empty(), s.frames_written) {
-        (true, 0) => Outcome::Failed("no LIDAR_TOP keyframe to unpack".into()),
-        (true, _) => Outcome::Ok,
-        (false, 0) => Outcome::Failed("no keyframe unpacked".into()),
-        (false, _) => Outcome::Partial,
-    })
+    Ok(super::unpack::outcome(
+        s.outcome(),
+        "no LIDAR_TOP keyframe to unpack".into(),
+        "no keyframe unpacked".into(),
+    ))
 }

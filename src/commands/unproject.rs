@@ -97,7 +97,7 @@ fn table(s: &UnprojectSummary, gt: &GroundTruth) -> String {
         if gt
             .frames
             .iter()
-            .any(|f| f.layout == kitti2pgm::source::kitti::Layout::Sequence)
+            .any(|f| f.dataset == kitti2pgm::source::kitti::DatasetKind::Sequence)
         {
             "raw id 0, unlabeled".to_string()
         } else {

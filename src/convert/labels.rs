@@ -14,9 +14,10 @@ use crate::error::{Error, Result};
 use crate::format::label_file;
 use crate::label::{ClassMap, LabelBox, Labeller, PointLabels};
 use crate::plan::DrivePlan;
+use crate::source::boxes::AnnotatedBox;
 use crate::source::kitti::calib::FrameCalib;
 use crate::source::kitti::object;
-use crate::source::kitti::Layout;
+use crate::source::kitti::DatasetKind;
 use crate::source::Scan;
 
 /// The labels of one frame.
@@ -70,38 +71,14 @@ pub fn frame_labels(
     map: &ClassMap,
 ) -> Result<FrameLabels> {
     let drive = &dp.drive;
-    match drive.layout {
-        Layout::Raw => Ok(FrameLabels::from_boxes(dp.boxes(frame, map), scan, map)),
-        Layout::Object => {
-            let path = drive.object_labels_path(frame);
-            if !crate::fs::present(&path) {
-                return Ok(FrameLabels::unlabelled(scan, map));
-            }
-            let objects = object::read(&path)?;
-            let calib_path = drive.calib_path(frame);
-            let rect_to_velo = FrameCalib::read(&calib_path)?
-                .velo_to_rect()
-                .try_inverse()
-                .ok_or_else(|| {
-                    Error::format(&calib_path, "R0_rect * Tr_velo_to_cam is not invertible")
-                })?;
-            let boxes = objects
-                .iter()
-                .enumerate()
-                .map(|(i, o)| {
-                    LabelBox::from_object(i, o, &rect_to_velo, map.class_of_object(&o.kind))
-                })
-                .collect();
-            Ok(FrameLabels {
-                unknown_types: objects
-                    .iter()
-                    .filter(|o| !o.is_known_type())
-                    .map(|o| o.kind.clone())
-                    .collect(),
-                ..FrameLabels::from_boxes(boxes, scan, map)
-            })
-        }
-        Layout::Sequence => {
+    match drive.dataset {
+        DatasetKind::Raw => Ok(FrameLabels::from_boxes(
+            dp.label_boxes(frame, map),
+            scan,
+            map,
+        )),
+        DatasetKind::Object => object_labels(dp, frame, scan, map),
+        DatasetKind::Sequence => {
             let path = drive.point_labels_path(frame);
             if !crate::fs::present(&path) {
                 return Ok(FrameLabels::unlabelled(scan, map));
@@ -142,4 +119,32 @@ pub fn frame_labels(
             })
         }
     }
+}
+
+/// The labels of object frame `frame` of `dp`: its `label_2` boxes, carried into the velodyne
+/// frame by the frame's calibration, classed by `map`.
+fn object_labels(dp: &DrivePlan, frame: u32, scan: &Scan, map: &ClassMap) -> Result<FrameLabels> {
+    let drive = &dp.drive;
+    let path = drive.object_labels_path(frame);
+    if !crate::fs::present(&path) {
+        return Ok(FrameLabels::unlabelled(scan, map));
+    }
+    let objects = object::read(&path)?;
+    let calib_path = drive.calib_path(frame);
+    let rect_to_velo = FrameCalib::read(&calib_path)?
+        .velo_to_rect()
+        .try_inverse()
+        .ok_or_else(|| Error::format(&calib_path, "R0_rect * Tr_velo_to_cam is not invertible"))?;
+    let boxes: Vec<AnnotatedBox> = (objects.iter().enumerate())
+        .map(|(i, o)| o.annotated(i, &rect_to_velo))
+        .collect();
+    let boxes = crate::label::label_boxes(&boxes, map);
+    Ok(FrameLabels {
+        unknown_types: objects
+            .iter()
+            .filter(|o| !o.is_known_type())
+            .map(|o| o.kind.clone())
+            .collect(),
+        ..FrameLabels::from_boxes(boxes, scan, map)
+    })
 }

@@ -9,14 +9,14 @@
 //!
 //! - [`frame`]: one frame, read to written;
 //! - [`shards`]: the shard output (frames in order, written while the next batch converts);
-//! - [`unpack`]: a ROS 2 bag's point clouds -> a sequence folder of PCD scans.
+//! - [`unpack`]: recordings -> sequence folders: a ROS 2 bag's point clouds (PCD scans), a
+//!   nuScenes root's scenes.
 
 pub mod frame;
 pub mod labels;
 pub mod resume;
 pub mod shards;
 pub mod unpack;
-pub mod unpack_nuscenes;
 
 use std::sync::Mutex;
 
@@ -27,9 +27,9 @@ use crate::format::layout::OutputDir;
 use crate::format::summary::{self, ConvertSummary};
 use crate::format::{create_dir, Durability};
 use crate::label::ClassCounts;
-use crate::params::ConvertParams;
 use crate::plan::{Failed, SkipReason};
 use crate::plan::{FrameFailure, Plan};
+use crate::provenance::ConvertParams;
 pub use frame::{convert_frame, load, process, write_frame_files, Converted, FrameReport, Viz};
 
 /// What to convert and where to.

@@ -21,11 +21,11 @@ use crate::format::shard::points::PointsOf;
 use crate::format::shard::{
     shard_is_intact, FrameMsg, PointsMsg, ShardKind, ShardMetadata, ShardWriter,
 };
-use crate::params::ShardParams;
 use crate::plan::split::{assign, Split};
 use crate::plan::Failed;
 use crate::plan::{DrivePlan, Plan};
 use crate::project::rings;
+use crate::provenance::ShardParams;
 use crate::source::kitti::FrameId;
 
 /// The frames of one shard.

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::fs::Inputs;
-use crate::params::ConvertParams;
+use crate::provenance::ConvertParams;
 use crate::source::kitti::FrameId;
 
 /// Name of the journal in the output folder.

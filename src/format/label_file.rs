@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::format::Durability;
 use crate::label::{ClassId, ClassMap};
-use crate::source::kitti::{FrameId, Layout};
+use crate::source::kitti::{DatasetKind, FrameId};
 
 /// The class written (low 16 bits of a `.label` entry) for a point without a prediction (outside
 /// the map), in the class-id layout of KITTI raw and object predictions.
@@ -27,7 +27,7 @@ pub fn encode_predictions(
     per_point: &[Option<ClassId>],
     map: &ClassMap,
 ) -> (Vec<u32>, u64) {
-    let raw_ids = id.layout == Layout::Sequence;
+    let raw_ids = id.dataset == DatasetKind::Sequence;
     let mut missing = 0u64;
     let entries = per_point
         .iter()

@@ -137,9 +137,11 @@ pub fn sequence_predictions_dir(pred: &Path, seq: &str) -> PathBuf {
 /// `sequences/<NN>/predictions/<frame6>.label` for SemanticKITTI, else the convert folder's
 /// `labels/<drive>/<frame>.label`.
 pub fn point_prediction_path(out: &Path, id: &FrameId) -> PathBuf {
-    match id.layout {
-        crate::source::kitti::Layout::Sequence => sequence_predictions_dir(out, &id.drive_name())
-            .join(format!("{}.label", id.frame_name())),
+    match id.dataset {
+        crate::source::kitti::DatasetKind::Sequence => {
+            sequence_predictions_dir(out, &id.drive_name())
+                .join(format!("{}.label", id.frame_name()))
+        }
         _ => OutputDir::new(out).label_path(id),
     }
 }

@@ -9,7 +9,7 @@
 //! | [`pgm`] | a converted frame as `.npy` (SqueezeSeg's H x W x 6/9 layout, named channels) |
 //! | [`label_file`] | per-point `.label` files (u32: class, instance << 16) |
 //! | [`layout`] | the output folder: paths, discovery of converted frames and shards |
-//! | [`summary`] | `convert_summary.json`, with the typed [`ConvertParams`](crate::params::ConvertParams) |
+//! | [`summary`] | `convert_summary.json`, with the typed [`ConvertParams`](crate::provenance::ConvertParams) |
 //! | [`imageset`] | `ImageSet/*.txt` frame lists |
 //! | [`journal`] | `OUT/.kitti2pgm-frames`, the provenance journal: parameters, dataset root, each frame's inputs |
 //! | [`shard`] | MCAP training and prediction shards (records, write, read, viz topics) |

@@ -10,9 +10,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::params::ConvertParams;
 use crate::plan::{FrameFailure, Reconverted, Restart, SkipReason};
 use crate::project::ProjectionStats;
+use crate::provenance::ConvertParams;
 
 /// Totals of a conversion.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -46,7 +46,7 @@ pub struct ConvertSummary {
     pub changed_inputs: Vec<String>,
     /// The dataset the frames come from (its layout).
     #[serde(default)]
-    pub source: crate::source::kitti::Layout,
+    pub source: crate::source::kitti::DatasetKind,
     /// How the map was chosen: the preset, why (asked for, or the source's default) and the
     /// values given on their own (`preset full (the default for SemanticKITTI)`).
     #[serde(default, deserialize_with = "origin_or_empty")]

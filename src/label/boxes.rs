@@ -1,6 +1,7 @@
 //! LABEL: which box each velodyne point falls in.
 //!
-//! [`LabelBox`] turns a tracklet pose into a parry [`Cuboid`] (half extents) with a centred pose;
+//! [`LabelBox`] turns a box ([`Box3`], in the scan's frame) into a parry [`Cuboid`] (half
+//! extents) with a centred pose;
 //! [`Labeller`] answers "which box holds this point" for a whole scan with parry's containment
 //! test, after a cheap prefilter by the boxes' axis-aligned bounds. A scan is labelled in runs
 //! of 64 points, box by box: a box apart from the run's bounds is passed over, else its bounds
@@ -16,8 +17,8 @@
 //! map's business ([`ClassMap::class_of_object`](super::ClassMap::class_of_object)).
 
 use super::classes::ClassId;
-use crate::geom::{na, Iso3, Point3, Real, Vector3};
-use crate::source::kitti::tracklets::{Pose, Tracklet};
+use crate::geom::{na, Iso3, Point3, Real};
+use crate::source::boxes::Box3;
 use parry3d::query::PointQuery;
 use parry3d::shape::Cuboid;
 
@@ -35,75 +36,13 @@ pub struct LabelBox {
 }
 
 impl LabelBox {
-    /// The box of tracklet number `index` at `pose`, of class `class`. The tracklet gives the
-    /// bottom-face centre; the cuboid is centred, so the pose is lifted by h/2 along the box's
-    /// own z.
-    pub fn new(index: usize, tracklet: &Tracklet, pose: &Pose, class: ClassId) -> LabelBox {
-        let half = Vector3::new(
-            tracklet.l as Real / 2.0,
-            tracklet.w as Real / 2.0,
-            tracklet.h as Real / 2.0,
-        );
-        let rot = na::UnitQuaternion::from_euler_angles(
-            pose.r[0] as Real,
-            pose.r[1] as Real,
-            pose.r[2] as Real,
-        );
-        let bottom = na::Translation3::new(pose.t[0] as Real, pose.t[1] as Real, pose.t[2] as Real);
-        let pose = Iso3::from_parts(bottom, rot) * na::Translation3::new(0.0, 0.0, half.z);
-        LabelBox {
-            class,
-            instance: u16::try_from(index + 1).unwrap_or(u16::MAX),
-            cuboid: Cuboid::new(half),
-            pose,
-        }
-    }
-
-    /// A box of `class` and `instance` with the given half extents, its centre and axes placed
-    /// by `pose` (box frame to velodyne frame).
-    pub fn centred(class: ClassId, instance: u16, half_extents: Vector3, pose: Iso3) -> LabelBox {
+    /// The box `b` (scan frame) of class `class` and instance `instance`.
+    pub fn of(b: &Box3, class: ClassId, instance: u16) -> LabelBox {
         LabelBox {
             class,
             instance,
-            cuboid: Cuboid::new(half_extents),
-            pose,
-        }
-    }
-
-    /// The box of object line number `index` of a KITTI object frame, of class `class`.
-    /// `label_2` gives the bottom-face centre in the rectified camera 0 frame (y down) and a yaw
-    /// around that frame's y axis; the box is centred (lifted by h/2 along -y), given its
-    /// extents (length along its x, height along y, width along z) and carried into the
-    /// velodyne frame with `rect_to_velo`, the inverse of `R0_rect * Tr_velo_to_cam`.
-    pub fn from_object(
-        index: usize,
-        obj: &crate::source::kitti::object::ObjectLabel,
-        rect_to_velo: &na::Matrix4<f64>,
-        class: ClassId,
-    ) -> LabelBox {
-        let [h, w, l] = obj.hwl;
-        let centre = obj.location + na::Vector3::new(0.0, -h / 2.0, 0.0);
-        let rect_pose = na::Isometry3::from_parts(
-            na::Translation3::from(centre.coords),
-            na::UnitQuaternion::from_axis_angle(&na::Vector3::y_axis(), obj.rotation_y),
-        );
-        let m = rect_to_velo * rect_pose.to_homogeneous();
-        // KITTI's R0_rect is orthonormal to about 1e-6 (checked when read): take the nearest
-        // rotation, in a bounded number of steps.
-        let rot = crate::geom::nearest_rotation(&m.fixed_view::<3, 3>(0, 0).into_owned());
-        let t = m.fixed_view::<3, 1>(0, 3);
-        LabelBox {
-            class,
-            instance: u16::try_from(index + 1).unwrap_or(u16::MAX),
-            cuboid: Cuboid::new(Vector3::new(
-                (l / 2.0) as Real,
-                (h / 2.0) as Real,
-                (w / 2.0) as Real,
-            )),
-            pose: Iso3::from_parts(
-                na::Translation3::new(t[0] as Real, t[1] as Real, t[2] as Real),
-                na::UnitQuaternion::from_rotation_matrix(&rot).cast::<Real>(),
-            ),
+            cuboid: Cuboid::new(b.half_extents),
+            pose: b.pose,
         }
     }
 

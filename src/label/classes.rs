@@ -155,9 +155,9 @@ impl ClassMap {
 
     /// The default classes of a layout: SemanticKITTI's 20 for sequences, the paper's 4 for
     /// box sources (KITTI raw tracklets, KITTI object labels).
-    pub fn default_for(layout: crate::source::kitti::Layout) -> ClassMap {
+    pub fn default_for(layout: crate::source::DatasetKind) -> ClassMap {
         match layout {
-            crate::source::kitti::Layout::Sequence => ClassMap::semantic_kitti(),
+            crate::source::DatasetKind::Sequence => ClassMap::semantic_kitti(),
             _ => ClassMap::kitti_paper(),
         }
     }
@@ -301,13 +301,13 @@ impl ClassMap {
     /// Whether the map has a rule for the annotations of `layout`: object types for box
     /// sources (KITTI raw tracklets, the object set), a `learning_map` for SemanticKITTI's
     /// per-point labels. Without one, every point would be the background class.
-    pub fn can_label(&self, layout: crate::source::kitti::Layout) -> bool {
-        use crate::source::kitti::Layout;
+    pub fn can_label(&self, layout: crate::source::DatasetKind) -> bool {
+        use crate::source::DatasetKind;
         match layout {
-            Layout::Raw | Layout::Object => {
+            DatasetKind::Raw | DatasetKind::Object => {
                 self.object_types.values().any(|&c| c != self.background)
             }
-            Layout::Sequence => !self.learning_map.is_empty(),
+            DatasetKind::Sequence => !self.learning_map.is_empty(),
         }
     }
 

@@ -1,12 +1,13 @@
-//! LABEL: the class of every velodyne point.
+//! LABEL: the class of every point of a scan.
 //!
 //! - [`classes`]: the [`ClassMap`] (ids, names, colours, ignored and averaged ids, object types)
 //!   and per-class counts ([`counts`]); raw per-point ids to classes and back (`raw_ids`);
 //!   [`nuscenes`]: nuScenes-lidarseg's classes;
 //! - [`boxes`]: boxes as parry cuboids and the [`Labeller`] that finds each point's box.
 //!
-//! The rule that turns a tracklet into a class lives here ([`tracklet_boxes`]), not in the
-//! reader: `kitti::tracklets` only says what the file says.
+//! The rule that turns a box into a class lives here ([`label_boxes`]), not in the readers:
+//! they only say what their files say, as [`AnnotatedBox`]es (`source::boxes`, the seam), and
+//! `label` reads no file.
 
 pub mod boxes;
 pub mod classes;
@@ -18,12 +19,15 @@ pub use boxes::{LabelBox, Labeller, PointLabels};
 pub use classes::{ClassId, ClassInfo, ClassMap};
 pub use counts::ClassCounts;
 
-use crate::source::kitti::tracklets::Tracklets;
+use crate::source::boxes::AnnotatedBox;
 
-/// The boxes of `tracklets` present at `frame`, each of the class `map` gives its object type.
-pub fn tracklet_boxes(tracklets: &Tracklets, frame: u32, map: &ClassMap) -> Vec<LabelBox> {
-    tracklets
-        .at(frame)
-        .map(|(i, t, p)| LabelBox::new(i, t, p, map.class_of_object(t.object_type.as_str())))
+/// The class rule for boxes: each box takes the class `map` gives its class name, and the
+/// instance id of its track (track + 1, saturating at 65535).
+pub fn label_boxes(boxes: &[AnnotatedBox], map: &ClassMap) -> Vec<LabelBox> {
+    (boxes.iter())
+        .map(|b| {
+            let instance = u16::try_from(b.track + 1).unwrap_or(u16::MAX);
+            LabelBox::of(&b.geometry, map.class_of_object(&b.class_name), instance)
+        })
         .collect()
 }

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 
 use super::classes::{AbsentInMiou, ClassInfo, ClassMap};
 #[cfg(test)]
-use crate::source::nuscenes::GENERAL_CLASSES;
+use crate::source::dataset::NUSCENES_GENERAL_CLASSES as GENERAL_CLASSES;
 
 /// The benchmark's classes: name, colour (the devkit's), the general classes it takes, and the
 /// one a prediction of it is written back as. Class 0 takes every general class not listed.

@@ -18,11 +18,12 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::fs::Inputs;
 use crate::geom::Matrix3x4;
-use crate::label::{tracklet_boxes, ClassMap, LabelBox};
+use crate::label::{label_boxes, ClassMap, LabelBox};
+use crate::source::boxes::BoxSource;
 use crate::source::kitti::calib::{Calibration, FrameCalib};
 use crate::source::kitti::timestamps::{self, Timestamp};
-use crate::source::kitti::tracklets::{ObjectType, Tracklets};
-use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
+use crate::source::kitti::tracklets::Tracklets;
+use crate::source::kitti::{discover_as, DatasetKind, Drive, FrameId};
 pub use selection::{FrameSelection, Reconverted, Restart, SkipReason};
 
 /// A day's calibration (or why it could not be read), and the files read for it.
@@ -60,8 +61,8 @@ pub struct DrivePlan {
     /// boxes are in the velodyne frame), so the drive converts without `--rgb` and its frames
     /// fail with this error with it.
     pub calib_error: Option<String>,
-    /// Its tracklets (empty without a `tracklet_labels.xml`).
-    pub tracklets: Arc<Tracklets>,
+    /// Its boxes: a raw drive's tracklets (none without a `tracklet_labels.xml`).
+    pub boxes: Arc<dyn BoxSource>,
     /// Velodyne timestamps, when the file exists.
     pub timestamps: Option<Arc<Vec<Option<Timestamp>>>>,
     /// The drive's own files every frame depends on (tracklets, timestamps; read or found
@@ -116,7 +117,7 @@ impl DrivePlan {
             drive,
             calib,
             calib_error: None,
-            tracklets: Arc::new(tracklets),
+            boxes: Arc::new(tracklets),
             timestamps,
             inputs: Inputs::default(),
             calib_inputs: Inputs::default(),
@@ -148,7 +149,7 @@ impl DrivePlan {
                     file,
                 ))
             }
-            None if self.drive.layout == Layout::Raw => Err(Error::Input {
+            None if self.drive.dataset == DatasetKind::Raw => Err(Error::Input {
                 path: self.drive.date_dir(),
                 message: format!(
                     "colour needs the day's calibration: {}",
@@ -164,8 +165,8 @@ impl DrivePlan {
     }
 
     /// The boxes present at a frame, classed by `map`.
-    pub fn boxes(&self, frame: u32, map: &ClassMap) -> Vec<LabelBox> {
-        tracklet_boxes(&self.tracklets, frame, map)
+    pub fn label_boxes(&self, frame: u32, map: &ClassMap) -> Vec<LabelBox> {
+        label_boxes(&self.boxes.boxes_at(frame), map)
     }
 }
 
@@ -261,7 +262,7 @@ impl Plan {
         let Some(dp) = self
             .drives
             .iter()
-            .find(|dp| !map.can_label(dp.drive.layout))
+            .find(|dp| !map.can_label(dp.drive.dataset))
         else {
             return Ok(());
         };
@@ -269,8 +270,8 @@ impl Plan {
             "class map {:?} has no rule for the annotations of {} ({}): every point would be {:?}; use a class map made for this source",
             map.name,
             dp.drive.dir.display(),
-            match dp.drive.layout {
-                crate::source::kitti::Layout::Sequence => "per-point labels need a learning_map",
+            match dp.drive.dataset {
+                crate::source::kitti::DatasetKind::Sequence => "per-point labels need a learning_map",
                 _ => "boxes need object types mapped to classes",
             },
             map.name(map.background)
@@ -288,7 +289,7 @@ impl Plan {
     pub fn build_as(
         root: &Path,
         selection: FrameSelection,
-        source: Option<Layout>,
+        source: Option<DatasetKind>,
     ) -> Result<Plan> {
         let mut plan = Plan {
             root: root.to_path_buf(),
@@ -313,7 +314,7 @@ impl Plan {
             let Some(frames) = plan.list_frames(&drive) else {
                 continue;
             };
-            let calib = (drive.layout == Layout::Raw).then(|| calibs.of(&drive.date_dir()));
+            let calib = (drive.dataset == DatasetKind::Raw).then(|| calibs.of(&drive.date_dir()));
             // A raw day without a readable calibration still converts without colour.
             let (calib, calib_error, calib_inputs) = match calib {
                 Some((Ok(c), inputs)) => (Some(c), None, inputs),
@@ -366,28 +367,26 @@ impl Plan {
     /// Adds a loaded drive: its frames the selection keeps become jobs, the others are
     /// counted by reason, with the annotated frames that have no scan.
     fn add_drive(&mut self, dp: DrivePlan, frames: &[u32], selection: FrameSelection) {
-        for t in &dp.tracklets.tracklets {
-            if let ObjectType::Other(name) = &t.object_type {
-                *self.unknown_object_types.entry(name.clone()).or_default() += 1;
-            }
+        for name in dp.boxes.unknown_types() {
+            *self.unknown_object_types.entry(name).or_default() += 1;
         }
         let index = self.drives.len();
-        let raw = dp.drive.layout == Layout::Raw;
+        let raw = dp.drive.dataset == DatasetKind::Raw;
         let why = if crate::fs::present(&dp.drive.tracklets_path()) {
             SkipReason::NoPose
         } else {
             SkipReason::NoTrackletFile
         };
         for &f in frames {
-            if !raw || selection.keeps(&dp.tracklets, f) {
+            if !raw || selection.keeps(dp.boxes.as_ref(), f) {
                 self.jobs.push((index, f));
             } else {
                 *self.skipped.entry(why).or_default() += 1;
             }
         }
         let with_scan: std::collections::BTreeSet<u32> = frames.iter().copied().collect();
-        let missing = (0..dp.tracklets.end_frame())
-            .filter(|f| dp.tracklets.count_at(*f) > 0 && !with_scan.contains(f))
+        let missing = (0..dp.boxes.end_frame())
+            .filter(|f| dp.boxes.count_at(*f) > 0 && !with_scan.contains(f))
             .count() as u64;
         if missing > 0 {
             *self
@@ -399,8 +398,10 @@ impl Plan {
     }
 
     /// The layout of the plan's drives (raw when it has none).
-    pub fn layout(&self) -> Layout {
-        self.drives.first().map_or(Layout::Raw, |d| d.drive.layout)
+    pub fn layout(&self) -> DatasetKind {
+        self.drives
+            .first()
+            .map_or(DatasetKind::Raw, |d| d.drive.dataset)
     }
 
     /// The frame ids the plan converts, in order.

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::source::kitti::tracklets::Tracklets;
+use crate::source::boxes::BoxSource;
 
 /// Which frames of a drive are converted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -15,10 +15,10 @@ pub enum FrameSelection {
 }
 
 impl FrameSelection {
-    /// Whether a frame that has a velodyne scan is selected, given its drive's tracklets (empty
-    /// when the drive has no `tracklet_labels.xml`).
-    pub fn keeps(self, tracklets: &Tracklets, frame: u32) -> bool {
-        self == FrameSelection::All || tracklets.count_at(frame) > 0
+    /// Whether a frame that has a scan is selected, given its drive's boxes (none when the
+    /// drive has no `tracklet_labels.xml`).
+    pub fn keeps(self, boxes: &dyn BoxSource, frame: u32) -> bool {
+        self == FrameSelection::All || boxes.count_at(frame) > 0
     }
 }
 

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use super::selection::FrameSelection;
 use crate::error::{Error, Result};
 use crate::source::kitti::tracklets::Tracklets;
-use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
+use crate::source::kitti::{discover_as, DatasetKind, Drive, FrameId};
 
 /// SqueezeSeg's validation drives (all of 2011_09_26).
 pub const SQUEEZESEG_VAL: [u32; 8] = [64, 70, 79, 84, 86, 87, 91, 93];
@@ -67,11 +67,11 @@ pub enum SplitRule {
 impl SplitRule {
     /// The default rule for a layout: SqueezeSeg's (raw), SemanticKITTI's own (sequences), a
     /// seeded half-and-half frame split (object).
-    pub fn default_for(layout: Layout) -> SplitRule {
+    pub fn default_for(layout: DatasetKind) -> SplitRule {
         match layout {
-            Layout::Raw => SplitRule::squeezeseg(),
-            Layout::Sequence => SplitRule::semantic_kitti(),
-            Layout::Object => SplitRule::Random {
+            DatasetKind::Raw => SplitRule::squeezeseg(),
+            DatasetKind::Sequence => SplitRule::semantic_kitti(),
+            DatasetKind::Object => SplitRule::Random {
                 fraction: 0.5,
                 seed: 0,
             },
@@ -141,7 +141,7 @@ impl SplitRule {
                 .filter(|k| {
                     !frames
                         .iter()
-                        .any(|id| id.layout == Layout::Raw && unit(id) == **k)
+                        .any(|id| id.dataset == DatasetKind::Raw && unit(id) == **k)
                 })
                 .map(|(date, n)| format!("drive {date}_{n:04}"))
                 .collect(),
@@ -150,7 +150,7 @@ impl SplitRule {
                 .filter(|&&n| {
                     !frames
                         .iter()
-                        .any(|id| id.layout == Layout::Sequence && id.drive == n)
+                        .any(|id| id.dataset == DatasetKind::Sequence && id.drive == n)
                 })
                 .map(|n| format!("sequence {n:02}"))
                 .collect(),
@@ -195,7 +195,7 @@ pub struct SplitLists {
 /// every scan. Reads the tracklets file when there is one; never reads point data.
 pub fn drive_frames(drive: &Drive, selection: FrameSelection) -> Result<Vec<u32>> {
     let scans = drive.scan_frames()?;
-    if selection == FrameSelection::All || drive.layout != Layout::Raw {
+    if selection == FrameSelection::All || drive.dataset != DatasetKind::Raw {
         return Ok(scans);
     }
     let path = drive.tracklets_path();
@@ -214,8 +214,8 @@ pub use crate::rng::splitmix64;
 
 /// The unit a frame is split with: its drive (raw, sequences), or itself (object set).
 fn unit(id: &FrameId) -> DriveKey {
-    match id.layout {
-        Layout::Object => (String::new(), id.frame),
+    match id.dataset {
+        DatasetKind::Object => (String::new(), id.frame),
         _ => (id.date.clone(), id.drive),
     }
 }
@@ -224,10 +224,10 @@ fn unit(id: &FrameId) -> DriveKey {
 pub fn assign(rule: &SplitRule, frames: &[FrameId]) -> Result<BTreeSet<FrameId>> {
     let is_val: Box<dyn Fn(&FrameId) -> bool> = match rule {
         SplitRule::Drives(set) => {
-            Box::new(move |id| id.layout == Layout::Raw && set.contains(&unit(id)))
+            Box::new(move |id| id.dataset == DatasetKind::Raw && set.contains(&unit(id)))
         }
         SplitRule::Sequences(set) => {
-            Box::new(move |id| id.layout == Layout::Sequence && set.contains(&id.drive))
+            Box::new(move |id| id.dataset == DatasetKind::Sequence && set.contains(&id.drive))
         }
         SplitRule::Frames(set) => Box::new(move |id| set.contains(id)),
         SplitRule::Random { fraction, seed } => {
@@ -271,10 +271,10 @@ pub fn split(
     root: &Path,
     selection: FrameSelection,
     rule: Option<&SplitRule>,
-    source: Option<Layout>,
+    source: Option<DatasetKind>,
 ) -> Result<SplitLists> {
     let drives = discover_as(root, source)?.drives;
-    let default = SplitRule::default_for(drives.first().map_or(Layout::Raw, |d| d.layout));
+    let default = SplitRule::default_for(drives.first().map_or(DatasetKind::Raw, |d| d.dataset));
     let rule = rule.unwrap_or(&default);
     let mut labelled = Vec::new();
     let mut out = SplitLists::default();
@@ -297,7 +297,7 @@ pub fn split(
     for id in labelled {
         if val.contains(&id) {
             let name = id.drive_name();
-            if id.layout != Layout::Object && !out.val_drives.contains(&name) {
+            if id.dataset != DatasetKind::Object && !out.val_drives.contains(&name) {
                 out.val_drives.push(name);
             }
             out.val.push(id);

@@ -5,7 +5,7 @@
 
 use super::{PgmSpec, RowMode};
 use crate::geom::Degrees;
-use crate::source::kitti::Layout;
+use crate::source::kitti::DatasetKind;
 
 /// A named map layout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,10 +51,10 @@ impl MapPreset {
 
     /// The default of a source: `full` for SemanticKITTI (its benchmark scores every point of
     /// the 360-degree scan), `squeezeseg` for KITTI raw and the object set.
-    pub fn default_for(layout: Layout) -> MapPreset {
+    pub fn default_for(layout: DatasetKind) -> MapPreset {
         match layout {
-            Layout::Sequence => MapPreset::Full,
-            Layout::Raw | Layout::Object => MapPreset::Squeezeseg,
+            DatasetKind::Sequence => MapPreset::Full,
+            DatasetKind::Raw | DatasetKind::Object => MapPreset::Squeezeseg,
         }
     }
 }
@@ -107,13 +107,13 @@ pub struct MapChoice {
 
 impl MapChoice {
     /// The preset in force for a source of `layout` (none: no source known).
-    pub fn preset(&self, layout: Option<Layout>) -> MapPreset {
+    pub fn preset(&self, layout: Option<DatasetKind>) -> MapPreset {
         self.preset
             .unwrap_or_else(|| layout.map_or(MapPreset::Squeezeseg, MapPreset::default_for))
     }
 
     /// The map: the preset's, each value given in its place (not yet validated).
-    pub fn spec(&self, layout: Option<Layout>) -> PgmSpec {
+    pub fn spec(&self, layout: Option<DatasetKind>) -> PgmSpec {
         let p = self.preset(layout).spec();
         PgmSpec {
             rows: self.rows.unwrap_or(p.rows),
@@ -126,7 +126,7 @@ impl MapChoice {
     }
 
     /// How the map came about.
-    pub fn origin(&self, layout: Option<Layout>) -> MapOrigin {
+    pub fn origin(&self, layout: Option<DatasetKind>) -> MapOrigin {
         let given = [
             (MapValue::Rows, self.rows.is_some()),
             (MapValue::Cols, self.cols.is_some()),
@@ -155,7 +155,7 @@ pub struct MapOrigin {
     /// The preset.
     pub preset: MapPreset,
     /// `None`: the preset was asked for; else the source it is the default of.
-    pub default_for: Option<Layout>,
+    pub default_for: Option<DatasetKind>,
     /// The values given over the preset's.
     pub given: Vec<MapValue>,
 }
@@ -193,7 +193,7 @@ impl std::str::FromStr for MapOrigin {
             "asked for" | "--preset" => None,
             _ => {
                 let dataset = why.strip_prefix("the default for ").ok_or_else(bad)?;
-                let layout = Layout::ALL.iter().find(|l| l.dataset() == dataset);
+                let layout = DatasetKind::ALL.iter().find(|l| l.dataset() == dataset);
                 Some(*layout.ok_or_else(bad)?)
             }
         };
@@ -255,14 +255,14 @@ mod tests {
             cols: Some(1024),
             ..Default::default()
         };
-        assert_eq!(c.spec(Some(Layout::Raw)).cols, 1024);
-        let o = c.origin(Some(Layout::Raw));
+        assert_eq!(c.spec(Some(DatasetKind::Raw)).cols, 1024);
+        let o = c.origin(Some(DatasetKind::Raw));
         assert_eq!(
             o.to_string(),
             "preset rangenet (asked for), with cols given"
         );
         assert_eq!(o.to_string().parse::<MapOrigin>().unwrap(), o);
-        let d = MapChoice::default().origin(Some(Layout::Sequence));
+        let d = MapChoice::default().origin(Some(DatasetKind::Sequence));
         assert_eq!(d.to_string(), "preset full (the default for SemanticKITTI)");
         assert_eq!(d.to_string().parse::<MapOrigin>().unwrap(), d);
         let old: MapOrigin = "preset rangenet (--preset), with --cols, --rows given"
@@ -270,6 +270,9 @@ mod tests {
             .unwrap();
         assert_eq!(old.given, [MapValue::Cols, MapValue::Rows]);
         assert_eq!(MapChoice::default().spec(None), PgmSpec::default());
-        assert_eq!(MapPreset::default_for(Layout::Sequence), MapPreset::Full);
+        assert_eq!(
+            MapPreset::default_for(DatasetKind::Sequence),
+            MapPreset::Full
+        );
     }
 }

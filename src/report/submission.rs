@@ -15,7 +15,7 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::format::label_file;
 use crate::label::ClassMap;
-use crate::source::kitti::{discover_as, Drive, Layout};
+use crate::source::kitti::{discover_as, DatasetKind, Drive};
 
 /// One thing wrong with a submission.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -123,7 +123,7 @@ pub fn check_submission(
 
 /// The sequences of `root` to check: `sequences`, each of which must be there, or all.
 fn select_sequences(root: &Path, sequences: Option<&[u32]>) -> Result<Vec<Drive>> {
-    let all = discover_as(root, Some(Layout::Sequence))?.drives;
+    let all = discover_as(root, Some(DatasetKind::Sequence))?.drives;
     let Some(want) = sequences else {
         return Ok(all);
     };

@@ -383,7 +383,7 @@ pub fn read_calibration(path: &Path) -> Result<SensorModel> {
 
 /// A sensor model by a built-in sensor's name (`vlp16`, `pandar64`: [`presets::Sensor`]) or a
 /// calibration file's path (`.yaml`, `.csv`, `.json`: [`read_calibration`]).
-pub fn named_or_file(name: &str) -> Result<SensorModel> {
+pub fn model_named_or_file(name: &str) -> Result<SensorModel> {
     if let Ok(s) = name.parse::<presets::Sensor>() {
         return Ok(s.model_table());
     }

@@ -102,43 +102,7 @@ struct CategoryRow {
     index: Option<u32>,
 }
 
-/// nuScenes-lidarseg's general classes in index order, as `category.json` names them (the
-/// `_lidarseg.bin` files hold these indices; [`crate::label::nuscenes`] maps them to the
-/// benchmark's 16).
-pub const GENERAL_CLASSES: [&str; 32] = [
-    "noise",
-    "animal",
-    "human.pedestrian.adult",
-    "human.pedestrian.child",
-    "human.pedestrian.construction_worker",
-    "human.pedestrian.personal_mobility",
-    "human.pedestrian.police_officer",
-    "human.pedestrian.stroller",
-    "human.pedestrian.wheelchair",
-    "movable_object.barrier",
-    "movable_object.debris",
-    "movable_object.pushable_pullable",
-    "movable_object.trafficcone",
-    "static_object.bicycle_rack",
-    "vehicle.bicycle",
-    "vehicle.bus.bendy",
-    "vehicle.bus.rigid",
-    "vehicle.car",
-    "vehicle.construction",
-    "vehicle.emergency.ambulance",
-    "vehicle.emergency.police",
-    "vehicle.motorcycle",
-    "vehicle.trailer",
-    "vehicle.truck",
-    "flat.driveable_surface",
-    "flat.other",
-    "flat.sidewalk",
-    "flat.terrain",
-    "static.manmade",
-    "static.other",
-    "static.vegetation",
-    "vehicle.ego",
-];
+pub use super::dataset::NUSCENES_GENERAL_CLASSES as GENERAL_CLASSES;
 
 /// Where a LIDAR_TOP keyframe's scan lies, relative to `DATAROOT`.
 const LIDAR_TOP: &str = "samples/LIDAR_TOP/";

@@ -218,6 +218,38 @@ fn modules_import_each_other_without_a_circle_at_any_depth() {
     ] {
         assert!(!top["source"].contains(m), "source imports {m}");
     }
+    // Labelling reads no file: of the readers' module it names only the seam (the typed box,
+    // the dataset kinds and their vocabularies), never a reader.
+    let (src, files) = sources();
+    for f in files.iter().filter(|f| f.starts_with(src.join("label"))) {
+        for line in std::fs::read_to_string(f).unwrap().lines() {
+            let code = line.trim_start();
+            if code.starts_with("//") {
+                continue;
+            }
+            for (at, _) in code.match_indices("crate::source::") {
+                let rest = &code[at + "crate::source::".len()..];
+                let name: String = rest
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                assert!(
+                    ["boxes", "dataset", "DatasetKind"].contains(&name.as_str()),
+                    "{}: label names the reader source::{name}",
+                    f.display()
+                );
+            }
+        }
+    }
+    // The scan is the readers' neutral type, named through no dataset family.
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        assert!(
+            !text.contains("velodyne::Scan"),
+            "{} names velodyne::Scan",
+            f.display()
+        );
+    }
     // The analysis sees the edges inside the folders it guards (a `use super::{..}` group, a
     // `super::x::f` call).
     let edge = |folder: &str, from: &str, to: &str| {

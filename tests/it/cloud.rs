@@ -2,10 +2,10 @@
 //! rings and shifts columns exactly.
 
 use kitti2pgm::convert::frame::{load, process, Viz};
-use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Augment, Cloud, CloudProjection, PgmSpec, EMPTY};
+use kitti2pgm::provenance::MapParams;
 use kitti2pgm::simd::Level;
 
 use crate::util::*;

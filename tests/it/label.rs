@@ -8,6 +8,8 @@ use kitti2pgm::source::kitti::tracklets::{
 use kitti2pgm::source::Scan;
 use proptest::prelude::*;
 
+use kitti2pgm::source::boxes::BoxSource;
+
 use crate::util::*;
 
 /// The paper's class of a tracklet.
@@ -17,7 +19,7 @@ fn class_of(t: &Tracklet) -> ClassId {
 
 /// A box of tracklet `i` at `pose`, of the paper's class.
 fn lbox(i: usize, t: &Tracklet, pose: &Pose) -> LabelBox {
-    LabelBox::new(i, t, pose, class_of(t))
+    LabelBox::of(&t.box_at(pose), class_of(t), i as u16 + 1)
 }
 
 fn tracklet(object_type: ObjectType, hwl: [f64; 3], t: [f64; 3], yaw: f64) -> (Tracklet, Pose) {
@@ -128,7 +130,7 @@ fn cars_are_labelled_where_the_tracklets_put_them() {
         let dir = fixture_drive(drive);
         let tr = Tracklets::read(&dir.join("tracklet_labels.xml")).unwrap();
         let scan = Scan::read(&dir.join(format!("velodyne_points/data/{frame:010}.bin"))).unwrap();
-        let boxes = kitti2pgm::label::tracklet_boxes(&tr, frame, &ClassMap::kitti_paper());
+        let boxes = kitti2pgm::label::label_boxes(&tr.boxes_at(frame), &ClassMap::kitti_paper());
         let labels = Labeller::new(&boxes, 0).label(&scan.points);
         let mut cars_with_points = 0;
         for (i, t, p) in tr.at(frame) {
@@ -210,7 +212,7 @@ fn labelling_a_real_scan_gives_each_point_what_label_point_gives() {
         let dir = fixture_drive(drive);
         let tr = Tracklets::read(&dir.join("tracklet_labels.xml")).unwrap();
         let scan = Scan::read(&dir.join(format!("velodyne_points/data/{frame:010}.bin"))).unwrap();
-        let boxes = kitti2pgm::label::tracklet_boxes(&tr, frame, &classes);
+        let boxes = kitti2pgm::label::label_boxes(&tr.boxes_at(frame), &classes);
         let lab = Labeller::new(&boxes, 0);
         assert!(lab.len() <= kitti2pgm::label::boxes::BY_BOX_MAX);
         let what = format!("drive {drive} frame {frame}");

@@ -414,3 +414,34 @@ fn an_unfinished_unpack_is_refused_until_it_is_run_again() {
     );
     assert_eq!(code, 0, "{err}");
 }
+
+/// Issue 49: each kind of recording takes its own options; the other kind's are refused by
+/// name before anything is written.
+#[test]
+fn each_recording_refuses_the_other_kind_s_options() {
+    let t = tmp();
+    let (root, _) = nuscenes_root(t.path());
+    let out = t.path().join("out");
+    for (flag, value) in [
+        ("--topic", "/points"),
+        ("--sequence", "3"),
+        ("--sensor-frame", "lidar"),
+    ] {
+        let (code, _, err) = unpack(&[s(&root), "--out", s(&out), flag, value]);
+        assert_eq!(code, 1, "{flag}");
+        assert!(err.contains(&format!("{flag} is for bags")), "{err}");
+    }
+    let bag = super::util::fixture("own_lidar_bag");
+    for (flag, value) in [
+        ("--scenes", "scene-0061"),
+        ("--nuscenes-version", "v1.0-mini"),
+    ] {
+        let (code, _, err) = unpack(&[s(&bag), "--out", s(&out), flag, value]);
+        assert_eq!(code, 1, "{flag}");
+        assert!(
+            err.contains(&format!("{flag} is for a nuScenes root")),
+            "{err}"
+        );
+    }
+    assert!(!out.exists());
+}

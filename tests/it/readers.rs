@@ -186,3 +186,36 @@ fn every_reading_function_gives_the_same_points_of_one_file() {
         assert_eq!(s, &scans[0]);
     }
 }
+
+/// Issue 49: one box seam. KITTI's tracklets and object labels are box sources through
+/// [`BoxConvention`]s; the label rule gives each box its class by name and its track's
+/// instance, the same boxes as the conventions placed.
+#[test]
+fn tracklets_are_a_box_source_through_kitti_s_convention() {
+    use kitti2pgm::label::label_boxes;
+    use kitti2pgm::source::boxes::{BoxConvention, BoxRotation, BoxSource};
+    let tr = Tracklets::read(&fixture_drive(1).join("tracklet_labels.xml")).unwrap();
+    let map = ClassMap::kitti_paper();
+    let boxes = tr.boxes_at(0);
+    assert_eq!(boxes.len(), tr.count_at(0));
+    let labelled = label_boxes(&boxes, &map);
+    for ((b, l), (i, t, p)) in boxes.iter().zip(&labelled).zip(tr.at(0)) {
+        assert_eq!(
+            (b.track, b.class_name.as_str()),
+            (i, t.object_type.as_str())
+        );
+        assert_eq!(l.instance as usize, i + 1);
+        assert_eq!(l.class, map.class_of_object(t.object_type.as_str()));
+        // KITTI's tracklets turn about z alone: the bottom centre lifted by h/2 is the centre.
+        assert_eq!((p.r[0], p.r[1]), (0.0, 0.0));
+        let placed = BoxConvention::CENTRED_LWH.place(
+            [p.t[0], p.t[1], p.t[2] + t.h / 2.0],
+            [t.l, t.w, t.h],
+            &BoxRotation::Euler(p.r),
+            None,
+        );
+        assert!((placed.centre() - b.geometry.centre()).norm() < 1e-5);
+        assert_eq!(placed.half_extents, b.geometry.half_extents);
+    }
+    assert!(tr.file().is_some() && tr.unknown_types().is_empty());
+}

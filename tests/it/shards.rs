@@ -90,7 +90,7 @@ fn shards_hold_exactly_the_npy_frames() {
         kitti2pgm::label::ClassMap::kitti_paper()
     );
     let sh = md.params.shards.as_ref().unwrap();
-    assert_eq!(sh.compression, kitti2pgm::params::ShardCompression::Lz4);
+    assert_eq!(sh.compression, kitti2pgm::provenance::ShardCompression::Lz4);
     // Chunk indexes and a summary are present: a reader can seek.
     let summary = train.summary().unwrap();
     assert!(summary.chunk_indexes.len() >= 2);

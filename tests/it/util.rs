@@ -142,7 +142,7 @@ pub fn convert_fixtures_in_process(out: &Path) -> kitti2pgm::format::summary::Co
     let opts = ConvertOptions {
         map_origin: Some(
             kitti2pgm::project::MapChoice::default()
-                .origin(Some(kitti2pgm::source::kitti::Layout::Raw)),
+                .origin(Some(kitti2pgm::source::kitti::DatasetKind::Raw)),
         ),
         ..ConvertOptions::new(out)
     };

@@ -114,7 +114,7 @@ class Dataset:
         self,
         root: _Path,
         *,
-        source: Optional[str] = None,
+        dataset: Optional[str] = None,
         class_map: Optional[str] = None,
         rgb_camera: Optional[int] = None,
         sampling: str = "nearest",
@@ -124,6 +124,7 @@ class Dataset:
         sensor_pose: Optional[str] = None,
         ouster_columns: bool = False,
         fields: Optional[str] = None,
+        source: Optional[str] = None,
     ) -> None: ...
     @property
     def frames(self) -> List[str]: ...

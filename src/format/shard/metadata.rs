@@ -7,7 +7,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::error::{Error, NotAFrameId, Result};
-use crate::params::ConvertParams;
+use crate::provenance::ConvertParams;
 use crate::source::kitti::FrameId;
 
 /// What the metadata record of a shard says.

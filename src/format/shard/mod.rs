@@ -21,7 +21,7 @@ pub mod read;
 pub mod viz;
 pub mod write;
 
-pub use crate::params::{ShardCompression, ShardKind};
+pub use crate::provenance::{ShardCompression, ShardKind};
 pub use message::{FrameMsg, PointsMsg};
 pub use metadata::ShardMetadata;
 pub use read::{shard_is_intact, Shard};

@@ -356,7 +356,7 @@ impl Shard {
 pub fn shard_is_intact(
     path: &Path,
     frames: &[(FrameId, u64)],
-    params: &crate::params::ConvertParams,
+    params: &crate::provenance::ConvertParams,
     kind: ShardKind,
 ) -> bool {
     let Ok(shard) = Shard::open_verified(path) else {

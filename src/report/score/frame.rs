@@ -10,7 +10,7 @@ use crate::format::label_file;
 use crate::project::unproject::{unproject, Method, PointsInMap};
 use crate::project::EMPTY;
 use crate::report::truth::GroundTruth;
-use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
+use crate::source::kitti::{discover_as, DatasetKind, Drive, FrameId};
 
 /// Where a scan's points fall in the map, for the point protocol and per-point predictions.
 #[derive(Default)]
@@ -223,7 +223,7 @@ fn count_points(
     }
     // SemanticKITTI's benchmark scores every point of the scan: map predictions leave the
     // points outside the map unlabeled (the background class), and they count.
-    if id.layout == Layout::Sequence && pred_points.is_none() {
+    if id.dataset == DatasetKind::Sequence && pred_points.is_none() {
         let mut inside = vec![false; gt_points.len()];
         for &(_, fi) in &scan.point_cells {
             if let Some(v) = inside.get_mut(fi as usize) {
@@ -260,9 +260,9 @@ fn carry(
 /// SemanticKITTI root or sequence; an object root or split).
 pub fn raw_drive(raw: &Path, id: &FrameId) -> Result<Drive> {
     let name = id.drive_name();
-    if id.layout != Layout::Raw {
+    if id.dataset != DatasetKind::Raw {
         // A SemanticKITTI root or sequence, an object root or split.
-        return discover_as(raw, Some(id.layout))?
+        return discover_as(raw, Some(id.dataset))?
             .drives
             .into_iter()
             .find(|d| d.number == id.drive)

@@ -18,10 +18,10 @@ use crate::format::pgm::{self, PgmFile};
 use crate::format::shard::{Shard, ShardKind};
 use crate::format::summary;
 use crate::label::ClassMap;
-use crate::params::MapParams;
 use crate::project::camera::{RgbOptions, Sampling};
 use crate::project::PgmFrame;
-use crate::source::kitti::{discover_as, Drive, FrameId, Layout};
+use crate::provenance::MapParams;
+use crate::source::kitti::{discover_as, DatasetKind, Drive, FrameId};
 
 pub mod completeness;
 
@@ -165,7 +165,7 @@ impl GroundTruth {
         if is_npy_folder(path) {
             return Self::from_npy(path, path.to_path_buf(), None);
         }
-        if let Ok(found) = discover_as(path, Some(Layout::Sequence)) {
+        if let Ok(found) = discover_as(path, Some(DatasetKind::Sequence)) {
             return Self::from_dataset(path, found.drives);
         }
         if dir.points_dir().is_dir() {

@@ -33,7 +33,7 @@ use crate::format::{label_file, Durability};
 use crate::label::{ClassId, ClassMap};
 use crate::project::norm;
 use crate::project::unproject::{unproject, Method, MethodKind, PointsInMap};
-use crate::source::kitti::{FrameId, Layout};
+use crate::source::kitti::{DatasetKind, FrameId};
 use crate::source::Scan;
 
 pub use crate::format::label_file::NOT_PREDICTED;
@@ -173,7 +173,7 @@ pub fn unproject_all(
     refuse_output_over_inputs(&opts.out, gt, preds, opts)?;
     opts.method.validate()?;
     let map = &gt.params.class_map;
-    let sequence = gt.frames.iter().any(|f| f.layout == Layout::Sequence);
+    let sequence = gt.frames.iter().any(|f| f.dataset == DatasetKind::Sequence);
     if sequence && map.learning_map_inv.is_empty() {
         return Err(Error::Config(format!(
             "class map {:?} has no learning_map_inv: SemanticKITTI predictions are written as the dataset's raw ids",
@@ -291,7 +291,7 @@ pub fn read_point_predictions(
     map: &ClassMap,
 ) -> Result<Vec<Option<ClassId>>> {
     let raw = label_file::read_raw(path)?;
-    let raw_ids = id.layout == Layout::Sequence
+    let raw_ids = id.dataset == DatasetKind::Sequence
         && path
             .parent()
             .and_then(|p| p.file_name())
@@ -317,7 +317,7 @@ pub fn point_truth(
     map: &ClassMap,
     gt: Option<&OutputDir>,
 ) -> Result<Option<Vec<Option<ClassId>>>> {
-    if id.layout == Layout::Sequence {
+    if id.dataset == DatasetKind::Sequence {
         let path = raw_drive(raw, id)?.point_labels_path(id.frame);
         if path.is_file() {
             let raw_ids = label_file::read_raw(&path)?;

@@ -102,6 +102,31 @@ struct Info {
     compression_format: String,
 }
 
+/// Whether `path` is a ROS 2 bag kitti2pgm reads: a `.mcap` file, or a bag directory (with
+/// `metadata.yaml`).
+pub fn is_bag(path: &Path) -> bool {
+    (path.is_file() && path.extension().is_some_and(|e| e == "mcap"))
+        || path.join("metadata.yaml").is_file()
+}
+
+/// A bag in a storage kitti2pgm does not read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Foreign {
+    /// ROS 1 (`.bag`).
+    Ros1,
+    /// rosbag2's sqlite3 storage (`.db3`).
+    Sqlite3,
+}
+
+/// Which foreign bag `path` is, by its extension (a file).
+pub fn foreign_storage(path: &Path) -> Option<Foreign> {
+    match path.extension()?.to_str()? {
+        "bag" if path.is_file() => Some(Foreign::Ros1),
+        "db3" if path.is_file() => Some(Foreign::Sqlite3),
+        _ => None,
+    }
+}
+
 impl Bag {
     /// Opens a bag directory (with `metadata.yaml`) or a `.mcap` file.
     pub fn open(path: &Path) -> Result<Bag> {

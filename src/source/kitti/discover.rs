@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{file_name, is_date, Drive, Layout};
+use super::{file_name, is_date, DatasetKind, Drive};
 use crate::error::{Error, Result};
 
 /// What [`discover_all`] found under a root.
@@ -34,19 +34,19 @@ pub fn discover_all(root: &Path) -> Result<Discovery> {
 /// raw (a root, date or drive folder), SemanticKITTI / odometry (a root with `sequences/`, or
 /// one sequence folder `<NN>` with `velodyne/`), or the object set (a root with `training/`
 /// and/or `testing/`: `training/` is taken when both are there; or one split folder).
-pub fn discover_as(root: &Path, source: Option<Layout>) -> Result<Discovery> {
+pub fn discover_as(root: &Path, source: Option<DatasetKind>) -> Result<Discovery> {
     // Nothing found: a recording that must be unpacked first says so.
-    discover_layout(root, source).map_err(|e| match crate::source::needs_unpack(root) {
-        Some(how) => Error::Input {
+    discover_layout(root, source).map_err(|e| match crate::source::Recording::of(root) {
+        Some(recording) => Error::Input {
             path: root.into(),
-            message: how,
+            message: recording.to_string(),
         },
         None => e,
     })
 }
 
 /// [`discover_as`] without the hint for recordings to unpack.
-fn discover_layout(root: &Path, source: Option<Layout>) -> Result<Discovery> {
+fn discover_layout(root: &Path, source: Option<DatasetKind>) -> Result<Discovery> {
     if !root.is_dir() {
         return Err(Error::Input {
             path: root.into(),
@@ -67,7 +67,7 @@ fn discover_layout(root: &Path, source: Option<Layout>) -> Result<Discovery> {
         problems: Vec::new(),
     };
     match source {
-        Some(Layout::Sequence) => {
+        Some(DatasetKind::Sequence) => {
             let drives = sequences(&canonical)?;
             if drives.is_empty() {
                 return Err(none(
@@ -76,7 +76,7 @@ fn discover_layout(root: &Path, source: Option<Layout>) -> Result<Discovery> {
             }
             Ok(found(drives))
         }
-        Some(Layout::Object) => {
+        Some(DatasetKind::Object) => {
             let drives = object_splits(&canonical);
             if drives.is_empty() {
                 return Err(none(
@@ -85,7 +85,7 @@ fn discover_layout(root: &Path, source: Option<Layout>) -> Result<Discovery> {
             }
             Ok(found(drives))
         }
-        Some(Layout::Raw) => raw_drives(root, &canonical),
+        Some(DatasetKind::Raw) => raw_drives(root, &canonical),
         None if !raw_like(&canonical)? => {
             let seqs = sequences(&canonical)?;
             if !seqs.is_empty() {

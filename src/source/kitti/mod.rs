@@ -1,6 +1,6 @@
 //! READ: the layouts of the KITTI family and their files.
 //!
-//! Three layouts ([`Layout`]), each a set of "drives" (folders of frames that share a
+//! Three layouts ([`DatasetKind`]), each a set of "drives" (folders of frames that share a
 //! calibration and an annotation):
 //!
 //! - **KITTI raw**: `RAW_ROOT/<date>/calib_*.txt` and `RAW_ROOT/<date>/<date>_drive_<NNNN>_sync/`
@@ -40,50 +40,15 @@ use crate::error::Result;
 pub const MAX_FRAME: u32 = 1_000_000;
 pub use discover::{discover, discover_all, discover_as, Discovery};
 
-/// Which dataset layout a drive, and its frames, come from.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Layout {
-    /// KITTI raw (tracklet boxes).
-    #[default]
-    Raw,
-    /// SemanticKITTI / KITTI odometry sequences (per-point labels).
-    Sequence,
-    /// The KITTI 3D object set (`label_2` boxes).
-    Object,
-}
-
-crate::named_enum!(Layout, "source", [
-    Raw => "raw" [] "KITTI raw drives with tracklet_labels.xml",
-    Sequence => "semantickitti" ["sequences", "sequence"] "SemanticKITTI / KITTI odometry sequences with per-point labels",
-    Object => "object" [] "The KITTI 3D object set with label_2 boxes",
-]);
-
-impl Layout {
-    /// The dataset's name, for messages (`KITTI raw`, `SemanticKITTI`, `the KITTI object set`).
-    pub fn dataset(self) -> &'static str {
-        match self {
-            Layout::Raw => "KITTI raw",
-            Layout::Sequence => "SemanticKITTI",
-            Layout::Object => "the KITTI object set",
-        }
-    }
-
-    /// What its folders of frames are called (`drives`, `sequences`, `splits`).
-    pub fn units(self) -> &'static str {
-        match self {
-            Layout::Raw => "drives",
-            Layout::Sequence => "sequences",
-            Layout::Object => "splits",
-        }
-    }
-}
+pub use super::dataset::DatasetKind;
 
 /// A folder of frames: a raw drive (`<date>_drive_<NNNN>_sync`), an odometry sequence
 /// (`sequences/<NN>`) or an object split (`training/`, `testing/`).
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 pub struct Drive {
-    /// The layout.
-    pub layout: Layout,
+    /// Which dataset it belongs to (serialised as `layout`, as earlier versions wrote it).
+    #[serde(rename = "layout")]
+    pub dataset: DatasetKind,
     /// Recording day, `YYYY_MM_DD` (raw); empty otherwise.
     pub date: String,
     /// Drive number (raw `NNNN`), sequence number; 0 for an object split.
@@ -98,8 +63,8 @@ pub struct Drive {
 #[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(into = "String", try_from = "String")]
 pub struct FrameId {
-    /// The layout.
-    pub layout: Layout,
+    /// Which dataset it belongs to.
+    pub dataset: DatasetKind,
     /// Recording day, `YYYY_MM_DD` (raw); empty otherwise.
     pub date: String,
     /// Drive or sequence number (0 for the object set).
@@ -112,7 +77,7 @@ impl FrameId {
     /// A raw frame's id.
     pub fn raw(date: &str, drive: u32, frame: u32) -> FrameId {
         FrameId {
-            layout: Layout::Raw,
+            dataset: DatasetKind::Raw,
             date: date.into(),
             drive,
             frame,
@@ -122,17 +87,17 @@ impl FrameId {
     /// The folder that groups the frame's per-point outputs: the raw drive folder
     /// `<date>_drive_<NNNN>_sync`, the sequence `<NN>`, or `object`.
     pub fn drive_name(&self) -> String {
-        match self.layout {
-            Layout::Raw => drive_name(&self.date, self.drive),
-            Layout::Sequence => format!("{:02}", self.drive),
-            Layout::Object => "object".into(),
+        match self.dataset {
+            DatasetKind::Raw => drive_name(&self.date, self.drive),
+            DatasetKind::Sequence => format!("{:02}", self.drive),
+            DatasetKind::Object => "object".into(),
         }
     }
 
     /// The frame number as its files spell it: 10 digits (raw) or 6.
     pub fn frame_name(&self) -> String {
-        match self.layout {
-            Layout::Raw => format!("{:010}", self.frame),
+        match self.dataset {
+            DatasetKind::Raw => format!("{:010}", self.frame),
             _ => format!("{:06}", self.frame),
         }
     }
@@ -158,10 +123,10 @@ impl TryFrom<String> for FrameId {
 
 impl fmt::Display for FrameId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.layout {
-            Layout::Raw => write!(f, "{}_{:04}_{:010}", self.date, self.drive, self.frame),
-            Layout::Sequence => write!(f, "{:02}_{:06}", self.drive, self.frame),
-            Layout::Object => write!(f, "{:06}", self.frame),
+        match self.dataset {
+            DatasetKind::Raw => write!(f, "{}_{:04}_{:010}", self.date, self.drive, self.frame),
+            DatasetKind::Sequence => write!(f, "{:02}_{:06}", self.drive, self.frame),
+            DatasetKind::Object => write!(f, "{:06}", self.frame),
         }
     }
 }
@@ -174,7 +139,7 @@ impl std::str::FromStr for FrameId {
         let number = |t: &str| t.parse::<u32>().map_err(|_| bad());
         if digits(s, 6) {
             return Ok(FrameId {
-                layout: Layout::Object,
+                dataset: DatasetKind::Object,
                 frame: number(s)?,
                 ..Default::default()
             });
@@ -182,7 +147,7 @@ impl std::str::FromStr for FrameId {
         if let Some((seq, frame)) = s.split_once('_') {
             if sequence_number(seq).is_some() && digits(frame, 6) {
                 return Ok(FrameId {
-                    layout: Layout::Sequence,
+                    dataset: DatasetKind::Sequence,
                     date: String::new(),
                     drive: number(seq)?,
                     frame: number(frame)?,
@@ -238,7 +203,7 @@ impl Drive {
     pub fn from_dir(dir: &Path) -> Option<Drive> {
         let (date, number) = parse_drive_name(file_name(dir))?;
         Some(Drive {
-            layout: Layout::Raw,
+            dataset: DatasetKind::Raw,
             date,
             number,
             dir: dir.to_path_buf(),
@@ -248,7 +213,7 @@ impl Drive {
     /// The odometry sequence in folder `dir` (named by its number: [`sequence_number`]).
     pub fn sequence(dir: &Path) -> Option<Drive> {
         sequence_number(file_name(dir)).map(|number| Drive {
-            layout: Layout::Sequence,
+            dataset: DatasetKind::Sequence,
             date: String::new(),
             number,
             dir: dir.to_path_buf(),
@@ -258,7 +223,7 @@ impl Drive {
     /// The object-set split in folder `dir` (`training/`, `testing/`).
     pub fn object_split(dir: &Path) -> Drive {
         Drive {
-            layout: Layout::Object,
+            dataset: DatasetKind::Object,
             date: String::new(),
             number: 0,
             dir: dir.to_path_buf(),
@@ -278,7 +243,7 @@ impl Drive {
     /// The id of frame `frame` of this drive.
     pub fn frame_id(&self, frame: u32) -> FrameId {
         FrameId {
-            layout: self.layout,
+            dataset: self.dataset,
             date: self.date.clone(),
             drive: self.number,
             frame,
@@ -287,8 +252,8 @@ impl Drive {
 
     /// The folder of the velodyne scans.
     fn scan_dir(&self) -> PathBuf {
-        match self.layout {
-            Layout::Raw => self.dir.join("velodyne_points/data"),
+        match self.dataset {
+            DatasetKind::Raw => self.dir.join("velodyne_points/data"),
             _ => self.dir.join("velodyne"),
         }
     }
@@ -299,7 +264,7 @@ impl Drive {
     pub fn scan_path(&self, frame: u32) -> PathBuf {
         let name = self.frame_id(frame).frame_name();
         let bin = self.scan_dir().join(format!("{name}.bin"));
-        if self.layout == Layout::Sequence && !bin.exists() {
+        if self.dataset == DatasetKind::Sequence && !bin.exists() {
             for ext in ["pcd", "pcd.bin"] {
                 let other = self.scan_dir().join(format!("{name}.{ext}"));
                 if other.exists() {
@@ -313,8 +278,8 @@ impl Drive {
     /// Path of a camera image (camera 0-3).
     pub fn image_path(&self, camera: u8, frame: u32) -> PathBuf {
         let name = self.frame_id(frame).frame_name();
-        match self.layout {
-            Layout::Raw => self.dir.join(format!("image_{camera:02}/data/{name}.png")),
+        match self.dataset {
+            DatasetKind::Raw => self.dir.join(format!("image_{camera:02}/data/{name}.png")),
             _ => self.dir.join(format!("image_{camera}/{name}.png")),
         }
     }
@@ -334,8 +299,8 @@ impl Drive {
     /// Path of the calibration: a sequence's `calib.txt`, an object frame's `calib/<frame6>.txt`
     /// (raw calibration is per day: [`Drive::date_dir`]).
     pub fn calib_path(&self, frame: u32) -> PathBuf {
-        match self.layout {
-            Layout::Object => {
+        match self.dataset {
+            DatasetKind::Object => {
                 let name = self.frame_id(frame).frame_name();
                 self.dir.join(format!("calib/{name}.txt"))
             }
@@ -346,10 +311,10 @@ impl Drive {
     /// Whether a frame has labels: always for raw drives (a frame without a tracklet pose is
     /// still ground truth: all background); a label file for sequences and object frames.
     pub fn has_labels(&self, frame: u32) -> bool {
-        match self.layout {
-            Layout::Raw => true,
-            Layout::Sequence => crate::fs::present(&self.point_labels_path(frame)),
-            Layout::Object => crate::fs::present(&self.object_labels_path(frame)),
+        match self.dataset {
+            DatasetKind::Raw => true,
+            DatasetKind::Sequence => crate::fs::present(&self.point_labels_path(frame)),
+            DatasetKind::Object => crate::fs::present(&self.object_labels_path(frame)),
         }
     }
 
@@ -357,10 +322,10 @@ impl Drive {
     /// no scan of `scans` (sorted): extra files that no conversion reads, named so that a
     /// missing scan does not go unnoticed. Raw drives have none.
     pub fn labels_without_scan(&self, scans: &[u32]) -> Result<Vec<PathBuf>> {
-        let (dir, ext) = match self.layout {
-            Layout::Raw => return Ok(Vec::new()),
-            Layout::Sequence => (self.dir.join("labels"), "label"),
-            Layout::Object => (self.dir.join("label_2"), "txt"),
+        let (dir, ext) = match self.dataset {
+            DatasetKind::Raw => return Ok(Vec::new()),
+            DatasetKind::Sequence => (self.dir.join("labels"), "label"),
+            DatasetKind::Object => (self.dir.join("label_2"), "txt"),
         };
         if !dir.is_dir() {
             return Ok(Vec::new());
@@ -408,7 +373,7 @@ impl Drive {
         // A sequence of another sensor may hold PCD or nuScenes `.pcd.bin` files (one per
         // frame); one beside the `.bin` of its frame, or a `.pcd.bin` beside the `.pcd`, is not
         // read ([`Drive::scan_path`] takes the first of `.bin`, `.pcd`, `.pcd.bin`).
-        let other = self.layout == Layout::Sequence;
+        let other = self.dataset == DatasetKind::Sequence;
         for p in crate::fs::sorted_dir(&dir)? {
             let frame = p
                 .file_name()

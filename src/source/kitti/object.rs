@@ -10,6 +10,7 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::geom::na;
+use crate::source::boxes::{AnnotatedBox, Box3, BoxConvention, BoxRotation};
 
 /// One line of `label_2`.
 #[derive(Debug, Clone, PartialEq)]
@@ -38,6 +39,26 @@ pub const KNOWN_TYPES: [&str; 9] = [
 ];
 
 impl ObjectLabel {
+    /// The box in the velodyne frame ([`BoxConvention::KITTI_OBJECT`]), carried there by
+    /// `rect_to_velo`, the inverse of `R0_rect * Tr_velo_to_cam`.
+    pub fn box_in_velodyne(&self, rect_to_velo: &na::Matrix4<f64>) -> Box3 {
+        BoxConvention::KITTI_OBJECT.place(
+            self.location.coords.into(),
+            self.hwl,
+            &BoxRotation::Yaw(self.rotation_y),
+            Some(rect_to_velo),
+        )
+    }
+
+    /// The label as an annotated box of track `line` (its line in the file, from 0).
+    pub fn annotated(&self, line: usize, rect_to_velo: &na::Matrix4<f64>) -> AnnotatedBox {
+        AnnotatedBox {
+            geometry: self.box_in_velodyne(rect_to_velo),
+            class_name: self.kind.clone(),
+            track: line,
+        }
+    }
+
     /// Whether the type is one KITTI defines ([`KNOWN_TYPES`]; spelling and case exact).
     pub fn is_known_type(&self) -> bool {
         KNOWN_TYPES.contains(&self.kind.as_str())

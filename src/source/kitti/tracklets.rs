@@ -16,6 +16,7 @@ use roxmltree::Node;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::source::boxes::{AnnotatedBox, Box3, BoxConvention, BoxRotation, BoxSource};
 
 /// The annotated object type (`objectType`).
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
@@ -446,5 +447,48 @@ impl Parser<'_> {
             amt_border_r: self.real(n, "amt_border_r")?,
             amt_border_kf: self.num(n, "amt_border_kf")?,
         })
+    }
+}
+
+impl Tracklet {
+    /// The box at `pose`, in the velodyne frame ([`BoxConvention::KITTI_TRACKLET`]).
+    pub fn box_at(&self, pose: &Pose) -> Box3 {
+        BoxConvention::KITTI_TRACKLET.place(
+            pose.t,
+            [self.h, self.w, self.l],
+            &BoxRotation::Euler(pose.r),
+            None,
+        )
+    }
+}
+
+/// KITTI's tracklets as a box source: a box per tracklet pose, its class name the tracklet's
+/// `objectType`, its track the tracklet's index.
+impl BoxSource for Tracklets {
+    fn boxes_at(&self, frame: u32) -> Vec<AnnotatedBox> {
+        self.at(frame)
+            .map(|(i, t, p)| AnnotatedBox {
+                geometry: t.box_at(p),
+                class_name: t.object_type.as_str().to_string(),
+                track: i,
+            })
+            .collect()
+    }
+    fn count_at(&self, frame: u32) -> usize {
+        Tracklets::count_at(self, frame)
+    }
+    fn end_frame(&self) -> u32 {
+        Tracklets::end_frame(self)
+    }
+    fn unknown_types(&self) -> Vec<String> {
+        (self.tracklets.iter())
+            .filter_map(|t| match &t.object_type {
+                ObjectType::Other(name) => Some(name.clone()),
+                _ => None,
+            })
+            .collect()
+    }
+    fn file(&self) -> Option<&Path> {
+        (!self.path.as_os_str().is_empty()).then_some(self.path.as_path())
     }
 }

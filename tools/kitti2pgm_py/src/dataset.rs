@@ -12,24 +12,25 @@ use pyo3::types::{PyDict, PyList};
 use kitti2pgm::convert::frame::{load, Viz};
 use kitti2pgm::geom::Degrees;
 use kitti2pgm::label::ClassMap;
-use kitti2pgm::params::MapParams;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Cloud, PgmSpec};
+use kitti2pgm::provenance::MapParams;
 use kitti2pgm::sensor::params::SensorParams;
 use kitti2pgm::sensor::{RingOrder, SensorPose};
-use kitti2pgm::source::kitti::Layout;
+use kitti2pgm::source::kitti::DatasetKind;
 
 use crate::readers::{box_dict, class_map_of, scan_array, to_py};
 use crate::{py_err, spec_of, MapArgs};
 
 /// The frames of a dataset root, loaded as `kitti2pgm convert` loads them.
 ///
-/// Dataset(root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest",
+/// Dataset(root, *, dataset=None, class_map=None, rgb_camera=None, sampling="nearest",
 ///         all_frames=False)
 ///
 /// root: a KITTI raw root (or date / drive folder), a SemanticKITTI root (sequences/) or a
-/// KITTI object root (training/, testing/); source forces "raw", "semantickitti" or "object".
+/// KITTI object root (training/, testing/); dataset forces "raw", "semantickitti" or "object"
+/// (source=, its older name, is still taken).
 /// class_map: "kitti-paper-4", "semantic-kitti" or a yaml file (default: the layout's).
 /// `len(ds)`, `ds[i]` / `ds["<frame id>"]` and `for frame in ds` give the frames as `load` does.
 /// rgb_camera: 2 or 3 to sample each point's colour from that camera's image.
@@ -56,13 +57,13 @@ pub struct Dataset {
 #[pymethods]
 impl Dataset {
     #[new]
-    #[pyo3(signature = (root, *, source=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up", sensor_pose=None, ouster_columns=false, fields=None))]
+    #[pyo3(signature = (root, *, dataset=None, class_map=None, rgb_camera=None, sampling="nearest", all_frames=false, sensor=None, ring_order="bottom-up", sensor_pose=None, ouster_columns=false, fields=None, source=None))]
     // One Rust argument per Python keyword: the signature is the Python API.
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         root: PathBuf,
-        source: Option<&str>,
+        dataset: Option<&str>,
         class_map: Option<&str>,
         rgb_camera: Option<u8>,
         sampling: &str,
@@ -72,6 +73,7 @@ impl Dataset {
         sensor_pose: Option<&str>,
         ouster_columns: bool,
         fields: Option<&str>,
+        source: Option<&str>,
     ) -> PyResult<Dataset> {
         let ring_order = crate::named::<RingOrder>("ring_order", ring_order)?;
         let mut sensor = sensor
@@ -101,8 +103,13 @@ impl Dataset {
             sensor = Some(s.with_ouster_columns().map_err(py_err)?);
         }
         let own_columns = sensor.as_ref().and_then(SensorParams::own_columns);
-        let source = source
-            .map(|s| crate::named::<Layout>("source", s))
+        if dataset.is_some() && source.is_some() {
+            return Err(PyValueError::new_err(
+                "dataset= and source= (its older name) are one option: give one",
+            ));
+        }
+        let source = (dataset.or(source))
+            .map(|s| crate::named::<DatasetKind>("dataset", s))
             .transpose()?;
         let sampling = crate::named::<Sampling>("sampling", sampling)?;
         let selection = if all_frames {

@@ -21,7 +21,7 @@ use kitti2pgm::project::{
     project_cloud_on, Augment, Cloud, CloudProjection, IntensityKind, MapChoice, MapPreset,
     PgmSpec, RowMode, EMPTY,
 };
-use kitti2pgm::source::kitti::Layout;
+use kitti2pgm::source::kitti::DatasetKind;
 
 use arrays::{colours_arg, points_arg, vec_arg};
 
@@ -42,7 +42,7 @@ pub(crate) fn py_err(e: kitti2pgm::Error) -> PyErr {
 
 /// The map of the keyword arguments: the preset (`layout`'s default, or squeezeseg without a
 /// source) with each value given in its place, as `kitti2pgm convert` resolves its options.
-pub(crate) fn spec_of(choice: &MapArgs, layout: Option<Layout>) -> PyResult<PgmSpec> {
+pub(crate) fn spec_of(choice: &MapArgs, layout: Option<DatasetKind>) -> PyResult<PgmSpec> {
     let c = MapChoice {
         preset: choice
             .preset
@@ -207,7 +207,7 @@ fn project<'py>(
     let mut rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
     let model = sensor
         .as_deref()
-        .map(kitti2pgm::sensor::named_or_file)
+        .map(kitti2pgm::sensor::model_named_or_file)
         .transpose()
         .map_err(py_err)?;
     let mut off_model = None;

@@ -9,8 +9,9 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use kitti2pgm::geom::{na, Iso3, Matrix3x4, Real, Vector3};
+use kitti2pgm::geom::{na, Matrix3x4, Real};
 use kitti2pgm::label::{ClassMap, LabelBox, Labeller};
+use kitti2pgm::source::boxes::{BoxConvention, BoxRotation};
 use kitti2pgm::source::kitti::calib::{Calibration, FrameCalib};
 use kitti2pgm::source::Scan;
 
@@ -198,8 +199,9 @@ pub(crate) fn class_map_of(name: &str) -> PyResult<ClassMap> {
     ClassMap::named_or_file(std::path::Path::new(name)).map_err(py_err)
 }
 
-/// A box dict as the library's box: centre (3), size (l, w, h: full extents along the box's
-/// x, y, z), rotation (3x3, box to velodyne) or yaw (radians about z), class, instance.
+/// A box dict as the library's box ([`BoxConvention::CENTRED_LWH`]): centre (3), size (l, w, h:
+/// full extents along the box's x, y, z), rotation (3x3, box to velodyne) or yaw (radians about
+/// z), class, instance.
 fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
     let get = |k: &str| d.get_item(k);
     let err = |what: &str| PyValueError::new_err(format!("box {index}: {what}"));
@@ -217,7 +219,7 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
     }
     kitti2pgm::geom::check_box_extents(&[size[0], size[1], size[2]], ["l", "w", "h"])
         .map_err(|m| err(&m))?;
-    let rot = match get("rotation") {
+    let rotation = match get("rotation") {
         Ok(r) => {
             let m: Vec<Vec<f64>> = r.extract()?;
             if m.len() != 3 || m.iter().any(|row| row.len() != 3) {
@@ -225,8 +227,7 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
             }
             let m = na::Matrix3::from_fn(|r, c| m[r][c]);
             kitti2pgm::geom::check_rotation(&m).map_err(|e| err(&format!("rotation {e}")))?;
-            na::UnitQuaternion::from_rotation_matrix(&kitti2pgm::geom::nearest_rotation(&m))
-                .cast::<Real>()
+            BoxRotation::Matrix(m)
         }
         Err(_) => {
             let yaw: f64 = get("yaw")
@@ -235,7 +236,7 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
             if !yaw.is_finite() {
                 return Err(err(&format!("yaw must be finite, not {yaw}")));
             }
-            na::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw as Real)
+            BoxRotation::Yaw(yaw)
         }
     };
     let class: u8 = get("class").map_err(|_| err("no 'class'"))?.extract()?;
@@ -243,18 +244,13 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
         Ok(v) => v.extract()?,
         Err(_) => u16::try_from(index + 1).unwrap_or(u16::MAX),
     };
-    let t = na::Translation3::new(centre[0] as Real, centre[1] as Real, centre[2] as Real);
-    let half = Vector3::new(
-        size[0] as Real / 2.0,
-        size[1] as Real / 2.0,
-        size[2] as Real / 2.0,
+    let geometry = BoxConvention::CENTRED_LWH.place(
+        [centre[0], centre[1], centre[2]],
+        [size[0], size[1], size[2]],
+        &rotation,
+        None,
     );
-    Ok(LabelBox::centred(
-        class,
-        instance,
-        half,
-        Iso3::from_parts(t, rot),
-    ))
+    Ok(LabelBox::of(&geometry, class, instance))
 }
 
 /// A box as a dict (the form `label_points` takes).

@@ -185,8 +185,13 @@ def test_readers():
         k2.read_scan(REPO / "nothing.bin")
     with pytest.raises(KeyError):
         k2.Dataset(RAW).load("2011_09_26_0001_9999999999")
-    with pytest.raises(ValueError, match="source must be a known name"):
+    with pytest.raises(ValueError, match="dataset must be a known name"):
+        k2.Dataset(RAW, dataset="lidar")
+    with pytest.raises(ValueError, match="dataset must be a known name"):
         k2.Dataset(RAW, source="lidar")
+    with pytest.raises(ValueError, match="one option"):
+        k2.Dataset(RAW, dataset="raw", source="raw")
+    assert k2.Dataset(RAW, source="raw").frames == k2.Dataset(RAW, dataset="raw").frames
 
 
 def test_bad_arrays_raise_clear_value_errors():

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::{UnpackFailure, UnpackReport};
 use crate::error::{Error, Result};
 use crate::format::{atomic_write, create_dir, Durability};
 use crate::source::nuscenes::{Keyframe, NuScenes, Scene};
@@ -27,17 +28,6 @@ pub struct NuScenesOptions {
     pub overwrite: bool,
     /// Whether each file is flushed to the device before its rename.
     pub durability: Durability,
-}
-
-/// A frame that did not unpack.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct NuScenesFailure {
-    /// The scene.
-    pub scene: String,
-    /// The frame (the keyframe's place in its scene).
-    pub frame: u64,
-    /// What was wrong.
-    pub error: String,
 }
 
 /// One scene as unpacked, written to its `sequences/NN/nuscenes.json`.
@@ -77,10 +67,19 @@ pub struct NuScenesSummary {
     pub labelled_frames: u64,
     /// Points in the frames written.
     pub points: u64,
-    /// Frames that failed.
-    pub failures: Vec<NuScenesFailure>,
+    /// Frames that failed (each naming its scene).
+    pub failures: Vec<UnpackFailure>,
     /// Files of an earlier unpack no frame wrote again, removed (`overwrite`).
     pub removed_stale: u64,
+}
+
+impl UnpackReport for NuScenesSummary {
+    fn frames_written(&self) -> u64 {
+        self.frames_written
+    }
+    fn failures(&self) -> &[UnpackFailure] {
+        &self.failures
+    }
 }
 
 /// The sequence folder of scene `s` under `out`.
@@ -136,20 +135,16 @@ pub fn unpack_nuscenes(
     progress: &(dyn Fn() + Sync),
 ) -> Result<NuScenesSummary> {
     let scenes = chosen(ds, opts)?;
-    create_dir(&opts.out)?;
-    let _lock = super::resume::lock_dir(&opts.out)?;
+    let _lock = super::begin(&opts.out)?;
     let mut before = Vec::new();
     for s in &scenes {
         let old = existing(&sequence_dir(&opts.out, s))?;
-        if !old.is_empty() && !opts.overwrite {
-            return Err(Error::Input {
-                path: sequence_dir(&opts.out, s),
-                message: format!(
-                    "already holds {} files of an earlier unpack; replace them (--overwrite)",
-                    old.len()
-                ),
-            });
-        }
+        super::refuse_earlier(
+            &sequence_dir(&opts.out, s),
+            old.len(),
+            opts.overwrite,
+            "files of an earlier unpack; replace them (--overwrite)",
+        )?;
         before.push(old);
     }
     let mut summary = NuScenesSummary {
@@ -208,21 +203,18 @@ fn unpack_scene(
                 written.insert(w.scan);
                 written.extend(w.label);
             }
-            Err(e) => summary.failures.push(NuScenesFailure {
-                scene: s.name.clone(),
+            Err(e) => summary.failures.push(UnpackFailure {
+                scene: Some(s.name.clone()),
                 frame: i as u64,
                 error: e.to_string(),
             }),
         }
     }
-    for f in old.iter().filter(|p| !written.contains(*p)) {
-        summary.removed_stale += crate::fs::remove_if_there(f)? as u64;
-    }
-    let zero = index.first_timestamp_us.unwrap_or(0);
-    let times = crate::source::kitti::poses::times_text(
-        (s.keyframes.iter()).map(|k| (k.timestamp_us - zero) * 1000),
-    );
-    atomic_write(&seq.join("times.txt"), times.as_bytes(), opts.durability)?;
+    summary.removed_stale += super::remove_stale(old, |p| written.contains(p))?;
+    let stamps: Vec<i64> = (s.keyframes.iter())
+        .map(|k| k.timestamp_us * 1000)
+        .collect();
+    super::write_times(&seq, &stamps, opts.durability)?;
     index.complete = true;
     write_index(&index, &seq, opts.durability)?;
     Ok(index)
@@ -321,6 +313,5 @@ fn scene_index(ds: &NuScenes, s: &Scene, seq: &Path) -> SceneIndex {
 
 /// Writes a scene's `nuscenes.json`.
 fn write_index(index: &SceneIndex, seq: &Path, d: Durability) -> Result<()> {
-    let json = serde_json::to_vec_pretty(index).expect("an index serialises");
-    atomic_write(&seq.join(NUSCENES_MARKER), &json, d)
+    super::write_mark(index, seq, NUSCENES_MARKER, d)
 }

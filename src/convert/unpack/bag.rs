@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::{UnpackFailure, UnpackReport};
 use crate::error::{Error, Result};
 use crate::format::{atomic_write, create_dir, Durability};
 use crate::source::bag::{Bag, BagMessage, Lost, Next, Topic};
@@ -45,15 +46,6 @@ pub struct FoundPose {
     pub points_frame: String,
     /// The pose: `--sensor-pose` of its text.
     pub pose: crate::sensor::SensorPose,
-}
-
-/// A frame that did not unpack.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct UnpackFailure {
-    /// The frame (the message's place on the topic).
-    pub frame: u64,
-    /// What was wrong.
-    pub error: String,
 }
 
 /// What an unpack did, written to `sequences/NN/unpack.json`.
@@ -101,6 +93,18 @@ pub struct UnpackSummary {
     /// at the end only, are complete.
     #[serde(default = "crate::source::unpacked::complete_by_default")]
     pub complete: bool,
+}
+
+impl UnpackReport for UnpackSummary {
+    fn frames_written(&self) -> u64 {
+        self.frames_written
+    }
+    fn failures(&self) -> &[UnpackFailure] {
+        &self.failures
+    }
+    fn damaged(&self) -> &[String] {
+        &self.damaged
+    }
 }
 
 /// One decoded frame, ready to write.
@@ -171,19 +175,14 @@ pub fn unpack(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<UnpackSummary> {
     let (seq, scans) = sequence_dirs(opts);
-    create_dir(&opts.out)?;
-    let _lock = super::resume::lock_dir(&opts.out)?;
+    let _lock = super::begin(&opts.out)?;
     let before = existing_scans(&scans)?;
-    if !before.is_empty() && !opts.overwrite {
-        return Err(Error::Input {
-            path: scans,
-            message: format!(
-                "already holds {} scans; unpack into another sequence (--sequence) or replace \
-                 them (--overwrite)",
-                before.len()
-            ),
-        });
-    }
+    super::refuse_earlier(
+        &scans,
+        before.len(),
+        opts.overwrite,
+        "scans; unpack into another sequence (--sequence) or replace them (--overwrite)",
+    )?;
     // The mark first, then the scans: no moment when scans stand without it.
     create_dir(&seq)?;
     let mut s = started(bag, topic, &seq)?;
@@ -221,6 +220,7 @@ pub fn unpack(
         }
         if let Some(e) = broke {
             s.failures.push(UnpackFailure {
+                scene: None,
                 frame: s.messages,
                 error: format!("the bag breaks off here: {e}"),
             });
@@ -262,8 +262,7 @@ fn started(bag: &Bag, topic: &Topic, seq: &Path) -> Result<UnpackSummary> {
 
 /// Writes the sequence's `unpack.json`.
 fn write_summary(s: &UnpackSummary, seq: &Path, durability: Durability) -> Result<()> {
-    let json = serde_json::to_vec_pretty(s).expect("a summary serialises");
-    atomic_write(&seq.join(BAG_MARKER), &json, durability)
+    super::write_mark(s, seq, BAG_MARKER, durability)
 }
 
 /// Adds the frames lost with a damaged chunk to the summary (failures, their log times in
@@ -286,6 +285,7 @@ fn record_lost(
     for m in lost.messages {
         s.messages += 1;
         s.failures.push(UnpackFailure {
+            scene: None,
             frame: m.index,
             error: format!("lost with a damaged chunk: {what}"),
         });
@@ -353,6 +353,7 @@ fn record(s: &mut UnpackSummary, stamps: &mut Vec<i64>, m: &BagMessage, r: Resul
         }
         Err(e) => {
             s.failures.push(UnpackFailure {
+                scene: None,
                 frame: m.index,
                 error: e.to_string(),
             });
@@ -372,21 +373,18 @@ fn finish(
     durability: Durability,
 ) -> Result<()> {
     let failed: std::collections::BTreeSet<u64> = s.failures.iter().map(|f| f.frame).collect();
-    for old in before {
+    // A scan this unpack wrote: a frame it read and did not fail, at that frame's name.
+    let written = |old: &Path| {
         let frame = old
             .file_stem()
             .and_then(|n| n.to_str())
             .and_then(|n| n.parse().ok());
-        let keep = frame.is_some_and(|i: u64| {
-            i < s.messages && !failed.contains(&i) && scan_path(scans, i) == *old
-        });
-        if !keep && crate::fs::remove_if_there(old)? {
-            s.removed_stale += 1;
-        }
-    }
-    let zero = stamps.first().copied().unwrap_or(0);
-    let times = crate::source::kitti::poses::times_text(stamps.iter().map(|t| t - zero));
-    atomic_write(&seq.join("times.txt"), times.as_bytes(), durability)?;
+        frame.is_some_and(|i: u64| {
+            i < s.messages && !failed.contains(&i) && scan_path(scans, i) == old
+        })
+    };
+    s.removed_stale += super::remove_stale(before, written)?;
+    super::write_times(seq, stamps, durability)?;
     s.complete = true;
     write_summary(s, seq, durability)
 }
