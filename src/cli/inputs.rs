@@ -134,7 +134,7 @@ pub struct BagUnpackArgs {
     /// error lists the bag's point cloud topics).
     #[arg(long, value_name = "TOPIC")]
     pub topic: Option<String>,
-    /// The sequence number NN (one bag is one sequence).
+    /// The sequence number NN (one bag is one sequence; 00 without it).
     #[arg(long, value_name = "NN", value_parser = clap::value_parser!(u32).range(0..=99))]
     pub sequence: Option<u32>,
     /// The sensor's frame (velodyne, os_sensor...): its pose in the clouds' frame (a base_link)

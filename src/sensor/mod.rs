@@ -225,8 +225,6 @@ pub struct SensorModel {
     /// The lidar frame (beams) to the frame the points are written in (Ouster's
     /// `lidar_to_sensor_transform`; identity otherwise), metres.
     pub lidar_to_points: na::Isometry3<f64>,
-    /// Ouster's frame layout (measurement ids, pixel shifts): the sensor's own columns.
-    pub ouster: Option<ouster::OusterFormat>,
 }
 
 /// The beam of every point of a cloud.
@@ -246,25 +244,12 @@ impl SensorModel {
             table,
             beam_origin_offset: 0.0,
             lidar_to_points: na::Isometry3::identity(),
-            ouster: None,
         }
     }
 
     /// Number of beams (rows).
     pub fn beams(&self) -> usize {
         self.table.len()
-    }
-
-    /// Ouster's frame layout, which its own columns need: an error unless the model is an
-    /// Ouster metadata file's.
-    pub fn ouster_format(&self) -> Result<&ouster::OusterFormat> {
-        self.ouster.as_ref().ok_or_else(|| {
-            Error::Config(format!(
-                "Ouster columns need an Ouster metadata file (.json) as the sensor calibration; \
-                 {} has no Ouster frame layout",
-                self.name
-            ))
-        })
     }
 
     /// The elevation of `p` seen from its beam's origin, radians.

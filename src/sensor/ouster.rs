@@ -28,11 +28,37 @@ pub struct OusterFormat {
     pub pixel_shift_by_row: Vec<i64>,
 }
 
-/// Reads an Ouster metadata JSON (the model carries its frame layout,
-/// [`SensorModel::ouster_format`]); the sensor is named by its `prod_line` (else the file).
+/// An Ouster unit's own model: its beams as the neutral [`SensorModel`], and its frame layout
+/// with what its columns need (each row's beam azimuth and pixel shift, the inverse of the
+/// lidar-to-sensor transform), built once when the metadata is read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OusterModel {
+    /// The beams, their origin offset and the sensor frame.
+    pub sensor: SensorModel,
+    /// The frame layout.
+    pub format: OusterFormat,
+    /// Per row: sine and cosine of the beam's azimuth as the SDK's lookup table turns it, and
+    /// the row's pixel shift.
+    rows: Vec<(f64, f64, i64)>,
+    /// The points' frame to the lidar frame.
+    to_lidar: na::Isometry3<f64>,
+}
+
+/// Reads an Ouster metadata JSON as a beam model; the sensor is named by its `prod_line` (else
+/// the file). [`read_model`] keeps its frame layout too.
 pub fn read(path: &Path) -> Result<SensorModel> {
+    Ok(read_model(path)?.sensor)
+}
+
+/// Reads an Ouster metadata JSON as the unit's own model (its columns).
+pub fn read_model(path: &Path) -> Result<OusterModel> {
     let text = fs::read_text(path, Limit::Text)?;
-    parse(&text, path)
+    parse_model(&text, path)
+}
+
+/// Parses the metadata text of `path` as a beam model.
+pub fn parse(text: &str, path: &Path) -> Result<SensorModel> {
+    Ok(parse_model(text, path)?.sensor)
 }
 
 /// Looks `key` up at the top level or in one of the nested sections.
@@ -130,8 +156,8 @@ fn data_format(root: &Value, path: &Path, beams: usize) -> Result<OusterFormat> 
     Ok(format)
 }
 
-/// Parses the metadata text of `path`.
-pub fn parse(text: &str, path: &Path) -> Result<SensorModel> {
+/// Parses the metadata text of `path` as the unit's own model.
+pub fn parse_model(text: &str, path: &Path) -> Result<OusterModel> {
     let root: Value = serde_json::from_str(text).map_err(|e| Error::NotFormat {
         path: path.into(),
         format: "Ouster metadata (JSON)",
@@ -193,20 +219,40 @@ pub fn parse(text: &str, path: &Path) -> Result<SensorModel> {
     let name = field(&root, &["sensor_info"], "prod_line")
         .and_then(Value::as_str)
         .map_or_else(|| file_stem(path), str::to_string);
-    Ok(SensorModel {
+    let sensor = SensorModel {
         name,
         table,
         beam_origin_offset: offset_mm / 1000.0,
         lidar_to_points,
-        ouster: Some(data_format(&root, path, altitude.len())?),
-    })
+    };
+    Ok(OusterModel::new(
+        sensor,
+        data_format(&root, path, altitude.len())?,
+    ))
 }
 
-impl OusterFormat {
+impl OusterModel {
+    /// The model of `sensor` with the frame layout `format`: its tables built.
+    pub fn new(sensor: SensorModel, format: OusterFormat) -> OusterModel {
+        let rows = (sensor.table.beams().iter())
+            .map(|b| {
+                let t = -b.azimuth.to_radians();
+                (t.sin(), t.cos(), format.pixel_shift_by_row[b.id as usize])
+            })
+            .collect();
+        let to_lidar = sensor.lidar_to_points.inverse();
+        OusterModel {
+            sensor,
+            format,
+            rows,
+            to_lidar,
+        }
+    }
+
     /// Checks that a map of `cols` columns over `fov` can hold Ouster's columns: a full turn of
     /// exactly the columns per frame.
     pub fn check_map(&self, cols: usize, fov: Degrees) -> Result<()> {
-        let w = self.columns_per_frame;
+        let w = self.format.columns_per_frame;
         if cols != w || fov.0 != 360.0 {
             return Err(Error::Config(format!(
                 "Ouster columns: the map must be {w} columns over 360 degrees (the sensor's \
@@ -218,7 +264,7 @@ impl OusterFormat {
     }
 
     /// The destaggered column of every point (Ouster's own image: the SDK's `destagger` of its
-    /// measurement ids) of a cloud of `model` whose beam rows are `rows`.
+    /// measurement ids) of a cloud whose beam rows are `rows`.
     ///
     /// Ouster's `XYZLut` puts the pixel of beam `u`, measurement id `m` at
     /// `T * ((r - n) d + n (cos e, sin e, 0))`: encoder angle `e = 2 pi (1 - m / W)`, direction
@@ -228,22 +274,12 @@ impl OusterFormat {
     /// `|a u(e + t) + n u(e)|` (`t` the beam's azimuth), so `a = -n cos t + sqrt(rho^2 - n^2
     /// sin^2 t)` and `e = atan2(y, x) - atan2(a sin t, a cos t + n)`; `m` is `e` rounded to the
     /// nearest measurement, then shifted by the row's pixel shift.
-    pub fn columns(&self, model: &SensorModel, points: &[Point3], rows: &[u8]) -> Vec<u16> {
+    pub fn columns(&self, points: &[Point3], rows: &[u8]) -> Vec<u16> {
         use std::f64::consts::TAU;
-        let to_lidar = model.lidar_to_points.inverse();
-        let n = model.beam_origin_offset;
-        let w = self.columns_per_frame as f64;
-        let width = self.columns_per_frame as i64;
-        // Per row: the beam's azimuth (as the LUT turns it) and pixel shift.
-        let per_row: Vec<(f64, f64, i64)> = model
-            .table
-            .beams()
-            .iter()
-            .map(|b| {
-                let t = -b.azimuth.to_radians();
-                (t.sin(), t.cos(), self.pixel_shift_by_row[b.id as usize])
-            })
-            .collect();
+        let (to_lidar, per_row) = (&self.to_lidar, &self.rows);
+        let n = self.sensor.beam_origin_offset;
+        let w = self.format.columns_per_frame as f64;
+        let width = self.format.columns_per_frame as i64;
         points
             .iter()
             .zip(rows)

@@ -3,10 +3,11 @@
 //! model itself, resolved once.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use serde::{Deserialize, Serialize};
 
+use super::ouster::OusterModel;
 use super::presets::Sensor;
 use super::{read_calibration, RingOrder, SensorModel};
 use crate::error::{Error, Result};
@@ -76,9 +77,13 @@ pub struct SensorParams {
     /// ([`PointLayout::declaration`]); `None`: KITTI's (nuScenes' for `.pcd.bin`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fields: Option<String>,
-    /// The model, resolved (not serialised: `source` says what it is).
+    /// The model, resolved once (not serialised: `source` says what it is; params read back
+    /// resolve it at their first use).
     #[serde(skip)]
-    pub model: Option<Arc<SensorModel>>,
+    model: OnceLock<Arc<SensorModel>>,
+    /// An Ouster unit's own model (its columns), resolved with `model`; `None` for others.
+    #[serde(skip)]
+    ouster: OnceLock<Option<Arc<OusterModel>>>,
 }
 
 impl PartialEq for SensorParams {
@@ -115,7 +120,8 @@ impl SensorParams {
             pose: None,
             ouster_columns: false,
             fields: None,
-            model: Some(Arc::new(model)),
+            model: OnceLock::from(Arc::new(model)),
+            ouster: OnceLock::from(None),
         }
     }
 
@@ -133,7 +139,7 @@ impl SensorParams {
 
     /// A calibration file (read now, once; the digest of the bytes read recorded).
     pub fn file(path: &Path, ring_order: RingOrder) -> Result<SensorParams> {
-        let (model, digest) = read_with_digest(path)?;
+        let (model, ouster, digest) = read_with_digest(path)?;
         Ok(SensorParams {
             source: SensorSource::File {
                 path: path.to_path_buf(),
@@ -145,7 +151,8 @@ impl SensorParams {
             pose: None,
             ouster_columns: false,
             fields: None,
-            model: Some(Arc::new(model)),
+            model: OnceLock::from(Arc::new(model)),
+            ouster: OnceLock::from(ouster.map(Arc::new)),
         })
     }
 
@@ -181,7 +188,7 @@ impl SensorParams {
             }
         };
         if self.ouster_columns {
-            of.columns = Some(model.ouster_format()?.columns(&model, points, &of.rows));
+            of.columns = Some(self.ouster_model()?.columns(points, &of.rows));
         }
         Ok(of)
     }
@@ -205,7 +212,7 @@ impl SensorParams {
     /// model is an Ouster metadata file's.
     pub fn with_ouster_columns(mut self) -> Result<SensorParams> {
         self.ouster_columns = true;
-        self.model()?.ouster_format()?;
+        self.ouster_model()?;
         Ok(self)
     }
 
@@ -215,27 +222,47 @@ impl SensorParams {
         if !self.ouster_columns {
             return Ok(());
         }
-        self.model()?.ouster_format()?.check_map(cols, fov)
+        self.ouster_model()?.check_map(cols, fov)
     }
 
     /// With Ouster columns, the sensor's columns per frame.
     pub fn own_columns(&self) -> Option<usize> {
-        let model = self.model.as_ref()?;
+        let ouster = self.ouster.get()?.as_ref()?;
         self.ouster_columns
-            .then(|| model.ouster.as_ref().map(|f| f.columns_per_frame))
-            .flatten()
+            .then_some(ouster.format.columns_per_frame)
     }
 
-    /// The resolved model (rebuilt where the params were read back: a built-in one from its
-    /// table, a file only while its content is the one recorded).
+    /// The resolved model (rebuilt once where the params were read back: a built-in one from
+    /// its table, a file only while its content is the one recorded).
     pub fn model(&self) -> Result<Arc<SensorModel>> {
-        if let Some(m) = &self.model {
+        if let Some(m) = self.model.get() {
             return Ok(m.clone());
         }
-        Ok(Arc::new(match &self.source {
-            SensorSource::Preset(s) => s.model_table(),
+        self.resolve()?;
+        Ok(self.model.get().expect("resolved").clone())
+    }
+
+    /// The Ouster unit's own model, which its columns need: an error unless the calibration is
+    /// an Ouster metadata file.
+    pub fn ouster_model(&self) -> Result<Arc<OusterModel>> {
+        if self.ouster.get().is_none() {
+            self.resolve()?;
+        }
+        self.ouster.get().cloned().flatten().ok_or_else(|| {
+            Error::Config(format!(
+                "Ouster columns need an Ouster metadata file (.json) as the sensor calibration; \
+                 {} has no Ouster frame layout",
+                self.name
+            ))
+        })
+    }
+
+    /// Resolves the model (and an Ouster unit's own) from `source`, once.
+    fn resolve(&self) -> Result<()> {
+        let (model, ouster) = match &self.source {
+            SensorSource::Preset(s) => (s.model_table(), None),
             SensorSource::File { path, digest } => {
-                let (model, now) = read_with_digest(path)?;
+                let (model, ouster, now) = read_with_digest(path)?;
                 if &now != digest {
                     return Err(Error::format(
                         path,
@@ -245,29 +272,56 @@ impl SensorParams {
                         ),
                     ));
                 }
-                model
+                (model, ouster)
             }
-        }))
+        };
+        // Another thread may have resolved it first: the same files, the same model.
+        let _ = self.model.set(Arc::new(model));
+        let _ = self.ouster.set(ouster.map(Arc::new));
+        Ok(())
     }
 }
 
-/// Reads a calibration file once, with the XXH3-64 digest (hex) of the bytes read
+/// Reads a calibration file once, as a beam model (and an Ouster unit's own model, from its
+/// metadata `.json`), with the XXH3-64 digest (hex) of the bytes read
 /// ([`crate::fs::recording`] fingerprints them).
-fn read_with_digest(path: &Path) -> Result<(SensorModel, String)> {
-    let (model, inputs) = crate::fs::recording(|| read_calibration(path));
-    let model = model?;
+fn read_with_digest(path: &Path) -> Result<(SensorModel, Option<OusterModel>, String)> {
+    let ouster = path.extension().is_some_and(|e| e == "json");
+    let (read, inputs) = crate::fs::recording(|| match ouster {
+        true => super::ouster::read_model(path).map(|m| (m.sensor.clone(), Some(m))),
+        false => read_calibration(path).map(|m| (m, None)),
+    });
+    let (model, ouster) = read?;
     let fingerprint = inputs
         .records()
         .iter()
         .find(|r| r.path == path)
         .and_then(|r| r.file)
         .expect("read_calibration reads its file through fs::read");
-    Ok((model, format!("{:016x}", fingerprint.xxh3)))
+    Ok((model, ouster, format!("{:016x}", fingerprint.xxh3)))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An Ouster unit's metadata gives its own model (its columns' tables built once), shared by
+    /// every frame; read back, the same.
+    #[test]
+    fn an_ouster_unit_s_own_model_is_resolved_once() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fixtures/lidars/ouster/OS-1-128_767798045_1024x10_20230712_120049.json");
+        let made = SensorParams::file(&path, RingOrder::BottomUp)
+            .unwrap()
+            .with_ouster_columns()
+            .unwrap();
+        assert_eq!(made.own_columns(), Some(1024));
+        let back: SensorParams =
+            serde_json::from_str(&serde_json::to_string(&made).unwrap()).unwrap();
+        let (a, b) = (back.ouster_model().unwrap(), back.ouster_model().unwrap());
+        assert!(Arc::ptr_eq(&a, &b) && a.sensor == *back.model().unwrap());
+        assert_eq!(*a, *made.ouster_model().unwrap());
+    }
 
     #[test]
     fn a_calibration_read_back_is_used_only_while_its_content_is_the_recorded_one() {
@@ -279,7 +333,11 @@ mod tests {
         let back: SensorParams = serde_json::from_str(&json).unwrap();
         assert_eq!(back, made);
         assert_eq!(back.model().unwrap().beams(), 2);
+        // Resolved once: every later use shares the model (and its tables).
+        assert!(Arc::ptr_eq(&back.model().unwrap(), &back.model().unwrap()));
+        assert!(back.ouster_model().is_err());
         std::fs::write(&path, "Laser id,Elevation,Azimuth\n1,3.0,0\n2,-2.0,0\n").unwrap();
+        let back: SensorParams = serde_json::from_str(&json).unwrap();
         let e = back.model().unwrap_err().to_string();
         assert!(e.contains("t.csv") && e.contains("changed since"), "{e}");
     }

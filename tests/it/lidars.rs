@@ -159,8 +159,8 @@ fn the_nuscenes_keyframe_has_its_ring_column_and_32_beams() {
 #[test]
 fn ouster_metadata_gives_the_beams_the_origin_offset_and_the_sensor_frame() {
     let path = lidars().join("ouster/OS-1-32-G_v2.1.1_1024x10.json");
-    let model = sensor::ouster::read(&path).unwrap();
-    let format = model.ouster_format().unwrap();
+    let ouster = sensor::ouster::read_model(&path).unwrap();
+    let (model, format) = (&ouster.sensor, &ouster.format);
     assert_eq!(model.name, "OS-1-32-G");
     assert_eq!(model.beams(), 32);
     assert_eq!(format.columns_per_frame, 1024);
@@ -189,8 +189,8 @@ fn ouster_columns_undo_the_sdk_s_lookup_table() {
     use kitti2pgm::geom::{na, Point3};
     let path =
         super::util::fixture("lidars/ouster/OS-1-128_767798045_1024x10_20230712_120049.json");
-    let model = sensor::ouster::read(&path).unwrap();
-    let format = model.ouster_format().unwrap();
+    let ouster = sensor::ouster::read_model(&path).unwrap();
+    let (model, format) = (&ouster.sensor, &ouster.format);
     let w = format.columns_per_frame;
     let n = model.beam_origin_offset;
     let (mut points, mut expected) = (Vec::new(), Vec::new());
@@ -214,7 +214,7 @@ fn ouster_columns_undo_the_sdk_s_lookup_table() {
     }
     let rows = model.assign(&points);
     assert_eq!(rows.off_model, 0);
-    let cols = format.columns(&model, &points, &rows.rows);
+    let cols = ouster.columns(&points, &rows.rows);
     let got: Vec<(u8, u16)> = rows.rows.into_iter().zip(cols).collect();
     assert_eq!(got, expected);
     assert!(

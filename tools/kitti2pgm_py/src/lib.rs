@@ -205,9 +205,13 @@ fn project<'py>(
     let (mut pts, intensity) = points_arg(points, "points", true)?;
     let n = pts.len();
     let mut rings = rings.map(|a| vec_arg::<u8>(a, "rings", n)).transpose()?;
-    let model = sensor
-        .as_deref()
-        .map(kitti2pgm::sensor::model_named_or_file)
+    // The sensor as `convert --sensor` resolves it: its beam model, and an Ouster unit's own.
+    let params = (sensor.as_deref())
+        .map(|s| kitti2pgm::sensor::SensorParams::named_or_file(s, Default::default()))
+        .transpose()
+        .map_err(py_err)?;
+    let model = (params.as_ref())
+        .map(kitti2pgm::sensor::SensorParams::model)
         .transpose()
         .map_err(py_err)?;
     let mut off_model = None;
@@ -237,7 +241,11 @@ fn project<'py>(
     }
     let own = match (&model, ouster_columns) {
         (_, false) => None,
-        (Some(m), true) => Some(m.ouster_format().map_err(py_err)?),
+        (Some(_), true) => Some(
+            (params.as_ref().expect("a model has its params"))
+                .ouster_model()
+                .map_err(py_err)?,
+        ),
         (None, true) => {
             return Err(PyValueError::new_err(
                 "ouster_columns needs the sensor: sensor=\"<unit's metadata>.json\"",
@@ -248,8 +256,10 @@ fn project<'py>(
     // per frame over a full turn (as `convert --ouster-columns`).
     let map = MapArgs {
         rows: map.rows.or(beams),
-        cols: map.cols.or(own.map(|f| f.columns_per_frame)),
-        fov_deg: map.fov_deg.or(own.map(|_| 360.0)),
+        cols: map
+            .cols
+            .or(own.as_ref().map(|f| f.format.columns_per_frame)),
+        fov_deg: map.fov_deg.or(own.as_ref().map(|_| 360.0)),
         ..map
     };
     let spec = spec_of(&map, None)?;
@@ -258,10 +268,10 @@ fn project<'py>(
         off_model = Some(assigned.off_model);
         rings = Some(assigned.rows);
     }
-    let columns = match (own, &model, &rings) {
-        (Some(f), Some(m), Some(r)) => {
+    let columns = match (own, &rings) {
+        (Some(f), Some(r)) => {
             f.check_map(spec.cols, spec.fov).map_err(py_err)?;
-            Some(py.detach(|| f.columns(m, &pts, r)))
+            Some(py.detach(|| f.columns(&pts, r)))
         }
         _ => None,
     };

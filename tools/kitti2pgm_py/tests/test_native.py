@@ -503,7 +503,8 @@ def test_every_reading_function_gives_the_same_points_of_one_file(tmp_path):
     """Issue 49: a KITTI .bin with two reflectances outside 0-1 gave 114,278 points through
     read_cloud and 114,276 through read_scan and the converter; KITTI's drop rule is now the one
     rule of its source, whichever function reads it."""
-    src = pathlib.Path(__file__).resolve().parents[3] / "fixtures/raw/2011_09_26/2011_09_26_drive_0001_sync/velodyne_points/data/0000000000.bin"
+    drive = pathlib.Path(__file__).resolve().parents[3] / "fixtures/raw/2011_09_26/2011_09_26_drive_0001_sync"
+    src = drive / "velodyne_points/data/0000000000.bin"
     raw = np.fromfile(src, dtype="<f4").reshape(-1, 4).copy()
     raw[100, 3], raw[2000, 3] = 1.5, -0.5
     path = tmp_path / "0000000000.bin"
