@@ -151,7 +151,7 @@ fn read_sequence_poses(
         read = read_or_note(c, C::Read, &pose_path, poses::read(&pose_path));
         r.inventory.poses = read.as_ref().map(Vec::len);
     }
-    let times = drive.dir.join("times.txt");
+    let times = drive.dir.join(crate::source::kitti::sequence::TIMES);
     if crate::fs::present(&times) {
         r.inventory.timestamps = read_or_note(c, C::Read, &times, poses::count_lines(&times));
     }

@@ -16,6 +16,7 @@ use super::{UnpackFailure, UnpackReport};
 use crate::error::{Error, Result};
 use crate::format::{atomic_write, create_dir, Durability};
 use crate::source::bag::{Bag, BagMessage, Lost, Next, Topic};
+use crate::source::kitti::sequence;
 use crate::source::pcd;
 use crate::source::pointcloud2::{PointCloud2, Stamp};
 use crate::source::unpacked::BAG_MARKER;
@@ -117,11 +118,8 @@ struct Unpacked {
 
 /// The sequence folder and its scan folder for `opts`.
 fn sequence_dirs(opts: &UnpackOptions) -> (PathBuf, PathBuf) {
-    let seq = opts
-        .out
-        .join("sequences")
-        .join(format!("{:02}", opts.sequence));
-    let scans = seq.join("velodyne");
+    let seq = sequence::sequence_dir(&opts.out, opts.sequence);
+    let scans = seq.join(sequence::SCANS);
     (seq, scans)
 }
 
@@ -137,7 +135,7 @@ fn existing_scans(dir: &Path) -> Result<Vec<PathBuf>> {
 }
 
 fn scan_path(scans: &Path, frame: u64) -> PathBuf {
-    scans.join(format!("{frame:06}.pcd"))
+    scans.join(sequence::frame_file(frame, "pcd"))
 }
 
 /// Decodes one message and writes its scan.

@@ -98,7 +98,11 @@ fn write_mark<T: Serialize>(mark: &T, seq: &Path, name: &str, d: Durability) -> 
 fn write_times(seq: &Path, stamps_ns: &[i64], d: Durability) -> Result<()> {
     let zero = stamps_ns.first().copied().unwrap_or(0);
     let times = crate::source::kitti::poses::times_text(stamps_ns.iter().map(|t| t - zero));
-    atomic_write(&seq.join("times.txt"), times.as_bytes(), d)
+    atomic_write(
+        &seq.join(crate::source::kitti::sequence::TIMES),
+        times.as_bytes(),
+        d,
+    )
 }
 
 /// Removes the files of an earlier unpack (`old`) that `keep` does not hold (a file already

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use super::{UnpackFailure, UnpackReport};
 use crate::error::{Error, Result};
 use crate::format::{atomic_write, create_dir, Durability};
+use crate::source::kitti::sequence;
 use crate::source::nuscenes::{Keyframe, NuScenes, Scene};
 use crate::source::unpacked::NUSCENES_MARKER;
 
@@ -84,7 +85,7 @@ impl UnpackReport for NuScenesSummary {
 
 /// The sequence folder of scene `s` under `out`.
 pub fn sequence_dir(out: &Path, s: &Scene) -> PathBuf {
-    out.join("sequences").join(format!("{:02}", s.number))
+    sequence::sequence_dir(out, s.number)
 }
 
 /// The scenes `opts` asks for (an unknown name is an error listing how many there are).
@@ -114,7 +115,7 @@ fn chosen<'a>(ds: &'a NuScenes, opts: &NuScenesOptions) -> Result<Vec<&'a Scene>
 /// The files of an earlier unpack in a sequence folder (scans and labels).
 fn existing(seq: &Path) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
-    for sub in ["velodyne", "labels"] {
+    for sub in [sequence::SCANS, sequence::LABELS] {
         let dir = seq.join(sub);
         if dir.exists() {
             out.extend(crate::fs::sorted_dir(&dir)?);
@@ -179,9 +180,9 @@ fn unpack_scene(
     create_dir(&seq)?;
     let mut index = scene_index(ds, s, &seq);
     write_index(&index, &seq, opts.durability)?;
-    create_dir(&seq.join("velodyne"))?;
+    create_dir(&seq.join(sequence::SCANS))?;
     if s.keyframes.iter().any(|k| k.labels.is_some()) {
-        create_dir(&seq.join("labels"))?;
+        create_dir(&seq.join(sequence::LABELS))?;
     }
     let done: Vec<Result<Written>> = s
         .keyframes
@@ -259,7 +260,7 @@ fn unpack_frame(k: &Keyframe, seq: &Path, i: usize, d: Durability) -> Result<Wri
         }
         None => None,
     };
-    let scan = seq.join("velodyne").join(format!("{i:06}.pcd.bin"));
+    let scan = (seq.join(sequence::SCANS)).join(sequence::frame_file(i as u64, "pcd.bin"));
     link_or_copy(&k.scan, &scan, d)?;
     let label = match classes {
         Some(classes) => {
@@ -267,7 +268,7 @@ fn unpack_frame(k: &Keyframe, seq: &Path, i: usize, d: Durability) -> Result<Wri
                 .iter()
                 .flat_map(|&c| u32::from(c).to_le_bytes())
                 .collect();
-            let out = seq.join("labels").join(format!("{i:06}.label"));
+            let out = (seq.join(sequence::LABELS)).join(sequence::frame_file(i as u64, "label"));
             atomic_write(&out, &raw, d)?;
             Some(out)
         }

@@ -102,7 +102,7 @@ fn discover_layout(root: &Path, source: Option<DatasetKind>) -> Result<Discovery
 }
 
 fn has_scans(d: &Path) -> bool {
-    d.join("velodyne").is_dir()
+    d.join(super::sequence::SCANS).is_dir()
 }
 
 /// Whether `dir` is a raw drive, a date folder, or holds date folders.
@@ -121,8 +121,8 @@ fn sequences(dir: &Path) -> Result<Vec<Drive>> {
     let folders = if has_scans(dir) {
         vec![dir.to_path_buf()]
     } else {
-        let parent = if dir.join("sequences").is_dir() {
-            dir.join("sequences")
+        let parent = if dir.join(super::sequence::SEQUENCES).is_dir() {
+            dir.join(super::sequence::SEQUENCES)
         } else {
             dir.to_path_buf()
         };
@@ -143,7 +143,7 @@ fn sequences(dir: &Path) -> Result<Vec<Drive>> {
 /// The object split at `dir`: itself when it holds `velodyne/` (and no `labels/`, which a
 /// sequence has), else `training/` or, without it, `testing/`.
 fn object_splits(dir: &Path) -> Vec<Drive> {
-    if has_scans(dir) && !dir.join("labels").is_dir() {
+    if has_scans(dir) && !dir.join(super::sequence::LABELS).is_dir() {
         return vec![Drive::object_split(dir)];
     }
     ["training", "testing"]

@@ -21,6 +21,7 @@ mod discover;
 pub mod object;
 pub mod oxts;
 pub mod poses;
+pub mod sequence;
 pub mod timestamps;
 pub mod tracklets;
 pub mod velodyne;
@@ -254,7 +255,7 @@ impl Drive {
     fn scan_dir(&self) -> PathBuf {
         match self.dataset {
             DatasetKind::Raw => self.dir.join("velodyne_points/data"),
-            _ => self.dir.join("velodyne"),
+            _ => self.dir.join(sequence::SCANS),
         }
     }
 
@@ -324,7 +325,7 @@ impl Drive {
     pub fn labels_without_scan(&self, scans: &[u32]) -> Result<Vec<PathBuf>> {
         let (dir, ext) = match self.dataset {
             DatasetKind::Raw => return Ok(Vec::new()),
-            DatasetKind::Sequence => (self.dir.join("labels"), "label"),
+            DatasetKind::Sequence => (self.dir.join(sequence::LABELS), "label"),
             DatasetKind::Object => (self.dir.join("label_2"), "txt"),
         };
         if !dir.is_dir() {
