@@ -51,13 +51,16 @@ pub enum BoxOrigin {
 }
 
 /// The order in which a format lists the box's sizes (full extents): length along the box's
-/// heading, width across it, height.
+/// own x (its heading), width along its y, height along its z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SizeOrder {
-    /// Length, width, height.
+    /// Length, width, height: the x, y, z extents.
     Lwh,
-    /// Height, width, length (KITTI's `h w l`).
+    /// Height, width, length (KITTI's `h w l`): the z, y, x extents.
     Hwl,
+    /// KITTI's fields `h w l` as Datumaro's exporter fills them (Datumaro issue #1578): the y,
+    /// x, z extents.
+    HwlSwapped,
 }
 
 /// The frame a format's boxes are given in.
@@ -132,6 +135,7 @@ impl BoxConvention {
         let [l, w, h] = match self.sizes {
             SizeOrder::Lwh => sizes,
             SizeOrder::Hwl => [sizes[2], sizes[1], sizes[0]],
+            SizeOrder::HwlSwapped => [sizes[1], sizes[0], sizes[2]],
         };
         match self.frame {
             BoxFrame::Scan => self.place_in_scan(position, [l, w, h], rotation, to_scan),

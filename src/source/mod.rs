@@ -11,6 +11,7 @@
 //! where the data has a ring / channel / laser id field. Which beam each point
 //! belongs to without such a field is the sensor model's job ([`crate::sensor`]).
 
+pub mod annotations;
 pub mod bag;
 pub mod bin;
 pub mod boxes;

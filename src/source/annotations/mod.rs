@@ -1,0 +1,212 @@
+//! READ: the 3D box annotations that labelling tools export, one reader a format: [`cvat_kitti`]
+//! (CVAT's "Kitti Raw Format 1.0", through Datumaro), [`supervisely`] (the Supervisely point
+//! cloud format, also CVAT's "Sly Point Cloud"), [`sustechpoints`] (SUSTechPOINTS' `label/`
+//! files).
+//!
+//! Each reader says what its files say, as [`AnnotatedBox`]es in the scan's frame placed by the
+//! format's [`BoxConvention`](super::boxes::BoxConvention) (written down in docs/sources.md with
+//! where it was taken from), each frame keyed by the name of the scan it annotates (its file
+//! stem: a scan is found by name, never by position). Turning a box into a class is
+//! [`crate::label`]'s rule. A box that cannot be a box (a size that is not a positive finite
+//! number of at most [`MAX_BOX_EXTENT_M`](crate::geom::MAX_BOX_EXTENT_M), a position or angle
+//! that is not finite), an object id twice in one frame, or an empty or malformed file is an
+//! error naming the file and the object.
+
+pub mod cvat_kitti;
+pub mod supervisely;
+pub mod sustechpoints;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::boxes::{AnnotatedBox, BoxOrigin, SizeOrder};
+use crate::error::{Error, Result};
+
+/// A box annotation format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum BoxFormat {
+    /// CVAT's "Kitti Raw Format 1.0" export (Datumaro's `kitti_raw`): `tracklet_labels.xml`
+    /// beside `velodyne_points/data/*.pcd`, with `frame_list.txt`.
+    CvatKittiRaw,
+    /// The Supervisely point cloud format (CVAT's "Sly Point Cloud"): `<dataset>/ann/*.pcd.json`.
+    Supervisely,
+    /// SUSTechPOINTS: `label/<frame>.json` beside `lidar/<frame>.pcd`.
+    SusTechPoints,
+}
+
+crate::named_enum!(BoxFormat, "box format", [
+    CvatKittiRaw => "cvat-kitti-raw" ["cvat", "kitti-raw"] "CVAT's Kitti Raw Format 1.0: tracklet_labels.xml (box centre, Datumaro's size order)",
+    Supervisely => "supervisely" ["sly", "sly-pointcloud"] "Supervisely point cloud: <dataset>/ann/<scan>.pcd.json cuboid_3d figures",
+    SusTechPoints => "sustechpoints" ["sustech"] "SUSTechPOINTS: label/<frame>.json (psr: position, scale, rotation)",
+]);
+
+/// How to read a format whose files leave a convention open (CVAT's tracklets: where the
+/// position sits, the order of the sizes); `None` takes the format's own default.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Where the position sits on the box.
+    pub origin: Option<BoxOrigin>,
+    /// The order of the sizes.
+    pub sizes: Option<CvatSizes>,
+}
+
+/// The order of a CVAT tracklet file's `h`, `w`, `l` along the box's own x, y, z.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CvatSizes {
+    /// Datumaro's exporter (and CVAT through it): `w`, `h`, `l` are the cuboid's x, y, z
+    /// extents (Datumaro issue #1578).
+    Datumaro,
+    /// KITTI's own: `l` along x, `w` along y, `h` along z.
+    Kitti,
+}
+
+crate::named_enum!(CvatSizes, "size order", [
+    Datumaro => "datumaro" [] "w, h, l are the box's x, y, z extents (CVAT's exports through Datumaro)",
+    Kitti => "kitti" [] "l, w, h are the box's x, y, z extents (KITTI's own tracklets)",
+]);
+
+impl CvatSizes {
+    /// The order as a [`SizeOrder`] of the file's `h w l` triple.
+    pub fn of_hwl(self) -> SizeOrder {
+        match self {
+            CvatSizes::Datumaro => SizeOrder::HwlSwapped,
+            CvatSizes::Kitti => SizeOrder::Hwl,
+        }
+    }
+}
+
+/// The boxes of one annotated frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnnotatedFrame {
+    /// The scan it annotates, by name (the scan file's stem: `000042`, `frame1`).
+    pub scan: String,
+    /// The file the boxes were read from.
+    pub file: PathBuf,
+    /// The boxes, in the file's order, in the scan's frame.
+    pub boxes: Vec<AnnotatedBox>,
+}
+
+/// An export as read: its frames by scan name, and its tracks (a box's `track` indexes
+/// `tracks`: the tool's own id of the object).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Annotations {
+    /// The format read.
+    pub format: BoxFormat,
+    /// The annotated frames, by scan name.
+    pub frames: BTreeMap<String, AnnotatedFrame>,
+    /// The tool's id of every track, by track index.
+    pub tracks: Vec<String>,
+}
+
+impl Annotations {
+    /// Boxes in all frames.
+    pub fn boxes(&self) -> usize {
+        self.frames.values().map(|f| f.boxes.len()).sum()
+    }
+}
+
+/// Reads the export at `path` as `format`. A path that holds another format's files is an error
+/// that names the format it looks like.
+pub fn read(path: &Path, format: BoxFormat, opts: &ReadOptions) -> Result<Annotations> {
+    let read = match format {
+        BoxFormat::CvatKittiRaw => cvat_kitti::read(path, opts),
+        BoxFormat::Supervisely => supervisely::read(path),
+        BoxFormat::SusTechPoints => sustechpoints::read(path),
+    };
+    read.map_err(|e| match detect(path) {
+        Some(other) if other != format => Error::Input {
+            path: path.into(),
+            message: format!("not a {format} export: it looks like {other} ({e})"),
+        },
+        _ => e,
+    })
+}
+
+/// The format the export at `path` looks like, from its files' names and first bytes.
+pub fn detect(path: &Path) -> Option<BoxFormat> {
+    if cvat_kitti::looks_like(path) {
+        return Some(BoxFormat::CvatKittiRaw);
+    }
+    if supervisely::looks_like(path) {
+        return Some(BoxFormat::Supervisely);
+    }
+    sustechpoints::looks_like(path).then_some(BoxFormat::SusTechPoints)
+}
+
+/// Interns the tool's object ids as track indices, in the order first seen.
+#[derive(Debug, Default)]
+struct Tracks {
+    ids: Vec<String>,
+    index: std::collections::HashMap<String, usize>,
+}
+
+impl Tracks {
+    /// The track of the tool's id `id`.
+    fn of(&mut self, id: &str) -> usize {
+        if let Some(&i) = self.index.get(id) {
+            return i;
+        }
+        self.ids.push(id.to_string());
+        self.index.insert(id.to_string(), self.ids.len() - 1);
+        self.ids.len() - 1
+    }
+}
+
+/// Checks a box's numbers as a file gives them: a finite position and rotation, sizes that are
+/// positive finite numbers of at most [`MAX_BOX_EXTENT_M`](crate::geom::MAX_BOX_EXTENT_M) (the
+/// same rule as KITTI's tracklets); `what` names the object in the error.
+fn check_box(
+    file: &Path,
+    what: &str,
+    position: [f64; 3],
+    sizes: [f64; 3],
+    angles: &[f64],
+) -> Result<()> {
+    let bad = |message: String| Error::format(file, format!("{what}: {message}"));
+    if let Some(v) = position.iter().find(|v| !v.is_finite() || v.abs() > 1e6) {
+        return Err(bad(format!(
+            "position {v} is not a finite number of at most 1e6 m"
+        )));
+    }
+    if let Some(v) = angles.iter().find(|v| !v.is_finite()) {
+        return Err(bad(format!("rotation {v} is not finite")));
+    }
+    crate::geom::check_box_extents(&sizes, ["x", "y", "z"]).map_err(bad)
+}
+
+/// A number at `key` of a JSON object `v`, or an error naming `what` and the key.
+fn number(v: &serde_json::Value, key: &str, file: &Path, what: &str) -> Result<f64> {
+    v.get(key)
+        .and_then(serde_json::Value::as_f64)
+        .ok_or_else(|| Error::format(file, format!("{what}: no number at \"{key}\"")))
+}
+
+/// An `{x, y, z}` JSON object's three numbers.
+fn xyz(v: Option<&serde_json::Value>, key: &str, file: &Path, what: &str) -> Result<[f64; 3]> {
+    let v = v.ok_or_else(|| Error::format(file, format!("{what}: no \"{key}\"")))?;
+    let w = |k: &str| number(v, k, file, &format!("{what} {key}"));
+    Ok([w("x")?, w("y")?, w("z")?])
+}
+
+/// Reads a JSON file (a regular file of at most the text limit).
+fn read_json(file: &Path) -> Result<serde_json::Value> {
+    let text = crate::fs::read_text(file, crate::fs::Limit::Text)?;
+    if text.trim().is_empty() {
+        return Err(Error::format(file, "empty file (no JSON)"));
+    }
+    serde_json::from_str(&text).map_err(|e| Error::NotFormat {
+        path: file.into(),
+        format: "JSON",
+        detail: e.to_string(),
+    })
+}
+
+/// The rotation matrix of Euler angles applied as `Rx(x) * Ry(y) * Rz(z)` (three.js's `XYZ`
+/// order, SUSTechPOINTS' `euler_angle_to_rotate_matrix`).
+fn rotation_xyz([x, y, z]: [f64; 3]) -> crate::geom::na::Matrix3<f64> {
+    use crate::geom::na::{Rotation3, Vector3};
+    let r = |axis: Vector3<f64>, a: f64| {
+        *Rotation3::from_axis_angle(&crate::geom::na::Unit::new_normalize(axis), a).matrix()
+    };
+    r(Vector3::x(), x) * r(Vector3::y(), y) * r(Vector3::z(), z)
+}
