@@ -253,6 +253,64 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
     Ok(LabelBox::of(&geometry, class, instance))
 }
 
+/// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely" or "sustechpoints";
+/// for CVAT's, origin="centre"|"bottom" and sizes="datumaro"|"kitti", its defaults centre and
+/// datumaro): a dict with format, tracks (the tool's id of every track, by track index) and
+/// frames ({scan name: {"file": path, "boxes": [box dicts]}}), each box with class_name (as the
+/// file writes it), track, centre, size (full x, y, z extents) and rotation (3x3, box to scan):
+/// the form `label_points` takes once a "class" is set.
+#[pyfunction]
+#[pyo3(signature = (path, format, *, origin=None, sizes=None))]
+fn read_boxes<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    format: &str,
+    origin: Option<&str>,
+    sizes: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use kitti2pgm::source::annotations::{self, BoxFormat, CvatSizes, ReadOptions};
+    use kitti2pgm::source::boxes::BoxOrigin;
+    let format = crate::named::<BoxFormat>("format", format)?;
+    let origin = match origin {
+        None => None,
+        Some("centre" | "center") => Some(BoxOrigin::Centre),
+        Some("bottom") => Some(BoxOrigin::BottomCentre),
+        Some(o) => {
+            return Err(PyValueError::new_err(format!(
+                "origin must be \"centre\" or \"bottom\", not {o:?}"
+            )))
+        }
+    };
+    let sizes = sizes
+        .map(|s| crate::named::<CvatSizes>("sizes", s))
+        .transpose()?;
+    let opts = ReadOptions { origin, sizes };
+    let a = py
+        .detach(|| annotations::read(&path, format, &opts))
+        .map_err(py_err)?;
+    let frames = PyDict::new(py);
+    for (scan, f) in &a.frames {
+        let boxes = PyList::empty(py);
+        for b in &f.boxes {
+            let d = box_dict(py, &LabelBox::of(&b.geometry, 0, 0))?;
+            d.del_item("class")?;
+            d.del_item("instance")?;
+            d.set_item("class_name", &b.class_name)?;
+            d.set_item("track", b.track)?;
+            boxes.append(d)?;
+        }
+        let fd = PyDict::new(py);
+        fd.set_item("file", f.file.to_string_lossy())?;
+        fd.set_item("boxes", boxes)?;
+        frames.set_item(scan, fd)?;
+    }
+    let d = PyDict::new(py);
+    d.set_item("format", a.format.as_str())?;
+    d.set_item("tracks", &a.tracks)?;
+    d.set_item("frames", frames)?;
+    Ok(d)
+}
+
 /// A box as a dict (the form `label_points` takes).
 pub(crate) fn box_dict<'py>(py: Python<'py>, b: &LabelBox) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
@@ -365,6 +423,7 @@ pub fn write_point_predictions(
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_scan, m)?)?;
     m.add_function(wrap_pyfunction!(read_cloud, m)?)?;
+    m.add_function(wrap_pyfunction!(read_boxes, m)?)?;
     m.add_function(wrap_pyfunction!(read_point_labels, m)?)?;
     m.add_function(wrap_pyfunction!(read_calibration, m)?)?;
     m.add_function(wrap_pyfunction!(read_frame_calibration, m)?)?;

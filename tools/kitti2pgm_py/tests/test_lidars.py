@@ -124,3 +124,53 @@ def test_dataset_reads_flat_bin_scans_of_a_declared_layout(tmp_path):
         k2.Dataset(tmp_path, fields=fields, all_frames=True)
     with pytest.raises(ValueError, match="unknown type"):
         k2.Dataset(tmp_path, sensor="vlp16", fields="x,y,z:f16", all_frames=True)
+
+
+def _rx_ry_rz(a):
+    x, y, z = a
+    rx = np.array([[1, 0, 0], [0, np.cos(x), -np.sin(x)], [0, np.sin(x), np.cos(x)]])
+    ry = np.array([[np.cos(y), 0, np.sin(y)], [0, 1, 0], [-np.sin(y), 0, np.cos(y)]])
+    rz = np.array([[np.cos(z), -np.sin(z), 0], [np.sin(z), np.cos(z), 0], [0, 0, 1]])
+    return rx @ ry @ rz
+
+
+def test_read_boxes_gives_sustechpoints_boxes_that_label_points_as_numpy_does(tmp_path):
+    """Issue 46: a SUSTechPOINTS label file (psr: centre, full extents, Euler x, y, z applied
+    Rx Ry Rz) read by read_boxes; its boxes label the real VLP-16 scan's points as a numpy
+    reference of the convention does, point for point (off the faces)."""
+    import json
+
+    scene = tmp_path / "scene"
+    (scene / "label").mkdir(parents=True)
+    (scene / "lidar").mkdir()
+    boxes = [([-0.6, 0.0, 0.1], [2.0, 1.6, 1.2], [0.2, -0.1, 0.6]),
+             ([-7.0, 0.0, 0.5], [4.0, 6.0, 3.0], [0.0, 0.0, 0.3])]
+    objs = [{"obj_type": "Car", "obj_id": str(i), "psr": {k: dict(zip("xyz", v)) for k, v in
+            zip(("position", "scale", "rotation"), b)}} for i, b in enumerate(boxes)]
+    (scene / "label" / "000000.json").write_text(json.dumps(objs))
+    got = k2.read_boxes(str(scene), "sustechpoints")
+    assert got["format"] == "sustechpoints" and got["tracks"] == ["0", "1"]
+    frame = got["frames"]["000000"]
+    assert frame["file"].endswith("000000.json")
+    pts = k2.read_cloud(str(REPO / "fixtures/own_lidar/sequences/00/velodyne/000000.pcd"))["points"][:, :3]
+    want = np.zeros(len(pts), np.uint16)
+    edge = np.zeros(len(pts), bool)
+    for i, (c, s, r) in enumerate(boxes):
+        b = frame["boxes"][i]
+        rot = _rx_ry_rz(r)
+        assert b["class_name"] == "Car" and b["track"] == i
+        assert np.allclose(b["centre"], c, atol=1e-5) and np.allclose(b["size"], s, atol=1e-5)
+        assert np.allclose(b["rotation"], rot, atol=1e-6)
+        q = (pts.astype(np.float64) - c) @ rot
+        margin = (np.asarray(s) / 2 - np.abs(q)).min(axis=1)
+        edge |= np.abs(margin) < 1e-3
+        want[(margin >= 0) & (want == 0)] = i + 1
+        b["class"] = 1
+        b["instance"] = i + 1
+    _, inst = k2.label_points(pts, frame["boxes"])
+    assert (want > 0).sum() > 100
+    assert np.array_equal(inst[~edge], want[~edge])
+    with pytest.raises(ValueError, match="looks like sustechpoints"):
+        k2.read_boxes(str(scene), "supervisely")
+    with pytest.raises(ValueError, match="format must be a known name"):
+        k2.read_boxes(str(scene), "labelme")
