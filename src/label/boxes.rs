@@ -1,4 +1,4 @@
-//! LABEL: which box each velodyne point falls in.
+//! LABEL: which box each point of a scan falls in.
 //!
 //! [`LabelBox`] turns a box ([`Box3`], in the scan's frame) into a parry [`Cuboid`] (half
 //! extents) with a centred pose;
@@ -31,7 +31,7 @@ pub struct LabelBox {
     pub instance: u16,
     /// The box in its own frame (half extents l/2, w/2, h/2).
     pub cuboid: Cuboid,
-    /// Box frame to velodyne frame; the origin is the box centre.
+    /// Box frame to the scan's frame; the origin is the box centre.
     pub pose: Iso3,
 }
 
@@ -51,7 +51,7 @@ impl LabelBox {
         8.0 * self.cuboid.half_extents.product()
     }
 
-    /// Whether `p` (velodyne frame) is inside the box, boundaries included.
+    /// Whether `p` (the scan's frame) is inside the box, boundaries included.
     pub fn contains(&self, p: &Point3) -> bool {
         self.cuboid.contains_point(&self.pose, p)
     }
@@ -89,7 +89,7 @@ struct Prepared {
     /// Velodyne frame to box frame, with the rotation as a matrix (cheaper per point than the
     /// quaternion of the box pose).
     velo_to_box: na::IsometryMatrix3<Real>,
-    /// Axis-aligned bounds in the velodyne frame: a cheap reject before parry's test.
+    /// Axis-aligned bounds in the scan's frame: a cheap reject before parry's test.
     mins: Point3,
     maxs: Point3,
 }

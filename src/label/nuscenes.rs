@@ -33,9 +33,10 @@ const CLASSES: [(&str, [u8; 3], &[u32], u32); 17] = [
 
 impl ClassMap {
     /// nuScenes-lidarseg's benchmark map (`nuscenes`): raw ids are the 32 general classes
-    /// ([`GENERAL_CLASSES`]), classes the 16 of the benchmark plus 0 `ignore` (noise, animal,
-    /// personal mobility, stroller, wheelchair, debris, pushable / pullable, bicycle rack,
-    /// ambulance, police vehicle, static other, ego vehicle), which is not scored. The mean IoU
+    /// ([`NUSCENES_GENERAL_CLASSES`](crate::source::dataset::NUSCENES_GENERAL_CLASSES)),
+    /// classes the 16 of the benchmark plus 0 `ignore` (noise, animal, personal mobility,
+    /// stroller, wheelchair, debris, pushable / pullable, bicycle rack, ambulance, police
+    /// vehicle, static other, ego vehicle), which is not scored. The mean IoU
     /// leaves out a class absent from truth and prediction (the devkit's `nanmean`).
     pub fn nuscenes() -> ClassMap {
         let mut learning_map: BTreeMap<u32, u8> = (0..32).map(|raw| (raw, 0)).collect();
