@@ -8,7 +8,7 @@ use std::path::Path;
 
 use kitti2pgm::geom::Point3;
 use kitti2pgm::label::{label_boxes, ClassMap, Labeller};
-use kitti2pgm::source::annotations::{self, BoxFormat, CvatSizes, ReadOptions};
+use kitti2pgm::source::annotations::{self, AngleUnit, BoxFormat, CvatSizes, ReadOptions};
 use kitti2pgm::source::boxes::BoxOrigin;
 
 use super::util::{fixture, tmp};
@@ -218,6 +218,60 @@ fn supervisely_labels_the_points_its_cuboids_hold() {
         .collect();
     let points = scan();
     assert_same(&labelled(&a, "000000", &points), reference(&points, &refs));
+}
+
+#[test]
+fn labelcloud_labels_the_points_its_boxes_hold_in_degrees_by_default() {
+    let t = tmp();
+    let labels = t.path().join("project/labels");
+    std::fs::create_dir_all(&labels).unwrap();
+    std::fs::write(
+        labels.join("_classes.json"),
+        br#"{"classes": [{"name": "car", "id": 0}]}"#,
+    )
+    .unwrap();
+    let boxes = test_boxes();
+    // As the tool writes a label (centroid_abs): degrees, dimensions length / width / height.
+    let write = |to_unit: f64| {
+        let objects: Vec<_> = (boxes.iter())
+            .map(|(c, s, r)| {
+                serde_json::json!({"name": "car", "centroid": obj(*c),
+                    "dimensions": {"length": s[0], "width": s[1], "height": s[2]},
+                    "rotations": obj(r.map(|a| a * to_unit))})
+            })
+            .collect();
+        let label = serde_json::json!({"folder": "pointclouds", "filename": "000000.pcd",
+            "path": "pointclouds/000000.pcd", "objects": objects});
+        std::fs::write(labels.join("000000.json"), label.to_string()).unwrap();
+    };
+    let refs: Vec<RefBox> = (boxes.iter().enumerate())
+        .map(|(i, (c, s, r))| RefBox {
+            c: *c,
+            half: s.map(|v| v / 2.0),
+            r: rz_ry_rx(*r),
+            instance: i as u16 + 1,
+        })
+        .collect();
+    let points = scan();
+    let root = t.path().join("project");
+    write(180.0 / std::f64::consts::PI);
+    let a = annotations::read(&root, BoxFormat::LabelCloud, &ReadOptions::default()).unwrap();
+    assert_eq!(annotations::detect(&root), Some(BoxFormat::LabelCloud));
+    assert_same(&labelled(&a, "000000", &points), reference(&points, &refs));
+    // centroid_rel: radians, read with the option; read as degrees, the labels change.
+    write(1.0);
+    let radians = ReadOptions {
+        angles: Some(AngleUnit::Radians),
+        ..Default::default()
+    };
+    let a = annotations::read(&root, BoxFormat::LabelCloud, &radians).unwrap();
+    let got = labelled(&a, "000000", &points);
+    assert_same(&got, reference(&points, &refs));
+    let a = annotations::read(&root, BoxFormat::LabelCloud, &ReadOptions::default()).unwrap();
+    assert!(
+        labelled(&a, "000000", &points) != got,
+        "the unit changes the labels"
+    );
 }
 
 /// A CVAT Kitti Raw export of the boxes (yaw only, as CVAT's cuboids): tracklet XML with

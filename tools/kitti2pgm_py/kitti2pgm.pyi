@@ -91,7 +91,12 @@ def label_points(
 def read_scan(path: _Path, *, with_file_index: bool = False) -> Any: ...
 def read_cloud(path: _Path, *, fields: Optional[str] = None) -> Dict[str, Any]: ...
 def read_boxes(
-    path: _Path, format: str, *, origin: Optional[str] = None, sizes: Optional[str] = None
+    path: _Path,
+    format: str,
+    *,
+    origin: Optional[str] = None,
+    sizes: Optional[str] = None,
+    angles: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def bag_topics(path: _Path) -> List[Dict[str, Any]]: ...
 

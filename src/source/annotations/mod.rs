@@ -1,7 +1,7 @@
 //! READ: the 3D box annotations that labelling tools export, one reader a format: [`cvat_kitti`]
 //! (CVAT's "Kitti Raw Format 1.0", through Datumaro), [`supervisely`] (the Supervisely point
 //! cloud format, also CVAT's "Sly Point Cloud"), [`sustechpoints`] (SUSTechPOINTS' `label/`
-//! files).
+//! files), [`labelcloud`] (labelCloud's centroid formats).
 //!
 //! Each reader says what its files say, as [`AnnotatedBox`]es in the scan's frame placed by the
 //! format's [`BoxConvention`](super::boxes::BoxConvention) (written down in docs/sources.md with
@@ -13,6 +13,7 @@
 //! error naming the file and the object.
 
 pub mod cvat_kitti;
+pub mod labelcloud;
 pub mod supervisely;
 pub mod sustechpoints;
 
@@ -32,12 +33,15 @@ pub enum BoxFormat {
     Supervisely,
     /// SUSTechPOINTS: `label/<frame>.json` beside `lidar/<frame>.pcd`.
     SusTechPoints,
+    /// labelCloud's `centroid_abs` / `centroid_rel`: `labels/<point cloud>.json`.
+    LabelCloud,
 }
 
 crate::named_enum!(BoxFormat, "box format", [
     CvatKittiRaw => "cvat-kitti-raw" ["cvat", "kitti-raw"] "CVAT's Kitti Raw Format 1.0: tracklet_labels.xml (box centre, Datumaro's size order)",
     Supervisely => "supervisely" ["sly", "sly-pointcloud"] "Supervisely point cloud: <dataset>/ann/<scan>.pcd.json cuboid_3d figures",
     SusTechPoints => "sustechpoints" ["sustech"] "SUSTechPOINTS: label/<frame>.json (psr: position, scale, rotation)",
+    LabelCloud => "labelcloud" ["label-cloud"] "labelCloud's centroid formats: labels/<point cloud>.json (degrees by default)",
 ]);
 
 /// How to read a format whose files leave a convention open (CVAT's tracklets: where the
@@ -48,7 +52,24 @@ pub struct ReadOptions {
     pub origin: Option<BoxOrigin>,
     /// The order of the sizes.
     pub sizes: Option<CvatSizes>,
+    /// The unit of the angles (labelCloud's: degrees in `centroid_abs`, radians in
+    /// `centroid_rel`).
+    pub angles: Option<AngleUnit>,
 }
+
+/// The unit a format's angles are written in, where the files do not say it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AngleUnit {
+    /// Degrees (labelCloud's `centroid_abs`, its default).
+    Degrees,
+    /// Radians (labelCloud's `centroid_rel`).
+    Radians,
+}
+
+crate::named_enum!(AngleUnit, "angle unit", [
+    Degrees => "degrees" ["deg"] "degrees (labelCloud's centroid_abs, its default)",
+    Radians => "radians" ["rad"] "radians (labelCloud's centroid_rel)",
+]);
 
 /// The order of a CVAT tracklet file's `h`, `w`, `l` along the box's own x, y, z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -112,6 +133,7 @@ pub fn read(path: &Path, format: BoxFormat, opts: &ReadOptions) -> Result<Annota
         BoxFormat::CvatKittiRaw => cvat_kitti::read(path, opts),
         BoxFormat::Supervisely => supervisely::read(path),
         BoxFormat::SusTechPoints => sustechpoints::read(path),
+        BoxFormat::LabelCloud => labelcloud::read(path, opts),
     };
     read.map_err(|e| match detect(path) {
         Some(other) if other != format => Error::Input {
@@ -130,7 +152,10 @@ pub fn detect(path: &Path) -> Option<BoxFormat> {
     if supervisely::looks_like(path) {
         return Some(BoxFormat::Supervisely);
     }
-    sustechpoints::looks_like(path).then_some(BoxFormat::SusTechPoints)
+    if sustechpoints::looks_like(path) {
+        return Some(BoxFormat::SusTechPoints);
+    }
+    labelcloud::looks_like(path).then_some(BoxFormat::LabelCloud)
 }
 
 /// Interns the tool's object ids as track indices, in the order first seen.

@@ -253,22 +253,23 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
     Ok(LabelBox::of(&geometry, class, instance))
 }
 
-/// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely" or "sustechpoints";
-/// for CVAT's, origin="centre"|"bottom" and sizes="datumaro"|"kitti", its defaults centre and
-/// datumaro): a dict with format, tracks (the tool's id of every track, by track index) and
+/// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely", "sustechpoints" or
+/// "labelcloud"; for CVAT's, origin="centre"|"bottom" and sizes="datumaro"|"kitti", its
+/// defaults centre and datumaro; for labelCloud's, angles="degrees"|"radians", degrees): a dict with format, tracks (the tool's id of every track, by track index) and
 /// frames ({scan name: {"file": path, "boxes": [box dicts]}}), each box with class_name (as the
 /// file writes it), track, centre, size (full x, y, z extents) and rotation (3x3, box to scan):
 /// the form `label_points` takes once a "class" is set.
 #[pyfunction]
-#[pyo3(signature = (path, format, *, origin=None, sizes=None))]
+#[pyo3(signature = (path, format, *, origin=None, sizes=None, angles=None))]
 fn read_boxes<'py>(
     py: Python<'py>,
     path: PathBuf,
     format: &str,
     origin: Option<&str>,
     sizes: Option<&str>,
+    angles: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use kitti2pgm::source::annotations::{self, BoxFormat, CvatSizes, ReadOptions};
+    use kitti2pgm::source::annotations::{self, AngleUnit, BoxFormat, CvatSizes, ReadOptions};
     use kitti2pgm::source::boxes::BoxOrigin;
     let format = crate::named::<BoxFormat>("format", format)?;
     let origin = match origin {
@@ -284,7 +285,14 @@ fn read_boxes<'py>(
     let sizes = sizes
         .map(|s| crate::named::<CvatSizes>("sizes", s))
         .transpose()?;
-    let opts = ReadOptions { origin, sizes };
+    let angles = angles
+        .map(|s| crate::named::<AngleUnit>("angles", s))
+        .transpose()?;
+    let opts = ReadOptions {
+        origin,
+        sizes,
+        angles,
+    };
     let a = py
         .detach(|| annotations::read(&path, format, &opts))
         .map_err(py_err)?;
