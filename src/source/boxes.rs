@@ -26,6 +26,16 @@ impl Box3 {
     pub fn centre(&self) -> Point3 {
         Point3::from(self.pose.translation.vector)
     }
+
+    /// The box carried by the rigid motion `motion` (a box given in a vehicle frame, into the
+    /// sensor's: the inverse of the sensor's pose), composed in double precision.
+    pub fn moved(&self, motion: &na::Isometry3<f64>) -> Box3 {
+        let pose = motion * self.pose.cast::<f64>();
+        Box3 {
+            pose: pose.cast::<Real>(),
+            half_extents: self.half_extents,
+        }
+    }
 }
 
 /// A box as an annotation holds it: its geometry, its class name as the file writes it (a

@@ -274,6 +274,50 @@ fn labelcloud_labels_the_points_its_boxes_hold_in_degrees_by_default() {
     );
 }
 
+/// Boxes drawn in a vehicle frame (the sensor 1.2 m forward, 1.5 m up, turned 10 degrees):
+/// read with the inverse of the sensor's pose, they label the scan as the same boxes in the
+/// scan's frame do.
+#[test]
+fn boxes_of_a_vehicle_frame_are_brought_into_the_scan_s() {
+    use kitti2pgm::geom::na;
+    let t = tmp();
+    let labels = t.path().join("labels");
+    std::fs::create_dir_all(&labels).unwrap();
+    let yaw = 10f64.to_radians();
+    let sensor = na::Isometry3::new(na::Vector3::new(1.2, 0.0, 1.5), na::Vector3::z() * yaw);
+    let boxes: Vec<_> = (test_boxes().into_iter())
+        .map(|(c, s, r)| (c, s, [0.0, 0.0, r[2]]))
+        .collect();
+    let objects: Vec<_> = (boxes.iter())
+        .map(|(c, s, r)| {
+            let v = sensor * na::Point3::new(c[0], c[1], c[2]);
+            serde_json::json!({"name": "car", "centroid": obj([v.x, v.y, v.z]),
+                "dimensions": {"length": s[0], "width": s[1], "height": s[2]},
+                "rotations": obj([0.0, 0.0, (r[2] + yaw).to_degrees()])})
+        })
+        .collect();
+    let label = serde_json::json!({ "objects": objects });
+    std::fs::write(labels.join("000000.json"), label.to_string()).unwrap();
+    let opts = ReadOptions {
+        to_scan: Some(sensor.inverse()),
+        ..Default::default()
+    };
+    let a = annotations::read(&labels, BoxFormat::LabelCloud, &opts).unwrap();
+    let refs: Vec<RefBox> = (boxes.iter().enumerate())
+        .map(|(i, (c, s, r))| RefBox {
+            c: *c,
+            half: s.map(|v| v / 2.0),
+            r: rz_ry_rx(*r),
+            instance: i as u16 + 1,
+        })
+        .collect();
+    let points = scan();
+    let moved = labelled(&a, "000000", &points);
+    assert_same(&moved, reference(&points, &refs));
+    let unmoved = annotations::read(&labels, BoxFormat::LabelCloud, &Default::default()).unwrap();
+    assert!(labelled(&unmoved, "000000", &points) != moved);
+}
+
 /// A CVAT Kitti Raw export of the boxes (yaw only, as CVAT's cuboids): tracklet XML with
 /// `frame_list.txt`; `sizes` written in Datumaro's order, positions at the centres.
 fn cvat_export(dir: &Path, boxes: &[([f64; 3], [f64; 3], [f64; 3])]) {

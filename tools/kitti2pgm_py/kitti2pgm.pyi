@@ -97,6 +97,7 @@ def read_boxes(
     origin: Optional[str] = None,
     sizes: Optional[str] = None,
     angles: Optional[str] = None,
+    sensor_pose: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def bag_topics(path: _Path) -> List[Dict[str, Any]]: ...
 

@@ -46,7 +46,7 @@ crate::named_enum!(BoxFormat, "box format", [
 
 /// How to read a format whose files leave a convention open (CVAT's tracklets: where the
 /// position sits, the order of the sizes); `None` takes the format's own default.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ReadOptions {
     /// Where the position sits on the box.
     pub origin: Option<BoxOrigin>,
@@ -55,6 +55,10 @@ pub struct ReadOptions {
     /// The unit of the angles (labelCloud's: degrees in `centroid_abs`, radians in
     /// `centroid_rel`).
     pub angles: Option<AngleUnit>,
+    /// The motion from the frame the boxes are given in to the scan's (boxes drawn in a
+    /// vehicle frame: the inverse of the sensor's pose there, `--sensor-pose`); `None`: the
+    /// boxes are in the scan's frame, as every format here assumes by default.
+    pub to_scan: Option<crate::geom::na::Isometry3<f64>>,
 }
 
 /// The unit a format's angles are written in, where the files do not say it.
@@ -135,13 +139,19 @@ pub fn read(path: &Path, format: BoxFormat, opts: &ReadOptions) -> Result<Annota
         BoxFormat::SusTechPoints => sustechpoints::read(path),
         BoxFormat::LabelCloud => labelcloud::read(path, opts),
     };
-    read.map_err(|e| match detect(path) {
+    let mut a = read.map_err(|e| match detect(path) {
         Some(other) if other != format => Error::Input {
             path: path.into(),
             message: format!("not a {format} export: it looks like {other} ({e})"),
         },
         _ => e,
-    })
+    })?;
+    if let Some(motion) = &opts.to_scan {
+        for b in a.frames.values_mut().flat_map(|f| f.boxes.iter_mut()) {
+            b.geometry = b.geometry.moved(motion);
+        }
+    }
+    Ok(a)
 }
 
 /// The format the export at `path` looks like, from its files' names and first bytes.

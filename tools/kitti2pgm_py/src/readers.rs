@@ -255,12 +255,13 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
 
 /// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely", "sustechpoints" or
 /// "labelcloud"; for CVAT's, origin="centre"|"bottom" and sizes="datumaro"|"kitti", its
-/// defaults centre and datumaro; for labelCloud's, angles="degrees"|"radians", degrees): a dict with format, tracks (the tool's id of every track, by track index) and
+/// defaults centre and datumaro; for labelCloud's, angles="degrees"|"radians", degrees;
+/// sensor_pose="x,y,z[,roll,pitch,yaw]" for boxes drawn in a vehicle frame, as --sensor-pose): a dict with format, tracks (the tool's id of every track, by track index) and
 /// frames ({scan name: {"file": path, "boxes": [box dicts]}}), each box with class_name (as the
 /// file writes it), track, centre, size (full x, y, z extents) and rotation (3x3, box to scan):
 /// the form `label_points` takes once a "class" is set.
 #[pyfunction]
-#[pyo3(signature = (path, format, *, origin=None, sizes=None, angles=None))]
+#[pyo3(signature = (path, format, *, origin=None, sizes=None, angles=None, sensor_pose=None))]
 fn read_boxes<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -268,6 +269,7 @@ fn read_boxes<'py>(
     origin: Option<&str>,
     sizes: Option<&str>,
     angles: Option<&str>,
+    sensor_pose: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use kitti2pgm::source::annotations::{self, AngleUnit, BoxFormat, CvatSizes, ReadOptions};
     use kitti2pgm::source::boxes::BoxOrigin;
@@ -288,10 +290,16 @@ fn read_boxes<'py>(
     let angles = angles
         .map(|s| crate::named::<AngleUnit>("angles", s))
         .transpose()?;
+    let to_scan = sensor_pose
+        .map(kitti2pgm::sensor::SensorPose::parse)
+        .transpose()
+        .map_err(py_err)?
+        .map(|p| p.isometry().inverse());
     let opts = ReadOptions {
         origin,
         sizes,
         angles,
+        to_scan,
     };
     let a = py
         .detach(|| annotations::read(&path, format, &opts))

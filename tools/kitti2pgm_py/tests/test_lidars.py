@@ -170,6 +170,10 @@ def test_read_boxes_gives_sustechpoints_boxes_that_label_points_as_numpy_does(tm
     _, inst = k2.label_points(pts, frame["boxes"])
     assert (want > 0).sum() > 100
     assert np.array_equal(inst[~edge], want[~edge])
+    # Boxes drawn in a vehicle frame where the sensor sits 1 m forward, turned 90 degrees.
+    moved = k2.read_boxes(str(scene), "sustechpoints", sensor_pose="1,0,0,0,0,90")["frames"]["000000"]["boxes"]
+    c = np.asarray(boxes[0][0]) - [1.0, 0.0, 0.0]
+    assert np.allclose(moved[0]["centre"], [c[1], -c[0], c[2]], atol=1e-5)
     with pytest.raises(ValueError, match="looks like sustechpoints"):
         k2.read_boxes(str(scene), "supervisely")
     with pytest.raises(ValueError, match="format must be a known name"):
