@@ -274,7 +274,7 @@ pub enum Error {
         /// The image file.
         path: PathBuf,
         /// The decoder's error.
-        source: image::ImageError,
+        source: png::DecodingError,
     },
     /// Options that contradict each other or are out of range.
     #[error("invalid option: {0}")]

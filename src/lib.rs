@@ -45,6 +45,7 @@ pub mod label;
 pub mod plan;
 pub mod project;
 pub mod provenance;
+pub mod raster;
 pub mod report;
 pub mod rng;
 pub mod sensor;

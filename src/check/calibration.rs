@@ -145,7 +145,7 @@ pub(crate) const SEARCH_PX: i32 = 20;
 pub(crate) fn edge_scores(
     points: &[Point3],
     proj: &Matrix3x4,
-    image: &image::RgbImage,
+    image: &crate::raster::RgbImage,
 ) -> (Vec<f64>, usize) {
     let (w, h) = (image.width() as i32, image.height() as i32);
     let grad = gradient(image);
@@ -179,7 +179,7 @@ pub(crate) fn edge_scores(
 }
 
 /// The grey image's gradient magnitude, blurred over 5x5 so that the optimum has a basin.
-fn gradient(image: &image::RgbImage) -> Vec<f32> {
+fn gradient(image: &crate::raster::RgbImage) -> Vec<f32> {
     let (w, h) = (image.width() as usize, image.height() as usize);
     let grey: Vec<f32> = image
         .pixels()

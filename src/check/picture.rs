@@ -35,7 +35,7 @@ impl<'a> Pictures<'a> {
 
     /// The picture of `f`, when its check is [pictured](CheckName::pictured) and it is about
     /// a frame whose scan is there.
-    pub fn draw(&mut self, f: &Finding) -> Result<Option<image::RgbImage>> {
+    pub fn draw(&mut self, f: &Finding) -> Result<Option<crate::raster::RgbImage>> {
         if !f.check.pictured() {
             return Ok(None);
         }

@@ -168,7 +168,7 @@ fn frame(
     if let Some((proj, size)) = camera_at(r, f) {
         let image_path = r.drive.image_path(2, f);
         let size = size.or_else(|| {
-            image::image_dimensions(&image_path)
+            crate::raster::dimensions(&image_path)
                 .ok()
                 .map(|(w, h)| [w as f64, h as f64])
         });

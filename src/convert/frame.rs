@@ -103,7 +103,7 @@ pub fn process(
     frame_labels: &FrameLabels,
     map: &MapParams,
     beams: Option<&BeamRowsOf>,
-    camera: Option<(&CameraProjector, &image::RgbImage)>,
+    camera: Option<(&CameraProjector, &crate::raster::RgbImage)>,
 ) -> Converted {
     let (spec, classes) = (&map.spec, &map.class_map);
     let labels = &frame_labels.points;
@@ -156,7 +156,7 @@ pub struct LoadedFrame {
     /// The labels of the scan's points.
     pub labels: FrameLabels,
     /// The camera and its decoded image, when colour is asked for.
-    pub camera: Option<(CameraProjector, image::RgbImage)>,
+    pub camera: Option<(CameraProjector, crate::raster::RgbImage)>,
     /// The camera's PNG bytes, when kept (visualisation).
     pub png: Option<Vec<u8>>,
     /// The rows of another sensor's scan, by its sensor model.

@@ -1,7 +1,7 @@
 //! Pictures of a scan with its boxes: a bird's-eye view (the flagged object marked) and the
 //! points over the camera image, for `kitti2pgm check --pictures`.
 
-use image::{Rgb, RgbImage};
+use crate::raster::{Rgb, RgbImage};
 
 use super::{colormap, draw_text, fill_rect};
 use crate::geom::{Matrix3x4, Point3, Real, Vector3};

@@ -8,13 +8,13 @@ use crate::report::stats::Stats;
 
 /// A picture of the confusion matrix: rows = truth, columns = prediction, each cell shaded by
 /// its share of the row (recall view), with the count and the share written in it.
-pub fn confusion_chart(c: &Confusion, map: &ClassMap) -> image::RgbImage {
+pub fn confusion_chart(c: &Confusion, map: &ClassMap) -> crate::raster::RgbImage {
     let k = c.k();
     let (cell, left, top) = (120u32, 112u32, 64u32);
-    let mut img = image::RgbImage::from_pixel(
+    let mut img = crate::raster::RgbImage::from_pixel(
         left + k as u32 * cell + 16,
         top + k as u32 * cell + 40,
-        image::Rgb([255, 255, 255]),
+        crate::raster::Rgb([255, 255, 255]),
     );
     let black = [0, 0, 0];
     draw_text(&mut img, left, 8, "prediction", black, 1);
@@ -87,11 +87,14 @@ pub fn frame_chart(
     (rows, cols): (usize, usize),
     miou: Option<f64>,
     map: &ClassMap,
-) -> image::RgbImage {
+) -> crate::raster::RgbImage {
     let ph = rows as u32 * ROW_SCALE;
     let caption = 20u32;
-    let mut img =
-        image::RgbImage::from_pixel(cols as u32, 2 * (ph + caption), image::Rgb([255, 255, 255]));
+    let mut img = crate::raster::RgbImage::from_pixel(
+        cols as u32,
+        2 * (ph + caption),
+        crate::raster::Rgb([255, 255, 255]),
+    );
     let m = miou
         .map(|v| format!("{v:.3}"))
         .unwrap_or_else(|| "-".into());
@@ -121,7 +124,7 @@ pub fn frame_chart(
 /// A bar chart of the class balance: one group of bars per split (each labelled class: share
 /// of the labelled cells, linear 0-100%, value on top), class colours as in the previews, a
 /// light line every 10%, the split name and frame count under each group, a legend on top.
-pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
+pub fn balance_chart(s: &Stats, map: &ClassMap) -> crate::raster::RgbImage {
     let classes = map.labelled();
     let nc = classes.len().max(1) as u32;
     let (gap, group_gap, h, left, bottom) = (8u32, 48u32, 300u32, 48u32, 40u32);
@@ -132,7 +135,11 @@ pub fn balance_chart(s: &Stats, map: &ClassMap) -> image::RgbImage {
     let w = w.max(420);
     let legend = legend_layout(&classes, map, left, w);
     let top = legend.last().map_or(22, |&(_, _, y)| y) + 34;
-    let mut img = image::RgbImage::from_pixel(w, top + h + bottom, image::Rgb([255, 255, 255]));
+    let mut img = crate::raster::RgbImage::from_pixel(
+        w,
+        top + h + bottom,
+        crate::raster::Rgb([255, 255, 255]),
+    );
     let black = [0, 0, 0];
     draw_text(
         &mut img,
@@ -204,7 +211,11 @@ fn legend_layout(
 
 /// The 0-100% axis of a bar chart from `left` to `right` over the `h` pixels below `top`: a
 /// light line every 10% (black at 0), labelled every 20%.
-fn percent_grid(img: &mut image::RgbImage, (left, right): (u32, u32), (top, h): (u32, u32)) {
+fn percent_grid(
+    img: &mut crate::raster::RgbImage,
+    (left, right): (u32, u32),
+    (top, h): (u32, u32),
+) {
     let black = [0, 0, 0];
     for t in 0..=10 {
         let y = top + h - t * h / 10;

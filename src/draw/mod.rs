@@ -12,7 +12,7 @@ pub mod charts;
 pub mod points;
 pub mod preview;
 
-use image::{Rgb, RgbImage};
+use crate::raster::{Rgb, RgbImage};
 
 /// Vertical magnification of map pictures (a 64 x 512 map is not a thin strip).
 pub const ROW_SCALE: u32 = 2;

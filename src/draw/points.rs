@@ -8,7 +8,7 @@
 //! errors green where right, red where wrong, grey where not scored (no truth, an ignored class,
 //! or no prediction).
 
-use image::{Rgb, RgbImage};
+use crate::raster::{Rgb, RgbImage};
 
 use super::{draw_text, fill_rect};
 use crate::geom::Point3;

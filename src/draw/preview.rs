@@ -5,7 +5,7 @@
 //! Labels use the class map's colours (the paper's: background red, car green, pedestrian light
 //! blue, cyclist violet).
 
-use image::RgbImage;
+use crate::raster::RgbImage;
 
 use super::{colormap, draw_map, ROW_SCALE};
 use crate::error::{Error, Result};

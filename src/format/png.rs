@@ -1,19 +1,16 @@
-//! WRITE: PNG pictures (previews, charts, score pictures), atomically.
+//! WRITE: PNG pictures (previews, charts, score pictures), atomically ([`crate::raster`] owns
+//! the encoding).
 
 use std::path::Path;
 
 use crate::error::{Error, Result};
+use crate::raster::RgbImage;
 
 /// Encodes `img` as PNG and writes it atomically to `path`.
-pub fn write(path: &Path, img: &image::RgbImage) -> Result<()> {
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )
-    .map_err(|source| Error::Image {
+pub fn write(path: &Path, img: &RgbImage) -> Result<()> {
+    let bytes = crate::raster::encode(img).map_err(|e| Error::Write {
         path: path.into(),
-        source,
+        source: std::io::Error::other(e),
     })?;
     super::atomic_write(path, &bytes, super::Durability::Renamed)
 }

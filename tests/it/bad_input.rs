@@ -343,7 +343,7 @@ fn an_image_of_the_wrong_size_fails_its_frame() {
     let t = tmp();
     let root = fixture_copy(t.path());
     let png = root.join(D52).join("image_02/data/0000000000.png");
-    image::RgbImage::new(100, 50).save(&png).unwrap();
+    kitti2pgm::format::png::write(&png, &kitti2pgm::raster::RgbImage::new(100, 50)).unwrap();
     let (code, j, _) = convert_json(&root, &t.path().join("out"), &["--rgb"]);
     assert_eq!(code, 3);
     assert_eq!(j["frames_converted"], 2);
@@ -691,12 +691,43 @@ fn grey_and_16_bit_camera_images_are_refused() {
     let t = tmp();
     let raw = fixture_copy(t.path());
     let png = raw.join("2011_09_26/2011_09_26_drive_0001_sync/image_02/data/0000000000.png");
-    let img = image::open(&png).unwrap();
-    img.to_luma8().save(&png).unwrap();
+    // The real images rewritten as 8-bit grey and as 16-bit RGB, by the png crate.
+    let write = |path: &std::path::Path,
+                 color: png::ColorType,
+                 depth: png::BitDepth,
+                 data: &[u8],
+                 (w, h)| {
+        let mut enc = png::Encoder::new(std::fs::File::create(path).unwrap(), w, h);
+        enc.set_color(color);
+        enc.set_depth(depth);
+        enc.write_header().unwrap().write_image_data(data).unwrap();
+    };
+    let img = kitti2pgm::raster::read(&png).unwrap();
+    let grey: Vec<u8> = img
+        .pixels()
+        .map(|p| ((p[0] as u16 + p[1] as u16 + p[2] as u16) / 3) as u8)
+        .collect();
+    write(
+        &png,
+        png::ColorType::Grayscale,
+        png::BitDepth::Eight,
+        &grey,
+        img.dimensions(),
+    );
     let png16 = raw.join("2011_09_26/2011_09_26_drive_0001_sync/image_02/data/0000000045.png");
-    image::DynamicImage::ImageRgb16(image::open(&png16).unwrap().to_rgb16())
-        .save(&png16)
-        .unwrap();
+    let img = kitti2pgm::raster::read(&png16).unwrap();
+    let wide: Vec<u8> = img
+        .as_raw()
+        .iter()
+        .flat_map(|&v| (v as u16 * 257).to_be_bytes())
+        .collect();
+    write(
+        &png16,
+        png::ColorType::Rgb,
+        png::BitDepth::Sixteen,
+        &wide,
+        img.dimensions(),
+    );
     let (code, j, e) = convert_json(&raw, &t.path().join("out"), &["--rgb"]);
     assert_eq!(code, 3, "{e}");
     assert!(

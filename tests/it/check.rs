@@ -600,7 +600,7 @@ fn pictures_mark_the_flagged_object() {
     ]);
     assert_eq!(code, 3, "{out}{err}");
     let name = format!("pose-jump-{D01}-000045-obj9.png");
-    let img = image::open(pics.join(&name)).unwrap().to_rgb8();
+    let img = kitti2pgm::raster::read(&pics.join(&name)).unwrap();
     assert_eq!(img.dimensions(), (800, 800));
     // The flagged box is drawn in red around the middle of the picture.
     let red = img.pixels().filter(|p| p.0 == [255, 40, 40]).count();

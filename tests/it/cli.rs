@@ -165,7 +165,7 @@ fn summary_table_and_preview() {
     let npy = out.join("lidar_2d/2011_09_26_0052_0000000000.npy");
     let png = t.path().join("p.png");
     assert_eq!(run_text(&["preview", s(&npy), "--out", s(&png)]).0, 0);
-    let img = image::open(&png).unwrap().to_rgb8();
+    let img = kitti2pgm::raster::read(&png).unwrap();
     assert_eq!((img.width(), img.height()), (512, 4 * 128 + 3 * 4));
     // The label panel (last) shows car green somewhere.
     let green = kitti2pgm::label::ClassMap::kitti_paper().colour(1);

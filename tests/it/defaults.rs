@@ -221,7 +221,7 @@ fn previews_of_predictions_and_one_png_name_for_one_frame() {
     let png = t.path().join("pred.png");
     let (code, _, e) = run_text(&["preview", s(&pred), "--out", s(&png)]);
     assert_eq!(code, 0, "{e}");
-    let img = image::open(&png).unwrap().to_rgb8();
+    let img = kitti2pgm::raster::read(&png).unwrap();
     assert_eq!(img.dimensions(), (512, 128));
     let car = kitti2pgm::label::ClassMap::kitti_paper().colour(1);
     assert!(img.pixels().any(|p| p.0 == car), "cars drawn");

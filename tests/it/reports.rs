@@ -299,7 +299,7 @@ fn stats_agree_with_independent_counts() {
         serde_json::json!(["x", "y", "z", "intensity", "range", "r", "g", "b"])
     );
     assert!(j["convert_summary"]["collisions"].as_u64().unwrap() > 0);
-    let img = image::open(&png).unwrap();
+    let img = kitti2pgm::raster::read(&png).unwrap();
     assert!(img.width() > 100 && img.height() > 100);
     // The readable table carries the normalisation constants.
     let (code, stdout, _) = run_text(&["stats", s(&out), "--imageset", s(&sets)]);
@@ -397,7 +397,7 @@ fn stats_chart_takes_the_twenty_classes() {
     let png = t.path().join("balance.png");
     let (code, _, e) = run_text(&["stats", s(&out), "--chart", s(&png)]);
     assert_eq!(code, 0, "{e}");
-    let img = image::open(&png).unwrap().to_rgb8();
+    let img = kitti2pgm::raster::read(&png).unwrap();
     // Every labelled class's colour is in the legend.
     let map = kitti2pgm::label::ClassMap::semantic_kitti();
     for c in map.labelled() {

@@ -370,7 +370,7 @@ fn pictures_and_imageset() {
             && stdout.contains("2011_09_26_0052_0000000000"),
         "{stdout}"
     );
-    assert!(image::open(&conf).unwrap().width() > 400);
+    assert!(kitti2pgm::raster::read(&conf).unwrap().width() > 400);
     let pngs: Vec<_> = std::fs::read_dir(&worst).unwrap().collect();
     assert_eq!(pngs.len(), 1, "only one frame in the list");
 }

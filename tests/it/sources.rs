@@ -221,10 +221,9 @@ fn bad_source_inputs_name_the_file() {
     // Colour through P2 and Tr of calib.txt; then a calibration without Tr (needed for colour).
     std::fs::write(&label, &good).unwrap();
     std::fs::create_dir_all(sk.join("sequences/00/image_2")).unwrap();
-    let mut img = image::RgbImage::new(1241, 376);
-    img.pixels_mut().for_each(|p| p.0 = [255, 128, 0]);
-    img.save(sk.join("sequences/00/image_2/000000.png"))
-        .unwrap();
+    let img =
+        kitti2pgm::raster::RgbImage::from_pixel(1241, 376, kitti2pgm::raster::Rgb([255, 128, 0]));
+    kitti2pgm::format::png::write(&sk.join("sequences/00/image_2/000000.png"), &img).unwrap();
     let (code, j, e) = convert_json(&sk, &t.path().join("rgb"), &["--rgb"]);
     assert_eq!(code, 0, "{e}");
     let coloured = j["rgb_cells"].as_u64().unwrap();
@@ -245,9 +244,11 @@ fn bad_source_inputs_name_the_file() {
         .collect();
     std::fs::write(&calib, no_tr).unwrap();
     std::fs::create_dir_all(sk.join("sequences/00/image_2")).unwrap();
-    image::RgbImage::new(1241, 376)
-        .save(sk.join("sequences/00/image_2/000000.png"))
-        .unwrap();
+    kitti2pgm::format::png::write(
+        &sk.join("sequences/00/image_2/000000.png"),
+        &kitti2pgm::raster::RgbImage::new(1241, 376),
+    )
+    .unwrap();
     let (_, j, _) = convert_json(&sk, &t.path().join("o3"), &["--rgb"]);
     let f = j["failures"].to_string();
     assert!(
@@ -371,7 +372,7 @@ fn shards_stats_and_previews_take_twenty_classes() {
         s(&png),
     ]);
     assert_eq!(code, 0, "{e}");
-    let img = image::open(&png).unwrap().to_rgb8();
+    let img = kitti2pgm::raster::read(&png).unwrap();
     // Some label pixel is road's colour (color_map 40: [255, 0, 255] BGR = RGB 255, 0, 255).
     let road = ClassMap::semantic_kitti().colour(9);
     assert!(

@@ -180,7 +180,7 @@ fn preview_draws_folders_and_shards() {
         let (code, _, e) = run_text(&["preview", s(&input), "--out", s(&pics)]);
         assert_eq!(code, 0, "{e}");
         let png = pics.join("2011_09_26_0001_0000000000.png");
-        let img = image::open(&png).unwrap().to_rgb8();
+        let img = kitti2pgm::raster::read(&png).unwrap();
         assert_eq!((img.width(), img.height()), (512, 4 * 128 + 3 * 4));
     }
     // The same frame drawn from a shard and from its .npy: the same picture.

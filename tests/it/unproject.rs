@@ -307,7 +307,7 @@ fn per_point_predictions_are_drawn_and_go_to_foxglove() {
     let pics = t.path().join("pics");
     let (code, _, e) = run_text(&["preview", s(&back), "--raw", s(&sk), "--out", s(&pics)]);
     assert_eq!(code, 0, "{e}");
-    let img = image::open(pics.join("00_000000.png")).unwrap().to_rgb8();
+    let img = kitti2pgm::raster::read(&pics.join("00_000000.png")).unwrap();
     assert!(img.width() >= 1024 && img.height() > 700);
     // Mostly right: more green than red in the error panels.
     let green = img.pixels().filter(|p| p.0 == [60, 170, 70]).count();
