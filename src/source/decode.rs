@@ -99,7 +99,7 @@ fn xyzi_all_kept(recs: &[u8], rule: &DropRule) -> Option<Scan> {
                 // coordinate cannot overflow the test itself (nor NaN pass it).
                 let (xd, yd, zd) = (x as f64, y as f64, z as f64);
                 let near = xd * xd + yd * yd + zd * zd <= max2;
-                bad |= !(near & rule.holds(i) & i.is_finite());
+                bad |= !(near & rule.holds(i));
                 p.write(Point3::new(x, y, z));
                 v.write(i);
             }
@@ -185,7 +185,7 @@ fn dropped(points: &[Point3], intensity: Option<&[f32]>, rule: &DropRule) -> (Ve
         Some(v) => points
             .iter()
             .zip(v)
-            .map(|(p, &i)| (!((r2(p) <= far2) & i.is_finite() & rule.holds(i))) as usize)
+            .map(|(p, &i)| (!((r2(p) <= far2) & rule.holds(i))) as usize)
             .sum::<usize>(),
         None => points
             .iter()
@@ -208,16 +208,16 @@ fn dropped(points: &[Point3], intensity: Option<&[f32]>, rule: &DropRule) -> (Ve
     out
 }
 
-/// Whether every point is finite and surely within [`MAX_RANGE_M`] (and every intensity
-/// finite and held by `rule`), decided in single precision: twice the lanes of the exact double-precision test,
-/// which runs only when this one cannot tell. Its squared range is within a few units in the
+/// Whether every point is finite and surely within [`MAX_RANGE_M`] (and every intensity held by
+/// `rule`, finite among it), decided in single precision: twice the lanes of the exact
+/// double-precision test, which runs only when this one cannot tell. Its squared range is within a few units in the
 /// last place of the exact one, far inside the 0.1% margin; a NaN, or a square that overflows to
 /// infinity, fails the comparison.
 fn surely_none_dropped(points: &[Point3], intensity: Option<&[f32]>, rule: &DropRule) -> bool {
     let near2 = MAX_RANGE_M * MAX_RANGE_M * 0.999;
     // Not "within": a NaN fails it.
     let near = |p: &Point3| (p.x * p.x + p.y * p.y + p.z * p.z <= near2) as usize;
-    let held = |i: &f32| (i.is_finite() & rule.holds(*i)) as usize;
+    let held = |i: &f32| rule.holds(*i) as usize;
     let finite = |v: &[f32]| v.iter().map(held).sum::<usize>() == v.len();
     points.iter().map(near).sum::<usize>() == points.len() && intensity.is_none_or(finite)
 }

@@ -23,13 +23,14 @@ impl DropRule {
     /// Any finite intensity (PCD, bags, nuScenes, a declared `.bin` layout: as stored).
     pub const ANY: DropRule = DropRule { intensity: None };
 
-    /// Whether an intensity value is one a real return of this source has (finite, and in the
-    /// range where there is one).
+    /// Whether an intensity value is one a real return of this source has: finite (always), and
+    /// in the range where there is one.
     #[inline(always)]
     pub fn holds(&self, intensity: f32) -> bool {
+        let finite = intensity.is_finite();
         match &self.intensity {
-            Some(r) => (intensity >= *r.start()) & (intensity <= *r.end()),
-            None => intensity.is_finite(),
+            Some(r) => finite & (intensity >= *r.start()) & (intensity <= *r.end()),
+            None => finite,
         }
     }
 }
@@ -207,5 +208,10 @@ mod tests {
         ] {
             assert_eq!((kitti.holds(v), DropRule::ANY.holds(v)), (k, any), "{v}");
         }
+        // A range that reaches infinity still refuses what is not finite.
+        let open = DropRule {
+            intensity: Some(f32::NEG_INFINITY..=f32::INFINITY),
+        };
+        assert!(!open.holds(f32::INFINITY) && !open.holds(f32::NAN) && open.holds(-1e30));
     }
 }

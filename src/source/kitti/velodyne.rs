@@ -63,6 +63,12 @@ mod tests {
             .collect()
     }
 
+    /// The record's size stated as a constant is the layout's own.
+    #[test]
+    fn the_record_is_its_layout() {
+        assert_eq!(layout().step, POINT_BYTES);
+    }
+
     #[test]
     fn decodes_and_drops_non_finite() {
         let b = bytes(&[
