@@ -50,6 +50,19 @@ fn rz_ry_rx([x, y, z]: [f64; 3]) -> [[f64; 3]; 3] {
     mat_mul(rz, mat_mul(ry, rx))
 }
 
+/// The reference's boxes of `boxes` (centre, full x, y, z extents, Euler angles composed by
+/// `rot`), instance `i + 1` for box `i`.
+fn centred_refs(boxes: &[TestBox], rot: fn([f64; 3]) -> [[f64; 3]; 3]) -> Vec<RefBox> {
+    (boxes.iter().enumerate())
+        .map(|(i, (c, s, r))| RefBox {
+            c: *c,
+            half: s.map(|v| v / 2.0),
+            r: rot(*r),
+            instance: i as u16 + 1,
+        })
+        .collect()
+}
+
 /// Each point's instance by the reference (smallest box wins, then the earlier), and the points
 /// within 1 mm of a face of a box that holds or nearly holds them (single and double precision
 /// may disagree there: left out of the comparison).
@@ -124,7 +137,10 @@ fn assert_same(got: &[u16], (want, edge): (Vec<u16>, Vec<bool>)) {
 
 /// Boxes around the scan's points: (centre, sizes x y z, Euler x y z), some turned about all
 /// three axes, two overlapping (the smaller wins), one across the seam behind the sensor.
-fn test_boxes() -> Vec<([f64; 3], [f64; 3], [f64; 3])> {
+/// A test box: centre, full x, y, z extents, Euler angles x, y, z (radians).
+type TestBox = ([f64; 3], [f64; 3], [f64; 3]);
+
+fn test_boxes() -> Vec<TestBox> {
     vec![
         ([-0.6, 0.0, 0.1], [2.0, 1.6, 1.2], [0.0, 0.0, 0.6]),
         ([-0.5, 0.1, 0.0], [0.8, 0.6, 0.6], [0.1, -0.2, 1.1]),
@@ -161,14 +177,7 @@ fn sustechpoints_labels_the_points_its_boxes_hold() {
     let a = annotations::read(&scene, BoxFormat::SusTechPoints, &ReadOptions::default()).unwrap();
     assert_eq!(annotations::detect(&scene), Some(BoxFormat::SusTechPoints));
     assert_eq!(a.tracks, ["10", "11", "12", "13", "14"]);
-    let refs: Vec<RefBox> = (test_boxes().iter().enumerate())
-        .map(|(i, (c, s, r))| RefBox {
-            c: *c,
-            half: s.map(|v| v / 2.0),
-            r: rx_ry_rz(*r),
-            instance: i as u16 + 1,
-        })
-        .collect();
+    let refs = centred_refs(&test_boxes(), rx_ry_rz);
     let points = scan();
     assert_same(&labelled(&a, "000000", &points), reference(&points, &refs));
 }
@@ -208,14 +217,7 @@ fn supervisely_labels_the_points_its_cuboids_hold() {
         (a.boxes(), annotations::detect(&root)),
         (5, Some(BoxFormat::Supervisely))
     );
-    let refs: Vec<RefBox> = (boxes.iter().enumerate())
-        .map(|(i, (c, s, r))| RefBox {
-            c: *c,
-            half: s.map(|v| v / 2.0),
-            r: rx_ry_rz(*r),
-            instance: i as u16 + 1,
-        })
-        .collect();
+    let refs = centred_refs(&boxes, rx_ry_rz);
     let points = scan();
     assert_same(&labelled(&a, "000000", &points), reference(&points, &refs));
 }
@@ -244,14 +246,7 @@ fn labelcloud_labels_the_points_its_boxes_hold_in_degrees_by_default() {
             "path": "pointclouds/000000.pcd", "objects": objects});
         std::fs::write(labels.join("000000.json"), label.to_string()).unwrap();
     };
-    let refs: Vec<RefBox> = (boxes.iter().enumerate())
-        .map(|(i, (c, s, r))| RefBox {
-            c: *c,
-            half: s.map(|v| v / 2.0),
-            r: rz_ry_rx(*r),
-            instance: i as u16 + 1,
-        })
-        .collect();
+    let refs = centred_refs(&boxes, rz_ry_rx);
     let points = scan();
     let root = t.path().join("project");
     write(180.0 / std::f64::consts::PI);
@@ -303,14 +298,7 @@ fn boxes_of_a_vehicle_frame_are_brought_into_the_scan_s() {
         ..Default::default()
     };
     let a = annotations::read(&labels, BoxFormat::LabelCloud, &opts).unwrap();
-    let refs: Vec<RefBox> = (boxes.iter().enumerate())
-        .map(|(i, (c, s, r))| RefBox {
-            c: *c,
-            half: s.map(|v| v / 2.0),
-            r: rz_ry_rx(*r),
-            instance: i as u16 + 1,
-        })
-        .collect();
+    let refs = centred_refs(&boxes, rz_ry_rx);
     let points = scan();
     let moved = labelled(&a, "000000", &points);
     assert_same(&moved, reference(&points, &refs));
@@ -320,7 +308,7 @@ fn boxes_of_a_vehicle_frame_are_brought_into_the_scan_s() {
 
 /// A CVAT Kitti Raw export of the boxes (yaw only, as CVAT's cuboids): tracklet XML with
 /// `frame_list.txt`; `sizes` written in Datumaro's order, positions at the centres.
-fn cvat_export(dir: &Path, boxes: &[([f64; 3], [f64; 3], [f64; 3])]) {
+fn cvat_export(dir: &Path, boxes: &[TestBox]) {
     let mut xml = String::from(
         "<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"yes\" ?>\n<!DOCTYPE boost_serialization>\n\
          <boost_serialization signature=\"serialization::archive\" version=\"9\">\n<tracklets class_id=\"0\" \

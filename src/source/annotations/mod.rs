@@ -20,7 +20,7 @@ pub mod sustechpoints;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::boxes::{AnnotatedBox, BoxOrigin, SizeOrder};
+use super::boxes::{AnnotatedBox, Box3, BoxConvention, BoxOrigin, BoxRotation, SizeOrder};
 use crate::error::{Error, Result};
 
 /// A box annotation format.
@@ -236,12 +236,21 @@ fn read_json(file: &Path) -> Result<serde_json::Value> {
     })
 }
 
-/// The rotation matrix of Euler angles applied as `Rx(x) * Ry(y) * Rz(z)` (three.js's `XYZ`
-/// order, SUSTechPOINTS' `euler_angle_to_rotate_matrix`).
-fn rotation_xyz([x, y, z]: [f64; 3]) -> crate::geom::na::Matrix3<f64> {
+/// The box of the web editors' form (Supervisely, SUSTechPOINTS), checked: its centre, its x,
+/// y, z extents, and Euler angles x, y, z applied as `Rx(x) * Ry(y) * Rz(z)` (three.js's `XYZ`
+/// order, SUSTechPOINTS' `euler_angle_to_rotate_matrix`); `what` names the object in errors.
+fn centred_xyz_euler(
+    file: &Path,
+    what: &str,
+    centre: [f64; 3],
+    sizes: [f64; 3],
+    [x, y, z]: [f64; 3],
+) -> Result<Box3> {
     use crate::geom::na::{Rotation3, Vector3};
-    let r = |axis: Vector3<f64>, a: f64| {
-        *Rotation3::from_axis_angle(&crate::geom::na::Unit::new_normalize(axis), a).matrix()
-    };
-    r(Vector3::x(), x) * r(Vector3::y(), y) * r(Vector3::z(), z)
+    check_box(file, what, centre, sizes, &[x, y, z])?;
+    let r = Rotation3::from_axis_angle(&Vector3::x_axis(), x)
+        * Rotation3::from_axis_angle(&Vector3::y_axis(), y)
+        * Rotation3::from_axis_angle(&Vector3::z_axis(), z);
+    let rotation = BoxRotation::Matrix(*r.matrix());
+    Ok(BoxConvention::CENTRED_LWH.place(centre, sizes, &rotation, None))
 }

@@ -16,11 +16,9 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use super::{
-    check_box, read_json, rotation_xyz, xyz, AnnotatedFrame, Annotations, BoxFormat, Tracks,
-};
+use super::{centred_xyz_euler, read_json, xyz, AnnotatedFrame, Annotations, BoxFormat, Tracks};
 use crate::error::{Error, Result};
-use crate::source::boxes::{AnnotatedBox, BoxConvention, BoxRotation};
+use crate::source::boxes::AnnotatedBox;
 
 /// The annotation folders under `path`: `path` itself when it is one (`ann/`), its `ann/`, or
 /// each dataset's `ann/` in a project folder.
@@ -136,15 +134,8 @@ fn read_frame(file: &Path, scan: String, tracks: &mut Tracks) -> Result<Annotate
         let position = xyz(g.get("position"), "position", file, &what)?;
         let rotation = xyz(g.get("rotation"), "rotation", file, &what)?;
         let dimensions = xyz(g.get("dimensions"), "dimensions", file, &what)?;
-        check_box(file, &what, position, dimensions, &rotation)?;
-        let geometry = BoxConvention::CENTRED_LWH.place(
-            position,
-            dimensions,
-            &BoxRotation::Matrix(rotation_xyz(rotation)),
-            None,
-        );
         boxes.push(AnnotatedBox {
-            geometry,
+            geometry: centred_xyz_euler(file, &what, position, dimensions, rotation)?,
             class_name: class.to_string(),
             track: tracks.of(key),
         });

@@ -10,11 +10,9 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use super::{
-    check_box, read_json, rotation_xyz, xyz, AnnotatedFrame, Annotations, BoxFormat, Tracks,
-};
+use super::{centred_xyz_euler, read_json, xyz, AnnotatedFrame, Annotations, BoxFormat, Tracks};
 use crate::error::{Error, Result};
-use crate::source::boxes::{AnnotatedBox, BoxConvention, BoxRotation};
+use crate::source::boxes::AnnotatedBox;
 
 /// The label folder of the scene at `path` (or `path` itself when it is one).
 fn label_dir(path: &Path) -> PathBuf {
@@ -114,15 +112,8 @@ fn read_frame(file: &Path, scan: String, tracks: &mut Tracks) -> Result<Annotate
         let position = xyz(psr.get("position"), "position", file, &what)?;
         let scale = xyz(psr.get("scale"), "scale", file, &what)?;
         let rotation = xyz(psr.get("rotation"), "rotation", file, &what)?;
-        check_box(file, &what, position, scale, &rotation)?;
-        let geometry = BoxConvention::CENTRED_LWH.place(
-            position,
-            scale,
-            &BoxRotation::Matrix(rotation_xyz(rotation)),
-            None,
-        );
         boxes.push(AnnotatedBox {
-            geometry,
+            geometry: centred_xyz_euler(file, &what, position, scale, rotation)?,
             class_name: class.to_string(),
             track: tracks.of(&id),
         });
