@@ -308,9 +308,8 @@ fn read_boxes<'py>(
     for (scan, f) in &a.frames {
         let boxes = PyList::empty(py);
         for b in &f.boxes {
-            let d = box_dict(py, &LabelBox::of(&b.geometry, 0, 0))?;
-            d.del_item("class")?;
-            d.del_item("instance")?;
+            let d = PyDict::new(py);
+            set_geometry(&d, &b.geometry.pose, &b.geometry.half_extents)?;
             d.set_item("class_name", &b.class_name)?;
             d.set_item("track", b.track)?;
             boxes.append(d)?;
@@ -330,21 +329,33 @@ fn read_boxes<'py>(
 /// A box as a dict (the form `label_points` takes).
 pub(crate) fn box_dict<'py>(py: Python<'py>, b: &LabelBox) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    let t = b.pose.translation.vector;
-    let h = b.cuboid.half_extents;
-    let r = b.pose.rotation.to_rotation_matrix();
+    d.set_item("class", b.class)?;
+    d.set_item("instance", b.instance)?;
+    set_geometry(&d, &b.pose, &b.cuboid.half_extents)?;
+    Ok(d)
+}
+
+/// A box's centre, size (full extents) and rotation (3x3, box to scan) as `d`'s items.
+fn set_geometry(
+    d: &Bound<'_, PyDict>,
+    pose: &kitti2pgm::geom::Iso3,
+    half: &kitti2pgm::geom::Vector3,
+) -> PyResult<()> {
+    let t = pose.translation.vector;
+    let r = pose.rotation.to_rotation_matrix();
     let m: Vec<Vec<f64>> = (0..3)
         .map(|i| (0..3).map(|j| r[(i, j)] as f64).collect())
         .collect();
-    d.set_item("class", b.class)?;
-    d.set_item("instance", b.instance)?;
     d.set_item("centre", vec![t.x as f64, t.y as f64, t.z as f64])?;
     d.set_item(
         "size",
-        vec![2.0 * h.x as f64, 2.0 * h.y as f64, 2.0 * h.z as f64],
+        vec![
+            2.0 * half.x as f64,
+            2.0 * half.y as f64,
+            2.0 * half.z as f64,
+        ],
     )?;
-    d.set_item("rotation", m)?;
-    Ok(d)
+    d.set_item("rotation", m)
 }
 
 /// Class and instance arrays.
