@@ -182,11 +182,7 @@ impl DriveRead {
                         index: i as u32,
                         kind: tr.object_type.as_str().into(),
                     },
-                    label_box: LabelBox::of(
-                        &tr.box_at(p),
-                        0,
-                        u16::try_from(i + 1).unwrap_or(u16::MAX),
-                    ),
+                    label_box: LabelBox::of(&tr.box_at(p), 0, crate::label::instance_of(i)),
                     ghost: false,
                     visible: p.occlusion == Occlusion::Visible,
                 });
@@ -198,11 +194,7 @@ impl DriveRead {
                             index: i as u32,
                             kind: tr.object_type.as_str().into(),
                         },
-                        label_box: LabelBox::of(
-                            &tr.box_at(&pose),
-                            0,
-                            u16::try_from(i + 1).unwrap_or(u16::MAX),
-                        ),
+                        label_box: LabelBox::of(&tr.box_at(&pose), 0, crate::label::instance_of(i)),
                         ghost: true,
                         visible: false,
                     });
@@ -224,7 +216,7 @@ impl DriveRead {
                     label_box: LabelBox::of(
                         &o.box_in_velodyne(&rect_to_velo),
                         0,
-                        u16::try_from(i + 1).unwrap_or(u16::MAX),
+                        crate::label::instance_of(i),
                     ),
                     ghost: false,
                     visible: false,

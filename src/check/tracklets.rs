@@ -273,7 +273,7 @@ fn overlaps_raw(c: &mut Collector, t: &Tracklets) {
             .map(|(i, tr, p)| {
                 (
                     i,
-                    LabelBox::of(&tr.box_at(p), 0, u16::try_from(i + 1).unwrap_or(u16::MAX)),
+                    LabelBox::of(&tr.box_at(p), 0, crate::label::instance_of(i)),
                 )
             })
             .collect();

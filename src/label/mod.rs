@@ -21,13 +21,21 @@ pub use counts::ClassCounts;
 
 use crate::source::boxes::AnnotatedBox;
 
+/// The instance id of track `track` (its index in its source): `track + 1`, saturating at 65535.
+pub fn instance_of(track: usize) -> u16 {
+    u16::try_from(track + 1).unwrap_or(u16::MAX)
+}
+
 /// The class rule for boxes: each box takes the class `map` gives its class name, and the
-/// instance id of its track (track + 1, saturating at 65535).
+/// instance id of its track ([`instance_of`]).
 pub fn label_boxes(boxes: &[AnnotatedBox], map: &ClassMap) -> Vec<LabelBox> {
     (boxes.iter())
         .map(|b| {
-            let instance = u16::try_from(b.track + 1).unwrap_or(u16::MAX);
-            LabelBox::of(&b.geometry, map.class_of_object(&b.class_name), instance)
+            LabelBox::of(
+                &b.geometry,
+                map.class_of_object(&b.class_name),
+                instance_of(b.track),
+            )
         })
         .collect()
 }
