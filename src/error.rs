@@ -221,12 +221,16 @@ pub enum Error {
     },
     /// A sequence folder an unpack began and never finished (killed, or failed before its end),
     /// refused: its scans are a part of the recording that looks whole.
-    #[error("{}: an unfinished unpack ({} says complete: false: the unpack was interrupted); unpack the recording again with --overwrite", path.display(), marker.display())]
+    #[error("{}: an unfinished {what} ({} says complete: false: it was interrupted); {again}", path.display(), marker.display())]
     UnfinishedUnpack {
         /// The sequence folder.
         path: PathBuf,
-        /// The file that says so (`unpack.json`, `nuscenes.json`).
+        /// The file that says so (`unpack.json`, `nuscenes.json`, `box_labels.json`).
         marker: PathBuf,
+        /// What did not finish (`unpack`, `label run`).
+        what: &'static str,
+        /// What to do.
+        again: &'static str,
     },
     /// A per-point label file whose count is not its scan's.
     #[error("{}: {labels} labels, but the scan {} has {points} points{}", path.display(), scan.display(), note.map(|n| format!(" ({n})")).unwrap_or_default())]
@@ -399,7 +403,7 @@ impl std::fmt::Display for NotFileKind {
 /// What an input is to the command, for the error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Role {
-    /// The dataset root (scans, labels, calibration).
+    /// The dataset root (scans, labels, calibration, box annotations).
     Dataset,
     /// The converted ground truth.
     GroundTruth,

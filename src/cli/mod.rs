@@ -5,10 +5,12 @@
 
 mod convert;
 mod inputs;
+mod label;
 mod reports;
 
 pub use convert::{ConvertArgs, FormatArg, SplitArgs};
 pub use inputs::{CheckArgs, SubmissionArgs, UnpackArgs};
+pub use label::LabelArgs;
 pub use reports::{InspectArgs, PreviewArgs, ScoreArgs, StatsArgs, UnprojectArgs};
 
 use clap::{Parser, Subcommand};
@@ -44,6 +46,7 @@ impl Args {
             Command::Check(a) => a.json,
             Command::Inspect(a) => a.json,
             Command::Unpack(a) => a.json,
+            Command::Label(a) => a.json,
             Command::Preview(_) => false,
         }
     }
@@ -146,6 +149,22 @@ pub enum Command {
     /// (the scene, each frame's sample_data token). Then `kitti2pgm convert ROOT --sensor hdl32e
     /// --class-map nuscenes` (the benchmark's 16 classes). The tables are streamed.
     Unpack(UnpackArgs),
+    /// Label a sequence's scans point by point from the 3D boxes an annotation tool exported
+    /// (CVAT's Kitti Raw Format, Supervisely point clouds, SUSTechPOINTS, labelCloud):
+    /// ROOT/sequences/<NN>/labels/<frame6>.label (u32 per point: class | instance << 16), which
+    /// every other command then reads like SemanticKITTI's.
+    ///
+    /// Each annotated frame's scan is found by name (its file, a scan link's target, or its
+    /// frame number); every point in a box takes the box's class, by parry's containment test,
+    /// the smallest box winning where boxes overlap (KITTI's tracklet rule). --class-map says
+    /// which object type is which class (a type it does not know is an error unless --alias or
+    /// --unknown-class says); instance ids are stable per track across the sequence and across
+    /// runs. box_labels.json beside the labels records the class map, the box files' digests
+    /// and every label file written: `convert ROOT` uses that class map, and a re-run rewrites
+    /// exactly the frames whose labels change. A label file `label` did not write is refused
+    /// unless --overwrite (a dataset's own labels always). Exit status: 0 all labelled, 3 some
+    /// frames failed (a scan missing or unreadable; the rest written), 1 none could be.
+    Label(LabelArgs),
 }
 
 #[cfg(test)]

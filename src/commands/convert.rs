@@ -94,12 +94,13 @@ impl ConvertArgs {
         }
     }
 
-    /// The class map: `--class-map`'s, else the default of the input's layout.
+    /// The class map: `--class-map`'s, else the one `kitti2pgm label` recorded beside the
+    /// labels, else the default of the input's layout.
     fn class_map(&self, plan: &Plan) -> anyhow::Result<ClassMap> {
         if let Some(name_or_path) = &self.class_map {
             return Ok(ClassMap::named_or_file(name_or_path)?);
         }
-        Ok(ClassMap::default_for(plan.layout()))
+        Ok(kitti2pgm::format::box_labels::default_class_map(plan)?)
     }
 }
 

@@ -3,6 +3,7 @@
 pub mod check;
 mod convert;
 mod inspect;
+mod label;
 mod preview;
 pub mod progress;
 mod score;
@@ -30,6 +31,7 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
         Command::Stats(a) => stats::run(a, &global),
         Command::Score(a) => score::run(a, &global),
         Command::Inspect(a) => inspect::run(a),
+        Command::Label(a) => label::run(a, &global),
         Command::Unproject(a) => unproject::run(a, &global),
         Command::Submission(a) => submission::run(a),
         Command::Unpack(a) => unpack::run(a, &global),

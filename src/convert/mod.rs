@@ -10,8 +10,11 @@
 //! - [`frame`]: one frame, read to written;
 //! - [`shards`]: the shard output (frames in order, written while the next batch converts);
 //! - [`unpack`]: recordings -> sequence folders: a ROS 2 bag's point clouds (PCD scans), a
-//!   nuScenes root's scenes.
+//!   nuScenes root's scenes;
+//! - [`box_labels`]: a sequence labelled point by point from an annotation tool's 3D boxes
+//!   (`kitti2pgm label`).
 
+pub mod box_labels;
 pub mod frame;
 pub mod labels;
 pub mod resume;

@@ -7,6 +7,7 @@
 //! |---|---|
 //! | [`npy`] | `.npy` arrays (NumPy format 1.0), any numeric dtype in, float32 out |
 //! | [`pgm`] | a converted frame as `.npy` (SqueezeSeg's H x W x 6/9 layout, named channels) |
+//! | [`box_labels`] | `sequences/<NN>/box_labels.json`: what `label` made its label files from |
 //! | [`label_file`] | per-point `.label` files (u32: class, instance << 16) |
 //! | [`layout`] | the output folder: paths, discovery of converted frames and shards |
 //! | [`summary`] | `convert_summary.json`, with the typed [`ConvertParams`](crate::provenance::ConvertParams) |
@@ -18,6 +19,7 @@
 //! Every output is first written to a temporary file in the destination folder and renamed into
 //! place, so a crash or a full disk never leaves a half-written file under a final name.
 
+pub mod box_labels;
 pub mod imageset;
 pub mod journal;
 pub mod label_file;

@@ -130,8 +130,9 @@ impl ClassMap {
     }
 
     /// The built-in map called `name`: the name outputs record (`kitti-paper-4`,
-    /// `semantic-kitti`, `nuscenes`) or its short forms (`kitti-paper`, `kitti_paper`,
-    /// `semantic_kitti`, `nuscenes-16`, `nuscenes-lidarseg`).
+    /// `semantic-kitti`, `nuscenes`, and the box maps `sustechpoints`, `nuscenes-detection`) or
+    /// its short forms (`kitti-paper`, `kitti_paper`, `semantic_kitti`, `nuscenes-16`,
+    /// `nuscenes-lidarseg`, `sustech`).
     pub fn builtin(name: &str) -> Option<ClassMap> {
         match name {
             "kitti-paper-4" | "kitti-paper" | "kitti_paper" | "kitti_paper_4" => {
@@ -139,18 +140,43 @@ impl ClassMap {
             }
             "semantic-kitti" | "semantic_kitti" => Some(ClassMap::semantic_kitti()),
             "nuscenes" | "nuscenes-16" | "nuscenes-lidarseg" => Some(ClassMap::nuscenes()),
+            "sustechpoints" | "sustech" => Some(ClassMap::sustechpoints()),
+            "nuscenes-detection" | "nuscenes_detection" => Some(ClassMap::nuscenes_detection()),
             _ => None,
         }
     }
 
-    /// A class map by built-in name ([`ClassMap::builtin`]) or from a `semantic-kitti.yaml`-style
-    /// file.
+    /// The names of the built-in maps, as outputs record them.
+    pub const BUILTIN: [&'static str; 5] = [
+        "kitti-paper-4",
+        "semantic-kitti",
+        "nuscenes",
+        "sustechpoints",
+        "nuscenes-detection",
+    ];
+
+    /// A class map by built-in name ([`ClassMap::builtin`]) or from a file: a
+    /// `semantic-kitti.yaml`-style one (with `learning_map`) or a box class map (with
+    /// `classes`, [`ClassMap::from_box_yaml`]).
     pub fn named_or_file(name_or_path: &Path) -> Result<ClassMap> {
         if let Some(m) = name_or_path.to_str().and_then(ClassMap::builtin) {
             return Ok(m);
         }
+        if !name_or_path.exists() && name_or_path.extension().is_none() {
+            return Err(Error::Config(format!(
+                "no class map called {:?}: the built-in maps are {}, or give a YAML file",
+                name_or_path.display().to_string(),
+                ClassMap::BUILTIN.join(", ")
+            )));
+        }
         let text = crate::fs::read_text(name_or_path, crate::fs::Limit::Text)?;
-        ClassMap::from_semantic_kitti_yaml(&text, name_or_path)
+        let is_box_map = serde_norway::from_str::<serde_norway::Value>(&text)
+            .is_ok_and(|v| v.get("classes").is_some() && v.get("learning_map").is_none());
+        if is_box_map {
+            ClassMap::from_box_yaml(&text, name_or_path)
+        } else {
+            ClassMap::from_semantic_kitti_yaml(&text, name_or_path)
+        }
     }
 
     /// The default classes of a layout: SemanticKITTI's 20 for sequences, the paper's 4 for

@@ -9,6 +9,7 @@
 //! they only say what their files say, as [`AnnotatedBox`]es (`source::boxes`, the seam), and
 //! `label` reads no file.
 
+pub mod box_maps;
 pub mod boxes;
 pub mod classes;
 pub mod counts;

@@ -60,6 +60,11 @@ pub enum BoxOrigin {
     BottomCentre,
 }
 
+crate::named_enum!(BoxOrigin, "box origin", [
+    Centre => "centre" ["center"] "the box's centre",
+    BottomCentre => "bottom" ["bottom-centre", "bottom-center"] "the centre of its bottom face (KITTI's)",
+]);
+
 /// The order in which a format lists the box's sizes (full extents): length along the box's
 /// own x (its heading), width along its y, height along its z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,5 +1,6 @@
 //! The marks an unpack leaves in a sequence folder it writes: `unpack.json` (a bag's) or
-//! `nuscenes.json` (a nuScenes scene's). Each is written with `complete: false` before the first
+//! `nuscenes.json` (a nuScenes scene's), and the one `kitti2pgm label` leaves beside the labels
+//! it writes from boxes (`box_labels.json`). Each is written with `complete: false` before the first
 //! scan and again with `complete: true` after the last file, so a folder whose unpack was killed
 //! or failed partway says so, and the readers refuse it ([`refuse_unfinished`]) instead of
 //! taking a part of a recording for the whole.
@@ -14,6 +15,9 @@ use crate::error::{Error, Result};
 pub const BAG_MARKER: &str = "unpack.json";
 /// A nuScenes scene's index in its sequence folder.
 pub const NUSCENES_MARKER: &str = "nuscenes.json";
+/// The record `kitti2pgm label` leaves beside the labels it writes from boxes (its owner:
+/// `format::box_labels`).
+pub const BOX_LABELS_MARKER: &str = "box_labels.json";
 
 /// The part of a mark the readers need.
 #[derive(Deserialize)]
@@ -31,7 +35,16 @@ pub fn complete_by_default() -> bool {
 /// An error when the sequence folder `seq` holds the mark of an unpack that did not finish
 /// (or a mark that is not one: it names the file).
 pub fn refuse_unfinished(seq: &Path) -> Result<()> {
-    for name in [BAG_MARKER, NUSCENES_MARKER] {
+    let unpack = "unpack the recording again with --overwrite";
+    for (name, what, again) in [
+        (BAG_MARKER, "unpack", unpack),
+        (NUSCENES_MARKER, "unpack", unpack),
+        (
+            BOX_LABELS_MARKER,
+            "label run",
+            "run `kitti2pgm label` again",
+        ),
+    ] {
         let marker = seq.join(name);
         if !marker.is_file() {
             continue;
@@ -43,6 +56,8 @@ pub fn refuse_unfinished(seq: &Path) -> Result<()> {
             return Err(Error::UnfinishedUnpack {
                 path: seq.into(),
                 marker,
+                what,
+                again,
             });
         }
     }

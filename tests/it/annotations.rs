@@ -15,11 +15,20 @@ use super::util::{fixture, tmp};
 
 /// A box as the reference sees it: centre, half extents along its axes, and its axes (the
 /// columns of `r`: box to scan).
-struct RefBox {
+pub(super) struct RefBox {
     c: [f64; 3],
     half: [f64; 3],
     r: [[f64; 3]; 3],
-    instance: u16,
+    pub(super) instance: u16,
+}
+
+impl RefBox {
+    /// The box grown by `m` on every side (`label --margin`).
+    pub(super) fn grow(&mut self, m: f64) {
+        for h in &mut self.half {
+            *h += m;
+        }
+    }
 }
 
 fn mat_mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
@@ -33,7 +42,7 @@ fn mat_mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
 }
 
 /// `Rx(x) * Ry(y) * Rz(z)`, written out.
-fn rx_ry_rz([x, y, z]: [f64; 3]) -> [[f64; 3]; 3] {
+pub(super) fn rx_ry_rz([x, y, z]: [f64; 3]) -> [[f64; 3]; 3] {
     let (sx, cx, sy, cy, sz, cz) = (x.sin(), x.cos(), y.sin(), y.cos(), z.sin(), z.cos());
     let rx = [[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]];
     let ry = [[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]];
@@ -52,7 +61,7 @@ fn rz_ry_rx([x, y, z]: [f64; 3]) -> [[f64; 3]; 3] {
 
 /// The reference's boxes of `boxes` (centre, full x, y, z extents, Euler angles composed by
 /// `rot`), instance `i + 1` for box `i`.
-fn centred_refs(boxes: &[TestBox], rot: fn([f64; 3]) -> [[f64; 3]; 3]) -> Vec<RefBox> {
+pub(super) fn centred_refs(boxes: &[TestBox], rot: fn([f64; 3]) -> [[f64; 3]; 3]) -> Vec<RefBox> {
     (boxes.iter().enumerate())
         .map(|(i, (c, s, r))| RefBox {
             c: *c,
@@ -66,7 +75,7 @@ fn centred_refs(boxes: &[TestBox], rot: fn([f64; 3]) -> [[f64; 3]; 3]) -> Vec<Re
 /// Each point's instance by the reference (smallest box wins, then the earlier), and the points
 /// within 1 mm of a face of a box that holds or nearly holds them (single and double precision
 /// may disagree there: left out of the comparison).
-fn reference(points: &[Point3], boxes: &[RefBox]) -> (Vec<u16>, Vec<bool>) {
+pub(super) fn reference(points: &[Point3], boxes: &[RefBox]) -> (Vec<u16>, Vec<bool>) {
     let mut out = vec![0u16; points.len()];
     let mut edge = vec![false; points.len()];
     for (k, p) in points.iter().enumerate() {
@@ -138,9 +147,9 @@ fn assert_same(got: &[u16], (want, edge): (Vec<u16>, Vec<bool>)) {
 /// Boxes around the scan's points: (centre, sizes x y z, Euler x y z), some turned about all
 /// three axes, two overlapping (the smaller wins), one across the seam behind the sensor.
 /// A test box: centre, full x, y, z extents, Euler angles x, y, z (radians).
-type TestBox = ([f64; 3], [f64; 3], [f64; 3]);
+pub(super) type TestBox = ([f64; 3], [f64; 3], [f64; 3]);
 
-fn test_boxes() -> Vec<TestBox> {
+pub(super) fn test_boxes() -> Vec<TestBox> {
     vec![
         ([-0.6, 0.0, 0.1], [2.0, 1.6, 1.2], [0.0, 0.0, 0.6]),
         ([-0.5, 0.1, 0.0], [0.8, 0.6, 0.6], [0.1, -0.2, 1.1]),
@@ -150,7 +159,7 @@ fn test_boxes() -> Vec<TestBox> {
     ]
 }
 
-fn obj(x: [f64; 3]) -> serde_json::Value {
+pub(super) fn obj(x: [f64; 3]) -> serde_json::Value {
     serde_json::json!({"x": x[0], "y": x[1], "z": x[2]})
 }
 

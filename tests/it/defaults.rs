@@ -79,8 +79,9 @@ fn class_maps_by_the_names_outputs_record() {
         &t.path().join("c"),
         &["--class-map", "nonesuch"],
     );
-    assert_eq!(code, 1);
-    assert!(e.contains("nonesuch"), "{e}");
+    // A name that is neither a built-in map nor a file: a usage error listing the built-in maps.
+    assert_eq!(code, 2);
+    assert!(e.contains("nonesuch") && e.contains("sustechpoints"), "{e}");
 }
 
 #[test]

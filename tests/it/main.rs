@@ -5,6 +5,7 @@ mod annotations;
 mod architecture;
 mod bad_input;
 mod bags;
+mod box_labels;
 mod check;
 mod cli;
 mod cloud;

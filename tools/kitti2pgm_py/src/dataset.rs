@@ -11,7 +11,6 @@ use pyo3::types::{PyDict, PyList};
 
 use kitti2pgm::convert::frame::{load, Viz};
 use kitti2pgm::geom::Degrees;
-use kitti2pgm::label::ClassMap;
 use kitti2pgm::plan::{FrameSelection, Plan};
 use kitti2pgm::project::camera::{RgbOptions, Sampling};
 use kitti2pgm::project::{project_cloud, rings, Cloud, PgmSpec};
@@ -122,7 +121,7 @@ impl Dataset {
             .map_err(py_err)?;
         let class_map = match class_map {
             Some(name) => class_map_of(name)?,
-            None => ClassMap::default_for(plan.layout()),
+            None => kitti2pgm::format::box_labels::default_class_map(&plan).map_err(py_err)?,
         };
         plan.check_class_map(&class_map).map_err(py_err)?;
         let map = MapParams {

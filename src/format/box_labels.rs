@@ -1,0 +1,196 @@
+//! The record `kitti2pgm label` leaves in a sequence folder it labels from boxes,
+//! `sequences/<NN>/box_labels.json`, both directions: where the boxes came from (format, files
+//! and their digests, reading options), the class map (typed, in full), the instance table
+//! (instance id -> the tool's track id and class), and every label file written with the key of
+//! what it was made from and its own digest.
+//!
+//! It is written with `complete: false` before the first label file and again with `complete:
+//! true` after the last, so that a run killed partway says so and the readers refuse the
+//! sequence (`source::unpacked::refuse_unfinished`, [`BOX_LABELS_MARKER`]). `convert`, `check`
+//! and Python's `Dataset` take the class map recorded here unless told another
+//! ([`recorded_class_map`]).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::fs::Fingerprint;
+use crate::label::ClassMap;
+use crate::sensor::SensorPose;
+use crate::source::annotations::{AngleUnit, BoxFormat, CvatSizes};
+use crate::source::boxes::BoxOrigin;
+pub use crate::source::unpacked::BOX_LABELS_MARKER;
+
+/// Version of the record's layout.
+pub const VERSION: u32 = 1;
+
+/// What a label run was made with: every parameter that changes a label file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BoxLabelParams {
+    /// The box format.
+    pub format: BoxFormat,
+    /// Where a box's position sits, as given (`None`: the format's default).
+    pub origin: Option<BoxOrigin>,
+    /// The order of CVAT's sizes, as given (`None`: the format's default).
+    pub sizes: Option<CvatSizes>,
+    /// The unit of the angles, as given (`None`: the format's default).
+    pub angles: Option<AngleUnit>,
+    /// The sensor's pose in the frame the boxes are drawn in (`None`: the boxes are in the
+    /// scan's frame).
+    pub sensor_pose: Option<SensorPose>,
+    /// Metres added to every side of every box.
+    pub margin_m: f64,
+    /// The class that boxes of a type the map does not know become (`None`: such boxes are an
+    /// error).
+    pub unknown_class: Option<String>,
+    /// The class map, aliases included, with its per-point ids (`learning_map`).
+    pub class_map: ClassMap,
+}
+
+impl BoxLabelParams {
+    /// The parameters as one canonical string (part of every frame's key).
+    pub fn key(&self) -> String {
+        serde_json::to_string(self).expect("parameters serialise")
+    }
+}
+
+/// One instance id of the sequence.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct InstanceEntry {
+    /// The id in the high 16 bits of a `.label` entry.
+    pub instance: u16,
+    /// The annotation tool's id of the object (its track).
+    pub track: String,
+    /// The object type its first box was annotated as.
+    pub object_type: String,
+    /// The class that type became.
+    pub class: String,
+}
+
+/// One label file written.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LabelledFrame {
+    /// The scan's name as the annotations give it.
+    pub annotation: String,
+    /// The annotation file its boxes came from, as given.
+    pub box_file: PathBuf,
+    /// Boxes of the frame (all, including those that label nothing).
+    pub boxes: usize,
+    /// XXH3-64 of what the file was made from (parameters, the scan's bytes, the boxes as
+    /// labelled), 16 hex digits.
+    pub key: String,
+    /// The label file as written: a file that differs was edited since.
+    pub label: Fingerprint,
+}
+
+/// `box_labels.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BoxLabelRecord {
+    /// [`VERSION`].
+    pub version: u32,
+    /// Whether the run finished (`false` while it writes).
+    pub complete: bool,
+    /// What the labels were made with.
+    pub params: BoxLabelParams,
+    /// The box files read, as given, with their digests.
+    pub box_files: BTreeMap<PathBuf, Fingerprint>,
+    /// The instance table, by instance id.
+    pub instances: Vec<InstanceEntry>,
+    /// The label files written, by frame name (`000042`).
+    pub frames: BTreeMap<String, LabelledFrame>,
+}
+
+/// The record's path in sequence folder `seq`.
+pub fn path(seq: &Path) -> PathBuf {
+    seq.join(BOX_LABELS_MARKER)
+}
+
+/// The record of sequence folder `seq`, if it has one.
+pub fn read(seq: &Path) -> Result<Option<BoxLabelRecord>> {
+    let p = path(seq);
+    if !crate::fs::present(&p) {
+        return Ok(None);
+    }
+    let text = crate::fs::read_text(&p, crate::fs::Limit::Text)?;
+    let record: BoxLabelRecord = serde_json::from_str(&text).map_err(|e| Error::NotFormat {
+        path: p.clone(),
+        format: "a kitti2pgm box label record",
+        detail: e.to_string(),
+    })?;
+    if record.version != VERSION {
+        return Err(Error::format(
+            &p,
+            format!(
+                "record version {} (this kitti2pgm writes {VERSION})",
+                record.version
+            ),
+        ));
+    }
+    Ok(Some(record))
+}
+
+/// Writes `record` into sequence folder `seq`, atomically.
+pub fn write(seq: &Path, record: &BoxLabelRecord, d: super::Durability) -> Result<()> {
+    let json = serde_json::to_vec_pretty(record).expect("a record serialises");
+    super::atomic_write(&path(seq), &json, d)
+}
+
+/// The class map the box labels of `seqs` were written with: `None` when none of them was
+/// labelled by `kitti2pgm label`; an error when two were labelled with different maps, or when
+/// some were and others hold label files of their own (one map cannot read both).
+pub fn recorded_class_map<'a>(
+    seqs: impl IntoIterator<Item = &'a Path>,
+) -> Result<Option<ClassMap>> {
+    let mut found: Option<(PathBuf, ClassMap)> = None;
+    let mut unrecorded: Option<PathBuf> = None;
+    for seq in seqs {
+        match read(seq)? {
+            Some(r) => {
+                if let Some((first, map)) = &found {
+                    if *map != r.params.class_map {
+                        return Err(Error::Config(format!(
+                            "{} and {} were labelled with different class maps ({} and {}): convert them apart, or name one with --class-map",
+                            first.display(),
+                            seq.display(),
+                            map.name,
+                            r.params.class_map.name
+                        )));
+                    }
+                } else {
+                    found = Some((seq.to_path_buf(), r.params.class_map));
+                }
+            }
+            None if has_label_files(seq) => unrecorded = Some(seq.to_path_buf()),
+            None => {}
+        }
+    }
+    match (found, unrecorded) {
+        (Some((labelled, map)), Some(other)) => Err(Error::Config(format!(
+            "{} was labelled from boxes with class map {}, {} holds labels of its own: convert them apart, or name the map with --class-map",
+            labelled.display(),
+            map.name,
+            other.display()
+        ))),
+        (found, _) => Ok(found.map(|(_, m)| m)),
+    }
+}
+
+/// Whether sequence folder `seq` holds `.label` files.
+fn has_label_files(seq: &Path) -> bool {
+    std::fs::read_dir(seq.join(crate::source::kitti::sequence::LABELS)).is_ok_and(|d| {
+        d.flatten()
+            .any(|e| e.path().extension().is_some_and(|x| x == "label"))
+    })
+}
+
+/// The class map a conversion of `plan` takes when none is named: the one its sequences were
+/// labelled from boxes with ([`recorded_class_map`]), else the layout's default
+/// ([`ClassMap::default_for`]).
+pub fn default_class_map(plan: &crate::plan::Plan) -> Result<ClassMap> {
+    let seqs = (plan.drives.iter())
+        .filter(|d| d.drive.dataset == crate::source::DatasetKind::Sequence)
+        .map(|d| d.drive.dir.as_path());
+    Ok(recorded_class_map(seqs)?.unwrap_or_else(|| ClassMap::default_for(plan.layout())))
+}
