@@ -136,8 +136,8 @@ pub struct CheckOptions {
     pub imageset: Option<PathBuf>,
     /// The thresholds.
     pub thresholds: Thresholds,
-    /// The class map whose yaml the per-point label ids are checked against (SemanticKITTI's
-    /// own when `None`).
+    /// The class map whose yaml the per-point label ids are checked against (`None`: the one
+    /// `kitti2pgm label` recorded beside the labels, else SemanticKITTI's own).
     pub class_map: Option<crate::label::ClassMap>,
     /// The sensor whose beam model the points of scans without a ring field are checked
     /// against (`beam-model`); `None`: not checked.

@@ -93,12 +93,18 @@ pub(crate) fn check_labels(r: &DriveRead, c: &mut Collector) -> Vec<(u32, BTreeM
     if r.label_frames().is_empty() {
         return Vec::new();
     }
-    let map = c
-        .opts
-        .class_map
-        .clone()
-        .unwrap_or_else(ClassMap::semantic_kitti);
     let drive = &r.drive;
+    // The map asked for, else the one `kitti2pgm label` wrote these labels with, else
+    // SemanticKITTI's.
+    let recorded = || {
+        crate::format::box_labels::read(&drive.dir)
+            .ok()
+            .flatten()
+            .map(|rec| rec.params.class_map)
+    };
+    let map = (c.opts.class_map.clone())
+        .or_else(recorded)
+        .unwrap_or_else(ClassMap::semantic_kitti);
     let files: Vec<(u32, FileLabels)> = r
         .label_frames()
         .par_iter()

@@ -42,7 +42,8 @@ pub struct CheckArgs {
     #[arg(long, value_name = "DIR")]
     pub imageset: Option<PathBuf>,
     /// The class map (a built-in name or a semantic-kitti.yaml-style file) whose ids per-point
-    /// labels are checked against (default: SemanticKITTI's).
+    /// labels are checked against (default: the one `kitti2pgm label` recorded beside the
+    /// labels, else SemanticKITTI's).
     #[arg(long, value_name = "NAME|YAML")]
     pub class_map: Option<PathBuf>,
     /// Draw a picture of each flagged frame into DIR: a bird's-eye view with the boxes (the

@@ -132,6 +132,17 @@ fn label_writes_the_reference_labels_and_convert_takes_its_class_map() {
     assert_eq!(rec["instances"][4]["object_type"], "BicycleRider");
     assert_eq!(rec["instances"][4]["class"], "rider");
     assert_eq!(rec["box_files"].as_object().unwrap().len(), 1);
+    // check reads them with the recorded map too (SemanticKITTI's lists none of ids 2-5).
+    let (code, out, err) = run_text(&["check", s(&root), "--sensor", "vlp16", "--no-progress"]);
+    assert_eq!(code, 0, "{out} {err}");
+    let (code, _, _) = run_text(&[
+        "check",
+        s(&root),
+        "--class-map",
+        "semantic-kitti",
+        "--no-progress",
+    ]);
+    assert_eq!(code, 3, "with SemanticKITTI's map the ids are unknown");
     // convert reads the labels with the recorded map, unless told another.
     let out = t.path().join("out");
     let (code, j, err) = super::util::convert_json(
