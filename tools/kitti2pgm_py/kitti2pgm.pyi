@@ -86,7 +86,13 @@ def write_point_predictions(
     out: _Path, frame: str, classes: _Array, *, class_map: str
 ) -> Tuple[Path, int]: ...
 def label_points(
-    points: _Array, boxes: List[Dict[str, Any]], *, background: int = 0
+    points: _Array,
+    boxes: List[Dict[str, Any]],
+    *,
+    background: int = 0,
+    class_map: Optional[str] = None,
+    unknown_class: Optional[str] = None,
+    margin: float = 0.0,
 ) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint16]]: ...
 def read_scan(path: _Path, *, with_file_index: bool = False) -> Any: ...
 def read_cloud(path: _Path, *, fields: Optional[str] = None) -> Dict[str, Any]: ...

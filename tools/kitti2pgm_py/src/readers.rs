@@ -202,7 +202,12 @@ pub(crate) fn class_map_of(name: &str) -> PyResult<ClassMap> {
 /// A box dict as the library's box ([`BoxConvention::CENTRED_LWH`]): centre (3), size (l, w, h:
 /// full extents along the box's x, y, z), rotation (3x3, box to velodyne) or yaw (radians about
 /// z), class, instance.
-fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
+fn box_of(
+    d: &Bound<'_, PyAny>,
+    index: usize,
+    classes: Option<&BoxClasses>,
+    margin: f64,
+) -> PyResult<LabelBox> {
     let get = |k: &str| d.get_item(k);
     let err = |what: &str| PyValueError::new_err(format!("box {index}: {what}"));
     let centre: Vec<f64> = get("centre").map_err(|_| err("no 'centre'"))?.extract()?;
@@ -239,18 +244,69 @@ fn box_of(d: &Bound<'_, PyAny>, index: usize) -> PyResult<LabelBox> {
             BoxRotation::Yaw(yaw)
         }
     };
-    let class: u8 = get("class").map_err(|_| err("no 'class'"))?.extract()?;
-    let instance: u16 = match get("instance") {
-        Ok(v) => v.extract()?,
-        Err(_) => u16::try_from(index + 1).unwrap_or(u16::MAX),
+    let class: u8 = match (get("class"), classes) {
+        (Ok(c), _) => c.extract()?,
+        (Err(_), Some(classes)) => {
+            let name: String = get("class_name")
+                .map_err(|_| err("no 'class' or 'class_name'"))?
+                .extract()?;
+            classes.of(&name)?
+        }
+        (Err(_), None) => return Err(err("no 'class' (or 'class_name' with class_map=)")),
     };
-    let geometry = BoxConvention::CENTRED_LWH.place(
+    // The instance given, else the track's (`read_boxes`: track + 1, as `kitti2pgm label`
+    // numbers a fresh sequence's tracks), else the box's place + 1.
+    let instance: u16 = match (get("instance"), get("track")) {
+        (Ok(v), _) => v.extract()?,
+        (Err(_), Ok(t)) => kitti2pgm::label::instance_of(t.extract()?),
+        _ => u16::try_from(index + 1).unwrap_or(u16::MAX),
+    };
+    let mut geometry = BoxConvention::CENTRED_LWH.place(
         [centre[0], centre[1], centre[2]],
         [size[0], size[1], size[2]],
         &rotation,
         None,
     );
+    geometry.half_extents.add_scalar_mut(margin as Real);
     Ok(LabelBox::of(&geometry, class, instance))
+}
+
+/// A class map's rule for boxes' class names, as `kitti2pgm label` applies it: the map's object
+/// types (with `unknown_class` for the types it does not know; without, such a type is an
+/// error naming the map's types).
+pub(crate) struct BoxClasses {
+    map: ClassMap,
+    unknown: Option<u8>,
+}
+
+impl BoxClasses {
+    fn new(map: ClassMap, unknown_class: Option<&str>) -> PyResult<BoxClasses> {
+        let unknown = match unknown_class {
+            None => None,
+            Some(name) => Some(map.id_of(name).ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "unknown_class {name:?} is not a class of {} ({})",
+                    map.name,
+                    map.names().join(", ")
+                ))
+            })?),
+        };
+        Ok(BoxClasses { map, unknown })
+    }
+
+    fn of(&self, name: &str) -> PyResult<u8> {
+        match (self.map.object_types.get(name), self.unknown) {
+            (Some(&c), _) => Ok(c),
+            (None, Some(c)) => Ok(c),
+            (None, None) => {
+                Err(PyValueError::new_err(format!(
+                "object type {name:?} is not one the class map {} knows ({}): pass unknown_class=",
+                self.map.name,
+                self.map.object_types.keys().cloned().collect::<Vec<_>>().join(", ")
+            )))
+            }
+        }
+    }
 }
 
 /// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely", "sustechpoints" or
@@ -362,22 +418,37 @@ fn set_geometry(
 type Labels<'py> = (Bound<'py, PyArray1<u8>>, Bound<'py, PyArray1<u16>>);
 
 /// Labels points by the boxes that hold them (parry containment; a point in several boxes
-/// takes the smallest box's class). `boxes`: dicts with centre, size (l, w, h), rotation (3x3)
-/// or yaw, class, and optionally instance (default: position + 1). Returns (class (N,) uint8,
-/// instance (N,) uint16); points in no box get `background`.
+/// takes the smallest box's class), as `kitti2pgm label` does. `boxes`: dicts with centre, size
+/// (l, w, h), rotation (3x3) or yaw, and class (an id) or, with `class_map` (a built-in name or
+/// a YAML file), class_name (the annotation's type, as `read_boxes` gives it: an unknown type is
+/// an error unless `unknown_class` names a class); instance, else track + 1, else position + 1;
+/// `margin` metres added to every side. Returns (class (N,) uint8, instance (N,) uint16);
+/// points in no box get `background` (the class map's, with one).
 #[pyfunction]
-#[pyo3(signature = (points, boxes, *, background=0))]
+#[pyo3(signature = (points, boxes, *, background=0, class_map=None, unknown_class=None, margin=0.0))]
 fn label_points<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     boxes: &Bound<'py, PyAny>,
     background: u8,
+    class_map: Option<&str>,
+    unknown_class: Option<&str>,
+    margin: f64,
 ) -> PyResult<Labels<'py>> {
     let (pts, _) = points_arg(points, "points", false)?;
+    if !(0.0..=1.0).contains(&margin) {
+        return Err(PyValueError::new_err(format!(
+            "margin must be 0 to 1 metre, not {margin}"
+        )));
+    }
+    let classes = class_map
+        .map(|m| BoxClasses::new(class_map_of(m)?, unknown_class))
+        .transpose()?;
+    let background = classes.as_ref().map_or(background, |c| c.map.background);
     let boxes: Vec<LabelBox> = boxes
         .try_iter()?
         .enumerate()
-        .map(|(i, b)| box_of(&b?, i))
+        .map(|(i, b)| box_of(&b?, i, classes.as_ref(), margin))
         .collect::<PyResult<_>>()?;
     let labels = py.detach(|| Labeller::new(&boxes, background).label(&pts));
     Ok((

@@ -178,3 +178,28 @@ def test_read_boxes_gives_sustechpoints_boxes_that_label_points_as_numpy_does(tm
         k2.read_boxes(str(scene), "supervisely")
     with pytest.raises(ValueError, match="format must be a known name"):
         k2.read_boxes(str(scene), "labelme")
+
+
+def test_label_points_with_a_class_map_equals_kitti2pgm_label(tmp_path, kitti2pgm_path):
+    """Issue 46: the boxes of fixtures/own_boxes (a SUSTechPOINTS scene around the real VLP-16
+    scan) labelled from Python with the class map give the .label file `kitti2pgm label` writes,
+    class and instance, point for point; unknown types are refused unless unknown_class says."""
+    import shutil
+
+    root = tmp_path / "root"
+    shutil.copytree(OWN, root)
+    boxes = REPO / "fixtures" / "own_boxes"
+    subprocess.run([kitti2pgm_path, "--no-progress", "label", str(root), "--boxes", str(boxes)], check=True)
+    written = np.fromfile(root / "sequences/00/labels/000000.label", "<u4")
+    pts = k2.read_cloud(str(root / "sequences/00/velodyne/000000.pcd"))["points"][:, :3]
+    frame = k2.read_boxes(str(boxes), "sustechpoints")["frames"]["000000"]
+    cls, inst = k2.label_points(pts, frame["boxes"], class_map="sustechpoints")
+    assert len(written) == len(pts) and (cls > 0).sum() > 100
+    assert np.array_equal(written & 0xFFFF, cls) and np.array_equal(written >> 16, inst)
+    frame["boxes"][0]["class_name"] = "Rider"
+    with pytest.raises(ValueError, match="Rider"):
+        k2.label_points(pts, frame["boxes"], class_map="sustechpoints")
+    cls2, _ = k2.label_points(pts, frame["boxes"], class_map="sustechpoints", unknown_class="background")
+    assert (cls2 == 1).sum() < (cls == 1).sum()
+    grown, _ = k2.label_points(pts, frame["boxes"], class_map="sustechpoints", unknown_class="car", margin=0.3)
+    assert (grown > 0).sum() > (cls > 0).sum()
