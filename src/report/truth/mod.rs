@@ -270,8 +270,17 @@ impl GroundTruth {
             });
         }
         frames.sort();
+        // Labels `kitti2pgm label` wrote from boxes are read with the class map it recorded.
+        let recorded =
+            crate::format::box_labels::recorded_class_map(drives.iter().map(|d| d.dir.as_path()))?;
+        let provenance = match &recorded {
+            Some(_) => drives[0]
+                .dir
+                .join(crate::format::box_labels::BOX_LABELS_MARKER),
+            None => path.join("semantic-kitti.yaml (embedded)"),
+        };
         let params = MapParams {
-            class_map: ClassMap::semantic_kitti(),
+            class_map: recorded.unwrap_or_else(ClassMap::semantic_kitti),
             ..MapParams::default()
         };
         Ok(GroundTruth {
@@ -279,7 +288,7 @@ impl GroundTruth {
             source: Source::Dataset(drives),
             dir: None,
             params,
-            provenance: Provenance::Recorded(path.join("semantic-kitti.yaml (embedded)")),
+            provenance: Provenance::Recorded(provenance),
             frames,
             partial: None,
         })

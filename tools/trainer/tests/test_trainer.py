@@ -383,3 +383,45 @@ def test_the_configuration_is_typed_and_has_one_set_of_defaults(tmp_path):
     assert ev == EvalConfig(run="r", shards="s") and ev.knn_k == 5 and ev.format == "npy"
     with pytest.raises(ValueError, match="--points needs --raw"):
         EvalConfig(run="r", shards="s", points=True)
+
+
+def test_own_boxes_label_convert_train_unproject_and_score(tmp_path, kitti2pgm):
+    """Issue 46 end to end: the SUSTechPOINTS boxes of fixtures/own_boxes around the real VLP-16
+    scan -> `label` -> `convert` (the recorded class map) -> train a few steps -> `unproject`
+    (kNN) -> `score` on the labelled root (per point); the scores equal a numpy count of the
+    label files themselves."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[3]
+    root = tmp_path / "root"
+    shutil.copytree(repo / "fixtures/own_lidar", root)
+    kitti2pgm("label", str(root), "--boxes", str(repo / "fixtures/own_boxes"))
+    data = tmp_path / "data"
+    kitti2pgm("convert", str(root), "--out", str(data), "--sensor", "vlp16", "--all-frames", "--cols", "512",
+              "--format", "npy,mcap")
+    shards = data / "shards"
+    run = tmp_path / "run"
+    _train(run, shards, 3, [])
+    config = json.loads((run / "config.json").read_text())
+    assert config["class_map"]["name"] == "sustechpoints"
+    assert main(["evaluate", "--run", str(run), "--shards", str(shards), "--val-shards", str(shards / "*.mcap"),
+                 "--device", "cpu", "--timing-frames", "0"]) == 0
+    up = tmp_path / "up"
+    kitti2pgm("unproject", "--gt", str(data), "--pred", str(run / "predictions"), "--raw", str(root), "--out", str(up))
+    score = json.loads(kitti2pgm("score", "--gt", str(root), "--pred", str(up), "--json").stdout)
+    truth = np.fromfile(root / "sequences/00/labels/000000.label", "<u4") & 0xFFFF
+    pred = np.fromfile(up / "sequences/00/predictions/000000.label", "<u4") & 0xFFFF
+    names = [c["name"] for c in config["class_map"]["classes"]]
+    assert len(truth) == len(pred) == 14831
+    ious = []
+    for c, name in enumerate(names):
+        tp = int(((truth == c) & (pred == c)).sum())
+        fp = int(((truth != c) & (pred == c)).sum())
+        fn = int(((truth == c) & (pred != c)).sum())
+        if tp + fp + fn == 0:
+            continue
+        iou = tp / (tp + fp + fn)
+        assert abs(score["classes"][name]["iou"] - iou) < 1e-12, name
+        if c != 0:
+            ious.append(iou)
+    assert abs(score["miou"] - sum(ious) / len(ious)) < 1e-12
