@@ -150,7 +150,8 @@ pub enum Command {
     /// --class-map nuscenes` (the benchmark's 16 classes). The tables are streamed.
     Unpack(UnpackArgs),
     /// Label a sequence's scans point by point from the 3D boxes an annotation tool exported
-    /// (CVAT's Kitti Raw Format, Supervisely point clouds, SUSTechPOINTS, labelCloud):
+    /// (CVAT's Kitti Raw Format, Supervisely point clouds, SUSTechPOINTS, labelCloud,
+    /// Segments.ai, Xtreme1 / BasicAI, ASAM OpenLABEL):
     /// ROOT/sequences/<NN>/labels/<frame6>.label (u32 per point: class | instance << 16), which
     /// every other command then reads like SemanticKITTI's.
     ///

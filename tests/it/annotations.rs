@@ -51,7 +51,7 @@ pub(super) fn rx_ry_rz([x, y, z]: [f64; 3]) -> [[f64; 3]; 3] {
 }
 
 /// KITTI's tracklet rotation: `Rz(rz) * Ry(ry) * Rx(rx)`.
-fn rz_ry_rx([x, y, z]: [f64; 3]) -> [[f64; 3]; 3] {
+pub(super) fn rz_ry_rx([x, y, z]: [f64; 3]) -> [[f64; 3]; 3] {
     let (sx, cx, sy, cy, sz, cz) = (x.sin(), x.cos(), y.sin(), y.cos(), z.sin(), z.cos());
     let rx = [[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]];
     let ry = [[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]];
@@ -107,14 +107,14 @@ pub(super) fn reference(points: &[Point3], boxes: &[RefBox]) -> (Vec<u16>, Vec<b
 }
 
 /// The real VLP-16 scan's points.
-fn scan() -> Vec<Point3> {
+pub(super) fn scan() -> Vec<Point3> {
     let path = fixture("own_lidar/sequences/00/velodyne/000000.pcd");
     kitti2pgm::source::read_file(&path, None).unwrap().points
 }
 
 /// Labels `points` with the boxes of frame `scan` of `a` (every class a class of its own, so
 /// that the instance decides): each point's instance.
-fn labelled(a: &annotations::Annotations, scan: &str, points: &[Point3]) -> Vec<u16> {
+pub(super) fn labelled(a: &annotations::Annotations, scan: &str, points: &[Point3]) -> Vec<u16> {
     let mut map = ClassMap::kitti_paper();
     for b in &a.frames[scan].boxes {
         map.object_types.insert(b.class_name.clone(), 1);
@@ -125,7 +125,7 @@ fn labelled(a: &annotations::Annotations, scan: &str, points: &[Point3]) -> Vec<
 
 /// Asserts the labeller's instances equal the reference's on every point off the faces, that
 /// few points lie on them, and that the boxes hold points at all.
-fn assert_same(got: &[u16], (want, edge): (Vec<u16>, Vec<bool>)) {
+pub(super) fn assert_same(got: &[u16], (want, edge): (Vec<u16>, Vec<bool>)) {
     let mut compared = 0;
     for k in 0..got.len() {
         if !edge[k] {

@@ -1,6 +1,7 @@
 //! The integration tests: one binary, a module per stage, on the real KITTI files in
 //! `fixtures/raw` (and `../shared/kitti` where present).
 
+mod annotation_formats;
 mod annotations;
 mod architecture;
 mod bad_input;

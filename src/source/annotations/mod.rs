@@ -1,7 +1,8 @@
 //! READ: the 3D box annotations that labelling tools export, one reader a format: [`cvat_kitti`]
 //! (CVAT's "Kitti Raw Format 1.0", through Datumaro), [`supervisely`] (the Supervisely point
 //! cloud format, also CVAT's "Sly Point Cloud"), [`sustechpoints`] (SUSTechPOINTS' `label/`
-//! files), [`labelcloud`] (labelCloud's centroid formats).
+//! files), [`labelcloud`] (labelCloud's centroid formats), [`segments`] (Segments.ai's release
+//! file), [`xtreme1`] (Xtreme1's and BasicAI's export), [`openlabel`] (ASAM OpenLABEL 1.0).
 //!
 //! Each reader says what its files say, as [`AnnotatedBox`]es in the scan's frame placed by the
 //! format's [`BoxConvention`](super::boxes::BoxConvention) (written down in docs/sources.md with
@@ -14,8 +15,11 @@
 
 pub mod cvat_kitti;
 pub mod labelcloud;
+pub mod openlabel;
+pub mod segments;
 pub mod supervisely;
 pub mod sustechpoints;
+pub mod xtreme1;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -35,6 +39,12 @@ pub enum BoxFormat {
     SusTechPoints,
     /// labelCloud's `centroid_abs` / `centroid_rel`: `labels/<point cloud>.json`.
     LabelCloud,
+    /// Segments.ai's release file (cuboids of point cloud samples and sequences).
+    SegmentsAi,
+    /// Xtreme1's / BasicAI's export: `result/<name>.json` beside `point_cloud/`.
+    Xtreme1,
+    /// ASAM OpenLABEL 1.0 JSON (cuboids).
+    OpenLabel,
 }
 
 crate::named_enum!(BoxFormat, "box format", [
@@ -42,6 +52,9 @@ crate::named_enum!(BoxFormat, "box format", [
     Supervisely => "supervisely" ["sly", "sly-pointcloud"] "Supervisely point cloud: <dataset>/ann/<scan>.pcd.json cuboid_3d figures",
     SusTechPoints => "sustechpoints" ["sustech"] "SUSTechPOINTS: label/<frame>.json (psr: position, scale, rotation)",
     LabelCloud => "labelcloud" ["label-cloud"] "labelCloud's centroid formats: labels/<point cloud>.json (degrees by default)",
+    SegmentsAi => "segments-ai" ["segments", "segmentsai"] "Segments.ai's release file: cuboids (yaw or quaternion), ego poses",
+    Xtreme1 => "xtreme1" ["basicai", "basic-ai"] "Xtreme1 / BasicAI: result/<name>.json 3D_BOX objects (center3D, size3D, rotation3D)",
+    OpenLabel => "openlabel" ["asam-openlabel"] "ASAM OpenLABEL 1.0 JSON: cuboids (Euler ZYX or quaternion)",
 ]);
 
 /// How to read a format whose files leave a convention open (CVAT's tracklets: where the
@@ -138,6 +151,9 @@ pub fn read(path: &Path, format: BoxFormat, opts: &ReadOptions) -> Result<Annota
         BoxFormat::Supervisely => supervisely::read(path),
         BoxFormat::SusTechPoints => sustechpoints::read(path),
         BoxFormat::LabelCloud => labelcloud::read(path, opts),
+        BoxFormat::SegmentsAi => segments::read(path),
+        BoxFormat::Xtreme1 => xtreme1::read(path),
+        BoxFormat::OpenLabel => openlabel::read(path),
     };
     let mut a = read.map_err(|e| match detect(path) {
         Some(other) if other != format => Error::Input {
@@ -164,6 +180,15 @@ pub fn detect(path: &Path) -> Option<BoxFormat> {
     }
     if sustechpoints::looks_like(path) {
         return Some(BoxFormat::SusTechPoints);
+    }
+    if xtreme1::looks_like(path) {
+        return Some(BoxFormat::Xtreme1);
+    }
+    if segments::looks_like(path) {
+        return Some(BoxFormat::SegmentsAi);
+    }
+    if openlabel::looks_like(path) {
+        return Some(BoxFormat::OpenLabel);
     }
     labelcloud::looks_like(path).then_some(BoxFormat::LabelCloud)
 }
@@ -236,9 +261,10 @@ fn read_json(file: &Path) -> Result<serde_json::Value> {
     })
 }
 
-/// The box of the web editors' form (Supervisely, SUSTechPOINTS), checked: its centre, its x,
-/// y, z extents, and Euler angles x, y, z applied as `Rx(x) * Ry(y) * Rz(z)` (three.js's `XYZ`
-/// order, SUSTechPOINTS' `euler_angle_to_rotate_matrix`); `what` names the object in errors.
+/// The box of the web editors' form (Supervisely, SUSTechPOINTS, Xtreme1), checked: its
+/// centre, its x, y, z extents, and Euler angles x, y, z applied as `Rx(x) * Ry(y) * Rz(z)`
+/// (three.js's `XYZ` order, SUSTechPOINTS' `euler_angle_to_rotate_matrix`); `what` names the
+/// object in errors.
 fn centred_xyz_euler(
     file: &Path,
     what: &str,
@@ -246,11 +272,67 @@ fn centred_xyz_euler(
     sizes: [f64; 3],
     [x, y, z]: [f64; 3],
 ) -> Result<Box3> {
-    use crate::geom::na::{Rotation3, Vector3};
     check_box(file, what, centre, sizes, &[x, y, z])?;
-    let r = Rotation3::from_axis_angle(&Vector3::x_axis(), x)
-        * Rotation3::from_axis_angle(&Vector3::y_axis(), y)
-        * Rotation3::from_axis_angle(&Vector3::z_axis(), z);
-    let rotation = BoxRotation::Matrix(*r.matrix());
-    Ok(BoxConvention::CENTRED_LWH.place(centre, sizes, &rotation, None))
+    let r = axis(0, x) * axis(1, y) * axis(2, z);
+    Ok(centred(centre, sizes, *r.matrix()))
+}
+
+/// The box of OpenLABEL's Euler form, checked: Euler angles applied `Rz(z) * Ry(y) * Rx(x)`
+/// (the ASAM OpenLABEL reference library VCD's `euler2R([rz, ry, rx])`, sequence `ZYX`).
+fn centred_zyx_euler(
+    file: &Path,
+    what: &str,
+    centre: [f64; 3],
+    sizes: [f64; 3],
+    [x, y, z]: [f64; 3],
+) -> Result<Box3> {
+    check_box(file, what, centre, sizes, &[x, y, z])?;
+    let r = axis(2, z) * axis(1, y) * axis(0, x);
+    Ok(centred(centre, sizes, *r.matrix()))
+}
+
+/// The box of a rotation quaternion `[qx, qy, qz, qw]` (Segments.ai, OpenLABEL), checked
+/// ([`unit_quaternion`]).
+fn centred_quaternion(
+    file: &Path,
+    what: &str,
+    centre: [f64; 3],
+    sizes: [f64; 3],
+    q: [f64; 4],
+) -> Result<Box3> {
+    check_box(file, what, centre, sizes, &q)?;
+    let r = unit_quaternion(file, what, q)?.to_rotation_matrix();
+    Ok(centred(centre, sizes, *r.matrix()))
+}
+
+/// A rotation quaternion `[qx, qy, qz, qw]`: one whose length is more than 1% from 1 is an
+/// error (it is no rotation: a typing error or another convention), a nearly unit one is
+/// normalised.
+fn unit_quaternion(
+    file: &Path,
+    what: &str,
+    [qx, qy, qz, qw]: [f64; 4],
+) -> Result<crate::geom::na::UnitQuaternion<f64>> {
+    use crate::geom::na::{Quaternion, UnitQuaternion};
+    let q = Quaternion::new(qw, qx, qy, qz);
+    let norm = q.norm();
+    if !((0.99..=1.01).contains(&norm)) {
+        return Err(Error::format(
+            file,
+            format!("{what}: rotation quaternion of length {norm}, far from unit length"),
+        ));
+    }
+    Ok(UnitQuaternion::from_quaternion(q))
+}
+
+/// A rotation of `angle` radians about axis `i` (0 x, 1 y, 2 z).
+fn axis(i: usize, angle: f64) -> crate::geom::na::Rotation3<f64> {
+    use crate::geom::na::{Rotation3, Vector3};
+    let a = [Vector3::x_axis(), Vector3::y_axis(), Vector3::z_axis()][i];
+    Rotation3::from_axis_angle(&a, angle)
+}
+
+/// A checked box of centre `centre`, x, y, z extents `sizes` and rotation `r` (box to scan).
+fn centred(centre: [f64; 3], sizes: [f64; 3], r: crate::geom::na::Matrix3<f64>) -> Box3 {
+    BoxConvention::CENTRED_LWH.place(centre, sizes, &BoxRotation::Matrix(r), None)
 }

@@ -309,8 +309,8 @@ impl BoxClasses {
     }
 }
 
-/// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely", "sustechpoints" or
-/// "labelcloud"; for CVAT's, origin="centre"|"bottom" and sizes="datumaro"|"kitti", its
+/// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely", "sustechpoints",
+/// "labelcloud", "segments-ai", "xtreme1" or "openlabel"; for CVAT's, origin="centre"|"bottom" and sizes="datumaro"|"kitti", its
 /// defaults centre and datumaro; for labelCloud's, angles="degrees"|"radians", degrees;
 /// sensor_pose="x,y,z[,roll,pitch,yaw]" for boxes drawn in a vehicle frame, as --sensor-pose): a dict with format, tracks (the tool's id of every track, by track index) and
 /// frames ({scan name: {"file": path, "boxes": [box dicts]}}), each box with class_name (as the
