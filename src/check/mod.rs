@@ -9,6 +9,7 @@
 //! only annotations, calibration and file lists.
 
 mod calibration;
+mod imported;
 mod inventory;
 mod layouts;
 mod names;
@@ -260,6 +261,7 @@ pub fn check(
         let mut c = Collector::new(&drive.name(), opts);
         let read = inventory::read_drive(drive, &mut c);
         tracklets::check(&read, &mut c);
+        imported::check(&read, &mut c);
         calibration::check_files(&read, &mut c);
         let labelled = semantic::check_labels(&read, &mut c);
         let mut inv = read.inventory.clone();

@@ -58,7 +58,7 @@ checks! {
     YawFlip "yaw-flip" false "A box heading that turns further between consecutive frames than a vehicle can.";
     BoxOverlap "box-overlap" false "Boxes of different objects that overlap at the same frame.";
     BoxGround "box-ground" true "A box whose bottom is far below or above the ground points around it.";
-    EmptyBox "empty-box" true "A box marked fully visible, within range, with no point inside.";
+    EmptyBox "empty-box" true "A box with no point inside (a tracklet's: one marked fully visible, within range).";
     AnnotationEnds "annotation-ends" true "An annotation that ends while its object is still in the next scan.";
     AnnotationFalloff "annotation-falloff" false "Frames whose annotated-object count falls far below the drive's usual count.";
     LabelIds "label-ids" false "Per-point label ids unknown to the class map's yaml.";
@@ -95,17 +95,10 @@ impl CheckName {
             DatasetKind::Raw => {
                 !matches!(self, LabelCount | LabelIds | InstanceClasses | MovingStatic)
             }
-            DatasetKind::Sequence => !matches!(
-                self,
-                BoxSize
-                    | PoseJump
-                    | YawFlip
-                    | BoxOverlap
-                    | BoxGround
-                    | EmptyBox
-                    | AnnotationEnds
-                    | AnnotationFalloff
-            ),
+            // The box checks of a sequence run on the boxes `kitti2pgm label` imported.
+            DatasetKind::Sequence => {
+                !matches!(self, BoxGround | AnnotationEnds | AnnotationFalloff)
+            }
             DatasetKind::Object => !matches!(
                 self,
                 PoseJump

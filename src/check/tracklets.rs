@@ -28,8 +28,8 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
                 tr.object_type.as_str(),
                 [tr.l, tr.w, tr.h],
             );
-            pose_jumps(c, r, &t.path, i, tr);
-            yaw_flips(c, &t.path, i, tr);
+            pose_jumps_of(c, r, &t.path, i, tr);
+            yaw_flips(c, &t.path, &TrackRun::of_tracklet(i, tr));
         }
         overlaps_raw(c, t);
         falloff(c, t);
@@ -58,7 +58,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
 }
 
 /// A box's size against its type's plausible range.
-fn size(
+pub(super) fn size(
     c: &mut Collector,
     path: &Path,
     frame: Option<u32>,
@@ -95,22 +95,55 @@ fn size(
     }
 }
 
-fn pose_jumps(c: &mut Collector, r: &DriveRead, path: &Path, i: usize, tr: &Tracklet) {
-    let t = c.t().clone();
-    let pos: Vec<[f64; 3]> = tr.poses.iter().map(|p| p.t).collect();
-    let dt = |k: usize| -> f64 {
-        let f = tr.first_frame as usize + k;
+/// One object's boxes in consecutive frames, as the motion checks see them (a tracklet, or a
+/// run of an imported track's frames).
+pub(super) struct TrackRun {
+    /// The object, as findings name it.
+    pub(super) object: ObjectRef,
+    /// The frame of the first box.
+    pub(super) first_frame: u32,
+    /// A fixed point of each box (its centre, or its bottom face's), one a frame.
+    pub(super) positions: Vec<[f64; 3]>,
+    /// Each box's heading, radians about z.
+    pub(super) yaws: Vec<f64>,
+    /// Whether the object is a vehicle (one that cannot turn fast).
+    pub(super) vehicle: bool,
+}
+
+impl TrackRun {
+    fn of_tracklet(i: usize, tr: &Tracklet) -> TrackRun {
+        TrackRun {
+            object: ObjectRef {
+                index: i as u32,
+                kind: tr.object_type.as_str().into(),
+            },
+            first_frame: tr.first_frame,
+            positions: tr.poses.iter().map(|p| p.t).collect(),
+            yaws: tr.poses.iter().map(|p| p.r[2]).collect(),
+            vehicle: matches!(tr.object_type.as_str(), "Car" | "Van" | "Truck" | "Tram"),
+        }
+    }
+}
+
+fn pose_jumps_of(c: &mut Collector, r: &DriveRead, path: &Path, i: usize, tr: &Tracklet) {
+    let dt = |f: u32| -> f64 {
         let ts = r.timestamps();
-        match (
-            ts.and_then(|v| v.get(f).copied().flatten()),
-            ts.and_then(|v| v.get(f + 1).copied().flatten()),
-        ) {
+        let at = |f: u32| ts.and_then(|v| v.get(f as usize).copied().flatten());
+        match (at(f), at(f + 1)) {
             (Some(a), Some(b)) if b.as_secs_f64() > a.as_secs_f64() => {
                 b.as_secs_f64() - a.as_secs_f64()
             }
             _ => 0.1,
         }
     };
+    pose_jumps(c, path, &TrackRun::of_tracklet(i, tr), &dt);
+}
+
+/// Speeds above the plausible and jumps in the displacement along a run of frames; `dt(f)` is
+/// the time from frame `f` to the next, seconds.
+pub(super) fn pose_jumps(c: &mut Collector, path: &Path, run: &TrackRun, dt: &dyn Fn(u32) -> f64) {
+    let t = c.t().clone();
+    let pos = &run.positions;
     let step = |k: usize| -> [f64; 3] { std::array::from_fn(|d| pos[k + 1][d] - pos[k][d]) };
     let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     let mut worst: Option<(S, u32, String)> = None;
@@ -122,15 +155,15 @@ fn pose_jumps(c: &mut Collector, r: &DriveRead, path: &Path, i: usize, tr: &Trac
         }
     };
     for k in 0..pos.len().saturating_sub(1) {
-        let speed = norm(step(k)) / dt(k);
+        let speed = norm(step(k)) / dt(run.first_frame + k as u32);
         if speed > t.max_speed_mps {
-            consider(S::Error, tr.first_frame + k as u32 + 1,
+            consider(S::Error, run.first_frame + k as u32 + 1,
                 format!("moves {:.2} m in one frame: {speed:.0} m/s relative to the sensor, above {} m/s", norm(step(k)), t.max_speed_mps));
         }
         if k + 2 < pos.len() {
             let (a, b) = (step(k), step(k + 1));
             let jump = norm(std::array::from_fn(|d| b[d] - a[d]));
-            let frame = tr.first_frame + k as u32 + 1;
+            let frame = run.first_frame + k as u32 + 1;
             if jump > t.jump_error_m {
                 consider(S::Error, frame, format!("jumps: its displacement changes by {jump:.2} m between frames (error above {} m)", t.jump_error_m));
             } else if jump > t.jump_warn_m {
@@ -146,15 +179,13 @@ fn pose_jumps(c: &mut Collector, r: &DriveRead, path: &Path, i: usize, tr: &Trac
         } else {
             String::new()
         };
+        let obj = Some(run.object.clone());
         c.add(
             C::PoseJump,
             sev,
             path,
             Some(frame),
-            Some(ObjectRef {
-                index: i as u32,
-                kind: tr.object_type.as_str().into(),
-            }),
+            obj,
             format!("{msg}{more}"),
         );
     }
@@ -166,21 +197,21 @@ fn turn(a: f64, b: f64) -> f64 {
     d.min(2.0 * PI - d)
 }
 
-fn yaw_flips(c: &mut Collector, path: &Path, i: usize, tr: &Tracklet) {
-    let vehicle = matches!(tr.object_type.as_str(), "Car" | "Van" | "Truck" | "Tram");
+/// Headings that turn faster than the object can, along a run of frames.
+pub(super) fn yaw_flips(c: &mut Collector, path: &Path, run: &TrackRun) {
     let (warn, flip) = (c.t().yaw_warn_rad, c.t().yaw_flip_rad);
-    let limit = if vehicle { warn.min(flip) } else { flip };
+    let limit = if run.vehicle { warn.min(flip) } else { flip };
     let mut frames = Vec::new();
     let mut worst = 0.0f64;
-    for (k, w) in tr.poses.windows(2).enumerate() {
-        let d = turn(w[0].r[2], w[1].r[2]);
+    for (k, w) in run.yaws.windows(2).enumerate() {
+        let d = turn(w[0], w[1]);
         if d > limit {
-            frames.push(tr.first_frame + k as u32 + 1);
+            frames.push(run.first_frame + k as u32 + 1);
             worst = worst.max(d);
         }
     }
     if let Some(&first) = frames.first() {
-        let what = if vehicle {
+        let what = if run.vehicle {
             format!("a vehicle turns by up to {worst:.2} rad in one frame (above {limit} rad)")
         } else {
             format!("its heading flips by up to {worst:.2} rad in one frame (above {limit} rad)")
@@ -190,10 +221,7 @@ fn yaw_flips(c: &mut Collector, path: &Path, i: usize, tr: &Tracklet) {
             S::Warning,
             path,
             Some(first),
-            Some(ObjectRef {
-                index: i as u32,
-                kind: tr.object_type.as_str().into(),
-            }),
+            Some(run.object.clone()),
             format!("{what}; frames {}", frame_ranges(&frames)),
         );
     }
@@ -230,7 +258,12 @@ pub(crate) fn overlap(a: &LabelBox, b: &LabelBox) -> f64 {
 }
 
 /// One finding per pair of boxes that overlap in some frame, at its worst frame.
-fn overlaps_at(c: &mut Collector, path: &Path, frame: u32, boxes: &[(ObjectRef, LabelBox)]) {
+pub(super) fn overlaps_at(
+    c: &mut Collector,
+    path: &Path,
+    frame: u32,
+    boxes: &[(ObjectRef, LabelBox)],
+) {
     for (i, (oa, a)) in boxes.iter().enumerate() {
         for (ob, b) in &boxes[i + 1..] {
             let share = overlap(a, b);

@@ -53,6 +53,7 @@ pub fn run(a: LabelArgs, g: &Global) -> anyhow::Result<Outcome> {
         .collect();
     let opts = LabelOptions {
         params,
+        boxes: kitti2pgm::fs::resolved(&a.boxes),
         box_files,
         overwrite: a.overwrite,
         durability: super::durability(a.sync),

@@ -94,6 +94,8 @@ pub struct BoxLabelRecord {
     pub complete: bool,
     /// What the labels were made with.
     pub params: BoxLabelParams,
+    /// The box export read (`label --boxes`), resolved: `check` reads its boxes again.
+    pub boxes: PathBuf,
     /// The box files read, as given, with their digests.
     pub box_files: BTreeMap<PathBuf, Fingerprint>,
     /// The instance table, by instance id.

@@ -133,7 +133,7 @@ fn label_writes_the_reference_labels_and_convert_takes_its_class_map() {
     assert_eq!(rec["instances"][4]["class"], "rider");
     assert_eq!(rec["box_files"].as_object().unwrap().len(), 1);
     // check reads them with the recorded map too (SemanticKITTI's lists none of ids 2-5).
-    let (code, out, err) = run_text(&["check", s(&root), "--sensor", "vlp16", "--no-progress"]);
+    let (code, out, err) = run_text(&["check", s(&root), "--only", "label-ids", "--no-progress"]);
     assert_eq!(code, 0, "{out} {err}");
     let (code, _, _) = run_text(&[
         "check",
@@ -448,4 +448,58 @@ fn bad_boxes_are_refused_naming_the_file_and_the_object() {
         ],
         "output_over_input",
     );
+}
+
+/// `check` on a labelled root reads its box export again and runs the box checks on it: a box
+/// that jumps between frames, a heading that flips, sizes, overlaps, and boxes that hold no
+/// point (all of them, when the boxes are in another frame than the scans').
+#[test]
+fn check_runs_the_box_checks_on_imported_boxes() {
+    let t = tmp();
+    let (root, scene) = root_and_scene(t.path(), 3);
+    let mut boxes = test_boxes();
+    boxes[2].0[0] += 6.0; // track 3 jumps 6 m at frame 1 and back at frame 2
+    boxes[4].2[2] += 2.5; // track 5 turns 2.5 rad at frame 1
+    write_frame(&scene, 1, &boxes, &TYPES);
+    assert_eq!(label(&root, &scene, &[]).0, 0);
+    let (code, out, err) = run_text(&["check", s(&root), "--json", "--no-progress"]);
+    assert_eq!(code, 3, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let findings = j["findings"].as_array().unwrap();
+    let of = |check: &str| -> Vec<&serde_json::Value> {
+        findings.iter().filter(|f| f["check"] == check).collect()
+    };
+    let jump = of("pose-jump");
+    assert_eq!(jump.len(), 1, "{jump:?}");
+    assert_eq!(jump[0]["object"]["kind"], "Truck (3)");
+    assert!(jump[0]["file"]
+        .as_str()
+        .unwrap()
+        .ends_with("label/000000.json"));
+    assert_eq!(jump[0]["frame"], 1);
+    let flip = of("yaw-flip");
+    assert_eq!(flip[0]["object"]["kind"], "BicycleRider (5)", "{flip:?}");
+    assert!(of("box-size")
+        .iter()
+        .any(|f| f["object"]["kind"] == "Car (4)"));
+    assert!(of("box-overlap").iter().any(|f| f["frame"] == 0));
+    assert!(of("empty-box").is_empty(), "the boxes hold points");
+    // Boxes 100 m off: every box is empty, and one error says why.
+    let far: Vec<TestBox> = (test_boxes().into_iter())
+        .map(|(c, sz, r)| ([c[0] + 100.0, c[1], c[2]], sz, r))
+        .collect();
+    for f in 0..3 {
+        write_frame(&scene, f, &far, &TYPES);
+    }
+    assert_eq!(label(&root, &scene, &[]).0, 0);
+    let (_, out, _) = run_text(&["check", s(&root), "--json", "--no-progress"]);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let empty: Vec<_> = (j["findings"].as_array().unwrap().iter())
+        .filter(|f| f["check"] == "empty-box")
+        .collect();
+    assert_eq!(empty.len(), 16, "15 boxes and the summary");
+    assert!(empty
+        .iter()
+        .any(|f| f["severity"] == "error"
+            && f["message"].as_str().unwrap().contains("another frame")));
 }

@@ -39,6 +39,8 @@ use scans::{Match, ScanNames};
 pub struct LabelOptions {
     /// What the labels are made with (recorded).
     pub params: BoxLabelParams,
+    /// The box export read, resolved (recorded).
+    pub boxes: PathBuf,
     /// The box files read, with their digests (recorded).
     pub box_files: BTreeMap<PathBuf, Fingerprint>,
     /// Write over label files that `label` did not write, or that were edited since.
@@ -144,6 +146,7 @@ pub fn label_sequence(
         version: record::VERSION,
         complete: false,
         params: opts.params.clone(),
+        boxes: opts.boxes.clone(),
         box_files: opts.box_files.clone(),
         instances: instances.values().cloned().collect(),
         frames: old_frames,

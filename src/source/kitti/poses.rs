@@ -45,6 +45,27 @@ pub fn count_lines(path: &Path) -> Result<usize> {
     Ok(text.lines().filter(|l| !l.trim().is_empty()).count())
 }
 
+/// A sequence's `times.txt`: seconds a scan, one a line; a line that is not a number is an
+/// error naming it.
+pub fn read_times(path: &Path) -> Result<Vec<f64>> {
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
+    (text.lines().enumerate())
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            l.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    crate::error::Error::format(
+                        path,
+                        format!("line {}: {l:?} is not a time in seconds", i + 1),
+                    )
+                })
+        })
+        .collect()
+}
+
 /// `times.txt` text for scans taken `nanos` nanoseconds after the first: seconds a line,
 /// written exactly (nine decimals, no float rounding).
 pub fn times_text(nanos: impl IntoIterator<Item = i64>) -> String {
