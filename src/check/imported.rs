@@ -15,7 +15,7 @@ use super::tracklets::{overlaps_at, pose_jumps, size, yaw_flips, TrackRun};
 use super::{CheckName as C, Collector, ObjectRef, Severity as S};
 use crate::format::box_labels::BoxLabelRecord;
 use crate::label::{ClassMap, LabelBox};
-use crate::source::annotations::{self, Annotations, ReadOptions};
+use crate::source::annotations::{self, Annotations};
 use crate::source::boxes::AnnotatedBox;
 use crate::source::kitti::DatasetKind;
 
@@ -99,14 +99,7 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
 
 /// The export read again as the label run read it.
 fn read_again(rec: &BoxLabelRecord) -> crate::Result<Annotations> {
-    let p = &rec.params;
-    let opts = ReadOptions {
-        origin: p.origin,
-        sizes: p.sizes,
-        angles: p.angles,
-        to_scan: p.sensor_pose.map(|s| s.isometry().inverse()),
-    };
-    annotations::read(&rec.boxes, p.format, &opts)
+    annotations::read(&rec.boxes, rec.params.format, &rec.params.read_options())
 }
 
 /// The type the size table knows a box by: its own, else its class's name as the table spells

@@ -83,6 +83,7 @@ impl<'a> Pictures<'a> {
                 colour: map.colour(map.class_of_object(kind)).map(|c| c.max(90)),
                 flagged: Some(*i) == flagged,
                 text: format!("#{i} {kind}"),
+                show_text: false,
             })
             .collect();
         let centre = drawn
@@ -95,7 +96,14 @@ impl<'a> Pictures<'a> {
                 )
             })
             .unwrap_or((0.0, 0.0));
-        Ok(Some(bird_eye(&scan.points, &drawn, centre, 20.0, &title)))
+        Ok(Some(bird_eye(
+            &scan.points,
+            None,
+            &drawn,
+            centre,
+            20.0,
+            &title,
+        )))
     }
 }
 

@@ -111,7 +111,11 @@ pub fn run(a: ConvertArgs, g: &Global) -> anyhow::Result<Outcome> {
     } else {
         FrameSelection::Annotated
     };
-    let plan = Plan::build_as(&a.raw_root, selection, source)?;
+    let mut plan = Plan::build_as(&a.raw_root, selection, source)?;
+    // The boxes a labelled sequence was made from, for --viz.
+    for e in kitti2pgm::format::box_labels::attach_imported_boxes(&mut plan) {
+        eprintln!("kitti2pgm: warning: {e} (the labels convert; --viz shows no boxes)");
+    }
     let opts = ConvertOptions {
         out: OutputDir::new(&a.out),
         params: a.params(a.class_map(&plan)?, plan.layout())?,

@@ -99,7 +99,10 @@ pub fn run(a: PreviewArgs, g: &super::Global) -> anyhow::Result<Outcome> {
     let pool = g.pool()?;
     let (mut written, mut failed) = (0usize, 0usize);
     for input in &a.inputs {
-        let (w, f) = if is_npy(input) {
+        let labelled = labelled_sequences(input);
+        let (w, f) = if !labelled.is_empty() {
+            pool.install(|| preview_labelled(&labelled, &a))
+        } else if is_npy(input) {
             match preview_npy(input, &a, single_file) {
                 Ok(()) => (1, 0),
                 Err(e) => {
@@ -124,6 +127,55 @@ pub fn run(a: PreviewArgs, g: &super::Global) -> anyhow::Result<Outcome> {
         return Ok(Outcome::Partial);
     }
     Ok(Outcome::Ok)
+}
+
+/// The sequences `kitti2pgm label` labelled at `input`: itself, or its `sequences/<NN>`.
+fn labelled_sequences(input: &std::path::Path) -> Vec<std::path::PathBuf> {
+    use kitti2pgm::format::box_labels::BOX_LABELS_MARKER;
+    if input.join(BOX_LABELS_MARKER).is_file() {
+        return vec![input.to_path_buf()];
+    }
+    let seqs = input.join(kitti2pgm::source::kitti::sequence::SEQUENCES);
+    (kitti2pgm::fs::sorted_dir(&seqs)
+        .unwrap_or_default()
+        .into_iter())
+    .filter(|d| d.join(BOX_LABELS_MARKER).is_file())
+    .collect()
+}
+
+/// Every labelled frame of labelled sequences, from above with its boxes, in parallel:
+/// (pictures written, inputs that failed); a frame that fails is said and the rest drawn.
+fn preview_labelled(seqs: &[std::path::PathBuf], a: &PreviewArgs) -> (usize, usize) {
+    use kitti2pgm::report::labelled::LabelledSequence;
+    use rayon::prelude::*;
+    let (mut written, mut failed) = (0, 0);
+    for seq in seqs {
+        let s = match LabelledSequence::open(seq) {
+            Ok(Some(s)) => s,
+            Ok(None) => continue,
+            Err(e) => {
+                eprintln!("kitti2pgm: {e}");
+                failed += 1;
+                continue;
+            }
+        };
+        let name = s.drive.name();
+        let done: Vec<bool> = (s.frames.par_iter())
+            .map(|&f| {
+                let out = a.out.join(format!("{name}_{f:06}.png"));
+                match s.picture(f).and_then(|img| png::write(&out, &img)) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        eprintln!("kitti2pgm: {name} {f:06}: {e}");
+                        false
+                    }
+                }
+            })
+            .collect();
+        written += done.iter().filter(|&&d| d).count();
+        failed += done.iter().any(|&d| !d) as usize;
+    }
+    (written, failed)
 }
 
 fn is_npy(p: &std::path::Path) -> bool {

@@ -111,9 +111,14 @@ pub fn frame_labels(
                     instance: kept.iter().map(|&i| instance[i as usize]).collect(),
                 }
             };
+            // A sequence labelled from boxes has them ([`crate::format::box_labels`]): for the
+            // pictures, never for the labels, which are the file's.
+            let boxes = (dp.label_boxes(frame, map).into_iter())
+                .filter(|b| b.class != map.background)
+                .collect();
             Ok(FrameLabels {
                 points,
-                boxes: Vec::new(),
+                boxes,
                 annotated: true,
                 unknown_types: Vec::new(),
             })

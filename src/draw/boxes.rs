@@ -16,8 +16,11 @@ pub struct Drawn<'a> {
     pub colour: [u8; 3],
     /// Drawn thick, in red, with its label.
     pub flagged: bool,
-    /// Text beside it (object number and type).
+    /// Text beside it (object number and type): drawn for a flagged box, and for every box when
+    /// [`Drawn::show_text`] says so.
     pub text: String,
+    /// Whether the text is drawn though the box is not flagged.
+    pub show_text: bool,
 }
 
 /// The box's four footprint corners (velodyne x, y), in order around it.
@@ -58,9 +61,11 @@ fn line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), c: [u8; 
 }
 
 /// A bird's-eye view `size` pixels square, `half_m` metres each side of `centre` (velodyne x
-/// up the picture, y to the left), points coloured by height, boxes outlined, `title` on top.
+/// up the picture, y to the left), points coloured by `colours` (one a point; by height
+/// without), boxes outlined, `title` on top.
 pub fn bird_eye(
     points: &[Point3],
+    colours: Option<&[[u8; 3]]>,
     boxes: &[Drawn],
     centre: (Real, Real),
     half_m: Real,
@@ -75,10 +80,13 @@ pub fn bird_eye(
             ((centre.0 - x) * scale + SIZE as Real / 2.0) as i64,
         )
     };
-    for p in points {
+    for (k, p) in points.iter().enumerate() {
         let (u, v) = to_px(p.x, p.y);
         if u >= 0 && v >= 0 && u < SIZE as i64 && v < SIZE as i64 {
-            let c = colormap((p.z + 2.5) / 4.0);
+            let c = match colours {
+                Some(c) => c[k],
+                None => colormap((p.z + 2.5) / 4.0),
+            };
             img.put_pixel(u as u32, v as u32, Rgb(c));
         }
     }
@@ -112,7 +120,7 @@ pub fn bird_eye(
             colour,
             thick,
         );
-        if d.flagged {
+        if d.flagged || d.show_text {
             let (u, v) = to_px(f[0].0, f[0].1);
             draw_text(
                 &mut img,
@@ -142,6 +150,45 @@ pub fn bird_eye(
 fn b_centre(b: &LabelBox) -> (Real, Real) {
     let t = b.pose.translation.vector;
     (t.x, t.y)
+}
+
+/// A labelled scan from above: points in their class's colour (the background dimmed), the
+/// boxes outlined in theirs with their instance ids, as far around the sensor as the nearest
+/// 95% of the points and every box reach (8 to 80 m), `title` on top.
+pub fn labelled_bird_eye(
+    points: &[Point3],
+    classes: &[crate::label::ClassId],
+    boxes: &[LabelBox],
+    map: &crate::label::ClassMap,
+    title: &str,
+) -> RgbImage {
+    let colours: Vec<[u8; 3]> = (classes.iter())
+        .map(|&c| {
+            let rgb = map.colour(c);
+            if c == map.background {
+                rgb.map(|v| v / 2 + 70)
+            } else {
+                rgb.map(|v| v.max(60))
+            }
+        })
+        .collect();
+    let mut ranges: Vec<Real> = points.iter().map(|p| p.coords.xy().norm()).collect();
+    ranges.sort_unstable_by(Real::total_cmp);
+    let p95 = ranges.get(ranges.len() * 95 / 100).copied().unwrap_or(8.0);
+    let reach = (boxes.iter())
+        .map(|b| b.pose.translation.vector.xy().norm() + b.cuboid.half_extents.norm())
+        .fold(p95, Real::max)
+        .clamp(8.0, 80.0);
+    let drawn: Vec<Drawn> = (boxes.iter())
+        .map(|b| Drawn {
+            label_box: b,
+            colour: map.colour(b.class).map(|v| v.max(90)),
+            flagged: false,
+            text: format!("#{} {}", b.instance, map.name(b.class)),
+            show_text: true,
+        })
+        .collect();
+    bird_eye(points, Some(&colours), &drawn, (0.0, 0.0), reach, title)
 }
 
 /// The scan's points over the camera image, coloured by distance (near yellow, far blue), with

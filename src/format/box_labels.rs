@@ -50,6 +50,16 @@ pub struct BoxLabelParams {
 }
 
 impl BoxLabelParams {
+    /// The reading options of the box export these parameters hold.
+    pub fn read_options(&self) -> crate::source::annotations::ReadOptions {
+        crate::source::annotations::ReadOptions {
+            origin: self.origin,
+            sizes: self.sizes,
+            angles: self.angles,
+            to_scan: self.sensor_pose.map(|s| s.isometry().inverse()),
+        }
+    }
+
     /// The parameters as one canonical string (part of every frame's key).
     pub fn key(&self) -> String {
         serde_json::to_string(self).expect("parameters serialise")
@@ -195,4 +205,60 @@ pub fn default_class_map(plan: &crate::plan::Plan) -> Result<ClassMap> {
         .filter(|d| d.drive.dataset == crate::source::DatasetKind::Sequence)
         .map(|d| d.drive.dir.as_path());
     Ok(recorded_class_map(seqs)?.unwrap_or_else(|| ClassMap::default_for(plan.layout())))
+}
+
+/// The boxes a labelled sequence `seq` was made from, read again from the export its record
+/// names with the record's options, by frame number, each box's track such that
+/// [`crate::label::instance_of`] gives the instance id its label files hold; `None` for a
+/// sequence that `label` did not label.
+pub fn imported_boxes(seq: &Path) -> Result<Option<crate::source::annotations::FrameBoxes>> {
+    use crate::source::annotations;
+    let Some(rec) = read(seq)? else {
+        return Ok(None);
+    };
+    let a = annotations::read(&rec.boxes, rec.params.format, &rec.params.read_options())?;
+    let instance: BTreeMap<&str, u16> = (rec.instances.iter())
+        .map(|e| (e.track.as_str(), e.instance))
+        .collect();
+    let mut out = annotations::FrameBoxes {
+        file: rec.boxes.clone(),
+        frames: BTreeMap::new(),
+    };
+    for (name, f) in &rec.frames {
+        let (Ok(frame), Some(af)) = (name.parse::<u32>(), a.frames.get(&f.annotation)) else {
+            continue;
+        };
+        let boxes = (af.boxes.iter())
+            .map(|b| {
+                let id = a.tracks.get(b.track).map_or("", String::as_str);
+                let track = instance.get(id).map_or(b.track, |&i| usize::from(i) - 1);
+                crate::source::boxes::AnnotatedBox { track, ..b.clone() }
+            })
+            .collect();
+        out.frames.insert(frame, boxes);
+    }
+    Ok(Some(out))
+}
+
+/// Gives every labelled sequence of `plan` the boxes its labels were made from
+/// ([`imported_boxes`]; `--viz` draws them), their files among the drive's inputs (a changed
+/// export reconverts its frames). A sequence whose export cannot be read keeps no boxes: the
+/// errors are returned, for the caller to say.
+pub fn attach_imported_boxes(plan: &mut crate::plan::Plan) -> Vec<crate::Error> {
+    let mut errors = Vec::new();
+    for dp in &mut plan.drives {
+        if dp.drive.dataset != crate::source::DatasetKind::Sequence {
+            continue;
+        }
+        let (boxes, inputs) = crate::fs::recording(|| imported_boxes(&dp.drive.dir));
+        match boxes {
+            Ok(Some(b)) => {
+                dp.boxes = std::sync::Arc::new(b);
+                dp.inputs.extend(inputs.records().iter().cloned());
+            }
+            Ok(None) => {}
+            Err(e) => errors.push(e),
+        }
+    }
+    errors
 }

@@ -503,3 +503,71 @@ fn check_runs_the_box_checks_on_imported_boxes() {
         .any(|f| f["severity"] == "error"
             && f["message"].as_str().unwrap().contains("another frame")));
 }
+
+/// `convert --viz` of a labelled root carries the imported boxes as Foxglove cubes (the boxes
+/// of a class, with the instance ids of the label files); a changed export reconverts.
+#[test]
+fn viz_shards_carry_the_imported_boxes() {
+    use foxglove::schemas::SceneUpdate;
+    use kitti2pgm::format::shard::Shard;
+    use prost::Message as _;
+    let t = tmp();
+    let (root, scene) = root_and_scene(t.path(), 2);
+    assert_eq!(label(&root, &scene, &[]).0, 0);
+    let out = t.path().join("out");
+    let args = [
+        "--sensor",
+        "vlp16",
+        "--all-frames",
+        "--format",
+        "mcap",
+        "--viz",
+    ];
+    let (code, _, err) = super::util::convert_json(&root, &out, &args);
+    assert_eq!(code, 0, "{err}");
+    let cubes = |out: &Path| -> Vec<usize> {
+        let mut n = Vec::new();
+        for e in std::fs::read_dir(out.join("shards")).unwrap() {
+            let shard = Shard::open(&e.unwrap().path()).unwrap();
+            for m in mcap::MessageStream::new(shard.bytes()).unwrap() {
+                let m = m.unwrap();
+                if m.channel.topic == "/kitti2pgm/viz/boxes" {
+                    let v = SceneUpdate::decode(&m.data[..]).unwrap();
+                    n.push(v.entities.iter().map(|e| e.cubes.len()).sum());
+                }
+            }
+        }
+        n
+    };
+    assert_eq!(cubes(&out), [5, 5]);
+    // Frame 1 loses two boxes: label, then convert again: its shard follows.
+    write_frame(&scene, 1, &test_boxes()[..3], &TYPES);
+    assert_eq!(label(&root, &scene, &[]).0, 0);
+    let (code, j, err) = super::util::convert_json(&root, &out, &args);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        j["reconverted"].as_u64().unwrap_or(0) >= 1 || j["frames_converted"].as_u64().unwrap() >= 1,
+        "{j}"
+    );
+    assert_eq!(cubes(&out), [5, 3]);
+}
+
+/// `preview` of a labelled root draws each labelled scan from above in its classes' colours,
+/// with its boxes.
+#[test]
+fn preview_draws_each_labelled_frame_with_its_boxes() {
+    let t = tmp();
+    let (root, scene) = root_and_scene(t.path(), 2);
+    assert_eq!(label(&root, &scene, &[]).0, 0);
+    let pics = t.path().join("pics");
+    let (code, _, err) = run_text(&["preview", s(&root), "--out", s(&pics), "--no-progress"]);
+    assert_eq!(code, 0, "{err}");
+    let img = kitti2pgm::raster::read(&pics.join("00_000001.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (800, 800));
+    // The truck's colour (SUSTechPOINTS' map: [80, 30, 180]) is on its points and outline.
+    let truck = (0..800 * 800)
+        .filter(|i| img.get_pixel(i % 800, i / 800).0 == [90, 90, 180])
+        .count();
+    assert!(truck > 50, "{truck} pixels of the truck's outline colour");
+    assert!(pics.join("00_000000.png").is_file());
+}

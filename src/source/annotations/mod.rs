@@ -143,6 +143,34 @@ impl Annotations {
     }
 }
 
+/// Imported boxes by the frame number of the scan each annotated frame was matched to: a
+/// [`BoxSource`](super::boxes::BoxSource) like KITTI's tracklets.
+#[derive(Debug, Clone, Default)]
+pub struct FrameBoxes {
+    /// The export the boxes were read from.
+    pub file: PathBuf,
+    /// The boxes of each frame, in the file's order.
+    pub frames: BTreeMap<u32, Vec<AnnotatedBox>>,
+}
+
+impl super::boxes::BoxSource for FrameBoxes {
+    fn boxes_at(&self, frame: u32) -> Vec<AnnotatedBox> {
+        self.frames.get(&frame).cloned().unwrap_or_default()
+    }
+    fn count_at(&self, frame: u32) -> usize {
+        self.frames.get(&frame).map_or(0, Vec::len)
+    }
+    fn end_frame(&self) -> u32 {
+        self.frames.keys().next_back().map_or(0, |f| f + 1)
+    }
+    fn unknown_types(&self) -> Vec<String> {
+        Vec::new()
+    }
+    fn file(&self) -> Option<&Path> {
+        Some(&self.file)
+    }
+}
+
 /// Reads the export at `path` as `format`. A path that holds another format's files is an error
 /// that names the format it looks like.
 pub fn read(path: &Path, format: BoxFormat, opts: &ReadOptions) -> Result<Annotations> {
