@@ -146,7 +146,7 @@ fn labelled_sequences(input: &std::path::Path) -> Vec<std::path::PathBuf> {
 /// Every labelled frame of labelled sequences, from above with its boxes, in parallel:
 /// (pictures written, inputs that failed); a frame that fails is said and the rest drawn.
 fn preview_labelled(seqs: &[std::path::PathBuf], a: &PreviewArgs) -> (usize, usize) {
-    use kitti2pgm::report::labelled::LabelledSequence;
+    use kitti2pgm::draw::labelled::LabelledSequence;
     use rayon::prelude::*;
     let (mut written, mut failed) = (0, 0);
     for seq in seqs {

@@ -80,16 +80,7 @@ pub fn bird_eye(
             ((centre.0 - x) * scale + SIZE as Real / 2.0) as i64,
         )
     };
-    for (k, p) in points.iter().enumerate() {
-        let (u, v) = to_px(p.x, p.y);
-        if u >= 0 && v >= 0 && u < SIZE as i64 && v < SIZE as i64 {
-            let c = match colours {
-                Some(c) => c[k],
-                None => colormap((p.z + 2.5) / 4.0),
-            };
-            img.put_pixel(u as u32, v as u32, Rgb(c));
-        }
-    }
+    paint_points(&mut img, points, colours, &to_px);
     for d in boxes
         .iter()
         .filter(|d| !d.flagged)
@@ -145,6 +136,26 @@ pub fn bird_eye(
         1,
     );
     img
+}
+
+/// Each point at its pixel, in its colour (by height without `colours`).
+fn paint_points(
+    img: &mut RgbImage,
+    points: &[Point3],
+    colours: Option<&[[u8; 3]]>,
+    to_px: &dyn Fn(Real, Real) -> (i64, i64),
+) {
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    for (k, p) in points.iter().enumerate() {
+        let (u, v) = to_px(p.x, p.y);
+        if u >= 0 && v >= 0 && u < w && v < h {
+            let c = match colours {
+                Some(c) => c[k],
+                None => colormap((p.z + 2.5) / 4.0),
+            };
+            img.put_pixel(u as u32, v as u32, Rgb(c));
+        }
+    }
 }
 
 fn b_centre(b: &LabelBox) -> (Real, Real) {

@@ -3,12 +3,15 @@
 //!
 //! - [`preview`]: a converted frame, panel by panel;
 //! - [`charts`]: the class-balance chart, the confusion matrix, a frame's prediction beside its
-//!   ground truth.
+//!   ground truth;
+//! - [`boxes`]: a scan with its boxes from above or over the camera image; [`labelled`]: the
+//!   scans of a sequence labelled from boxes, each with its boxes.
 //!
 //! Class colours always come from the class map.
 
 pub mod boxes;
 pub mod charts;
+pub mod labelled;
 pub mod points;
 pub mod preview;
 

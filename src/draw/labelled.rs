@@ -1,6 +1,6 @@
 //! Pictures of a sequence labelled from boxes (`kitti2pgm label`): each labelled scan from
 //! above, its points in their class's colour and the boxes they were labelled by
-//! ([`crate::draw::boxes::labelled_bird_eye`]), for `kitti2pgm preview`.
+//! ([`super::boxes::labelled_bird_eye`]), for `kitti2pgm preview`.
 
 use std::path::Path;
 
@@ -73,7 +73,7 @@ impl LabelledSequence {
             boxes.len(),
             self.map.name
         );
-        Ok(crate::draw::boxes::labelled_bird_eye(
+        Ok(super::boxes::labelled_bird_eye(
             &scan.points,
             &kept,
             &boxes,
