@@ -292,7 +292,7 @@ fn unknown_types_are_an_error_unless_aliased_or_given_a_class() {
     let e = fails_with(&["label", s(&root), "--boxes", s(&scene)], "config");
     let m = e["message"].as_str().unwrap();
     assert!(
-        m.contains("\"Rider\" (2 boxes") && m.contains("BicycleRider") && m.contains("--alias"),
+        m.contains("\"Rider\" (2 objects") && m.contains("BicycleRider") && m.contains("--alias"),
         "{m}"
     );
     assert!(!label_file(&root, 0).exists());
@@ -570,4 +570,54 @@ fn preview_draws_each_labelled_frame_with_its_boxes() {
         .count();
     assert!(truck > 50, "{truck} pixels of the truck's outline colour");
     assert!(pics.join("00_000000.png").is_file());
+}
+
+/// Segments.ai's point cloud segmentation labels (each point's object id) map straight to the
+/// label file: every point's class and instance as the file says, through the class map; a
+/// label of another point count fails its frame alone.
+#[test]
+fn segments_ai_point_annotations_become_the_label_file() {
+    let t = tmp();
+    let (root, _) = root_and_scene(t.path(), 2);
+    let pts = points();
+    let ids: Vec<u32> = (pts.iter())
+        .map(|p| match (p.x > 0.0 && p.y > 0.0, p.x < -3.0) {
+            (true, _) => 7,
+            (_, true) => 9,
+            _ => 0,
+        })
+        .collect();
+    let sample = |name: &str, ids: &[u32]| {
+        serde_json::json!({"name": name, "attributes": {"pcd": {"url": format!("https://x/{name}.pcd"), "type": "pcd"}},
+            "labels": {"ground-truth": {"attributes": {"format_version": "0.1",
+                "annotations": [{"id": 7, "category_id": 1}, {"id": 9, "category_id": 2}],
+                "point_annotations": ids}}}})
+    };
+    let release = serde_json::json!({"dataset": {"name": "own", "task_type": "pointcloud-segmentation",
+        "task_attributes": {"categories": [{"id": 1, "name": "car"}, {"id": 2, "name": "person"}]},
+        "samples": [sample("000000", &ids), sample("000001", &ids[1..])]}});
+    let file = t.path().join("release.json");
+    std::fs::write(&file, release.to_string()).unwrap();
+    let map = t.path().join("map.yaml");
+    std::fs::write(&map, "name: own\nclasses:\n  - {name: background}\n  - {name: car, types: [car]}\n  - {name: pedestrian, types: [person]}\n").unwrap();
+    let (code, r, err) = label(&root, &file, &["--class-map", s(&map)]);
+    assert_eq!(code, 3, "{err}");
+    assert_eq!(r["failures"][0]["annotation"], "000001");
+    assert!(
+        r["failures"][0]["error"]
+            .as_str()
+            .unwrap()
+            .contains("point annotations"),
+        "{r}"
+    );
+    let got = entries(&label_file(&root, 0));
+    let want: Vec<u32> = (ids.iter())
+        .map(|&id| match id {
+            7 => 1 | 1 << 16,
+            9 => 2 | 2 << 16,
+            _ => 0,
+        })
+        .collect();
+    assert_eq!(got, want);
+    assert!(ids.iter().filter(|&&i| i == 7).count() > 100 && ids.contains(&9));
 }

@@ -25,9 +25,21 @@ pub struct FrameJob {
     pub box_file: PathBuf,
     /// Every box of the frame with its class and instance (margin applied), in file order.
     pub boxes: Vec<LabelBox>,
+    /// The frame's per-point annotations, where it has them: they decide the points they
+    /// label, the boxes the rest.
+    pub points: Option<FramePoints>,
     /// The frame's entry in the previous run's record, when the label file there is still the
     /// one it wrote.
     pub previous: Option<LabelledFrame>,
+}
+
+/// A frame's per-point annotations, resolved.
+#[derive(Debug, Clone)]
+pub struct FramePoints {
+    /// Each point's object id (0: none), in the scan file's order.
+    pub objects: Vec<u32>,
+    /// Each object's class and instance.
+    pub by_object: std::collections::BTreeMap<u32, (crate::label::ClassId, u16)>,
 }
 
 /// What became of a frame.
@@ -54,8 +66,16 @@ pub fn label_frame(
     let (scan, inputs) = crate::fs::inputs::recording(|| crate::source::read_file(&job.scan, None));
     let scan = scan?;
     let labels = Labeller::new(&job.boxes, map.background).label(&scan.points);
-    let class = scan.to_file_order(&labels.class, map.background);
-    let instance = scan.to_file_order(&labels.instance, 0);
+    let mut class = scan.to_file_order(&labels.class, map.background);
+    let mut instance = scan.to_file_order(&labels.instance, 0);
+    if let Some(p) = &job.points {
+        apply_points(
+            p,
+            map.background,
+            (&mut class, &mut instance),
+            &job.box_file,
+        )?;
+    }
     let entries: Vec<u32> = (class.iter().zip(&instance))
         .map(|(&c, &i)| map.raw_of_class(c).unwrap_or(u32::from(c)) | u32::from(i) << 16)
         .collect();
@@ -68,6 +88,15 @@ pub fn label_frame(
         }
     }
     hash_boxes(&mut h, &job.boxes);
+    if let Some(p) = &job.points {
+        h.update(&[1]);
+        for (id, (c, i)) in &p.by_object {
+            h.update(&id.to_le_bytes());
+            h.update(&[*c]);
+            h.update(&i.to_le_bytes());
+        }
+        h.update(bytemuck::cast_slice(&p.objects));
+    }
     let xxh3 = xxhash_rust::xxh3::xxh3_64(&bytes);
     let unchanged = (job.previous.as_ref())
         .is_some_and(|p| p.label.size == bytes.len() as u64 && p.label.xxh3 == xxh3);
@@ -91,6 +120,34 @@ pub fn label_frame(
         counts: ClassCounts::count(map.len(), class.iter().copied()),
         points: scan.file_len as u64,
     })
+}
+
+/// Gives the points that the per-point annotations label their object's class and instance (the
+/// background's with instance 0); a
+/// count that is not the scan's is an error naming the annotation file.
+fn apply_points(
+    p: &FramePoints,
+    background: crate::label::ClassId,
+    (class, instance): (&mut [crate::label::ClassId], &mut [u16]),
+    file: &Path,
+) -> Result<()> {
+    if p.objects.len() != class.len() {
+        return Err(crate::error::Error::format(
+            file,
+            format!(
+                "{} point annotations, but the scan has {} points",
+                p.objects.len(),
+                class.len()
+            ),
+        ));
+    }
+    for (k, &id) in p.objects.iter().enumerate().filter(|(_, &id)| id != 0) {
+        let (c, i) = p.by_object[&id];
+        class[k] = c;
+        // An object of the background class labels nothing, as a box of it does.
+        instance[k] = if c == background { 0 } else { i };
+    }
+    Ok(())
 }
 
 /// Every number that places and names a box, in order.

@@ -256,8 +256,7 @@ fn resolve_classes(a: &Annotations, params: &BoxLabelParams) -> Result<Classes> 
     let mut out = Classes::default();
     let mut missing: BTreeMap<&str, (usize, &Path)> = BTreeMap::new();
     for f in a.frames.values() {
-        for b in &f.boxes {
-            let t = b.class_name.as_str();
+        for (t, _) in f.objects() {
             if let Some(&c) = map.object_types.get(t) {
                 out.by_type.insert(t.into(), c);
             } else if let Some(c) = unknown {
@@ -272,11 +271,11 @@ fn resolve_classes(a: &Annotations, params: &BoxLabelParams) -> Result<Classes> 
         return Ok(out);
     }
     let list: Vec<String> = (missing.iter())
-        .map(|(t, (n, file))| format!("{t:?} ({n} boxes, first in {})", file.display()))
+        .map(|(t, (n, file))| format!("{t:?} ({n} objects, first in {})", file.display()))
         .collect();
     let types: Vec<&str> = map.object_types.keys().map(String::as_str).collect();
     Err(Error::Config(format!(
-        "boxes of object types the class map {} does not know: {}; it knows {}, its classes are {}: add --alias TYPE=CLASS, or say what such boxes become with --unknown-class CLASS",
+        "objects of types the class map {} does not know: {}; it knows {}, its classes are {}: add --alias TYPE=CLASS, or say what such boxes become with --unknown-class CLASS",
         map.name,
         list.join(", "),
         types.join(", "),
@@ -294,8 +293,8 @@ fn assign_instances(
 ) -> Result<BTreeMap<usize, record::InstanceEntry>> {
     let mut first_type: BTreeMap<usize, &str> = BTreeMap::new();
     for f in a.frames.values() {
-        for b in &f.boxes {
-            first_type.entry(b.track).or_insert(&b.class_name);
+        for (class_name, track) in f.objects() {
+            first_type.entry(track).or_insert(class_name);
         }
     }
     let previous: BTreeMap<&str, u16> = (old.iter())
@@ -385,6 +384,12 @@ fn plan_jobs(
             continue;
         }
         let boxes = frame_boxes(f, classes, instances, opts.params.margin_m);
+        let points = f.points.as_ref().map(|p| frame::FramePoints {
+            objects: p.objects.clone(),
+            by_object: (p.classes.iter())
+                .map(|(&id, (t, track))| (id, (classes.by_type[t], instances[track].instance)))
+                .collect(),
+        });
         jobs.insert(
             frame,
             FrameJob {
@@ -394,6 +399,7 @@ fn plan_jobs(
                 annotation: name.clone(),
                 box_file: f.file.clone(),
                 boxes,
+                points,
                 previous: None,
             },
         );

@@ -74,6 +74,7 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Annotations> {
                     scan: name.clone(),
                     file: file.clone(),
                     boxes: Vec::new(),
+                    points: None,
                 });
             f.boxes.push(AnnotatedBox {
                 geometry,

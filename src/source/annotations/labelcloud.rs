@@ -102,7 +102,15 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Annotations> {
                 track: tracks.of(&format!("{scan}#{i}")),
             });
         }
-        frames.insert(scan.clone(), AnnotatedFrame { scan, file, boxes });
+        frames.insert(
+            scan.clone(),
+            AnnotatedFrame {
+                scan,
+                file,
+                boxes,
+                points: None,
+            },
+        );
     }
     Ok(Annotations {
         format: BoxFormat::LabelCloud,

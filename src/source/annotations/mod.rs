@@ -122,6 +122,28 @@ pub struct AnnotatedFrame {
     pub file: PathBuf,
     /// The boxes, in the file's order, in the scan's frame.
     pub boxes: Vec<AnnotatedBox>,
+    /// Per-point annotations, where the format has them (Segments.ai's point cloud
+    /// segmentation): they decide the points they label, the boxes the rest.
+    pub points: Option<PointAnnotations>,
+}
+
+impl AnnotatedFrame {
+    /// Every object of the frame, as (class name, track): its boxes', then its per-point
+    /// annotations'.
+    pub fn objects(&self) -> impl Iterator<Item = (&str, usize)> + '_ {
+        let points = self.points.iter().flat_map(|p| p.classes.values());
+        (self.boxes.iter().map(|b| (b.class_name.as_str(), b.track)))
+            .chain(points.map(|(c, t)| (c.as_str(), *t)))
+    }
+}
+
+/// A frame's per-point annotations: each point's object, in the scan file's order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointAnnotations {
+    /// Each point's object id (0: none), in the scan file's order.
+    pub objects: Vec<u32>,
+    /// Each object id's class name (as the file writes it) and track.
+    pub classes: BTreeMap<u32, (String, usize)>,
 }
 
 /// An export as read: its frames by scan name, and its tracks (a box's `track` indexes

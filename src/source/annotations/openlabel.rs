@@ -136,6 +136,7 @@ fn read_file(file: &Path, tracks: &mut Tracks) -> Result<Vec<AnnotatedFrame>> {
             scan,
             file: file.into(),
             boxes,
+            points: None,
         });
     }
     Ok(out)

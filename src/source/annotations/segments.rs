@@ -10,17 +10,19 @@
 //! before the yaw); `track_id` in sequences. Where a frame has an `ego_pose` (the sensor's
 //! `position` and `heading` quaternion in the world), the boxes are brought into the scan's
 //! frame by its inverse; without one the world is the scan's frame. A frame's scan is its
-//! `name`, else the stem of its point cloud's URL. Annotations of other types are passed over;
-//! a label set other than `ground-truth` is read only when it is the sample's one.
+//! `name`, else the stem of its point cloud's URL. A segmentation label's `point_annotations`
+//! (each point's object id, in the point cloud's order, 0 for none) is each point's annotation,
+//! its objects' categories their classes. Annotations of other types are passed over; a label
+//! set other than `ground-truth` is read only when it is the sample's one.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde_json::Value;
 
 use super::{
     centred_quaternion, number, read_json, unit_quaternion, xyz, AnnotatedFrame, Annotations,
-    BoxFormat, Tracks,
+    BoxFormat, PointAnnotations, Tracks,
 };
 use crate::error::{Error, Result};
 use crate::geom::na;
@@ -130,52 +132,47 @@ impl Reader<'_> {
         }
     }
 
-    /// One point cloud's cuboids.
+    /// One point cloud's cuboids and per-point annotations.
     fn frame(&mut self, what: &str, sample: &str, attributes: &Value, label: &Value) -> Result<()> {
         let scan = scan_name(attributes, sample);
         let to_scan = ego_pose(self.file, what, attributes)?.map(|p| p.inverse());
         let mut boxes = Vec::new();
-        let mut ids = HashSet::new();
+        let mut objects: BTreeMap<u32, (String, usize)> = BTreeMap::new();
         let list = label.get("annotations").and_then(Value::as_array);
         for a in list.into_iter().flatten() {
-            if a.get("type").and_then(Value::as_str) != Some("cuboid") {
-                continue;
-            }
             let id = a.get("id").and_then(Value::as_u64).unwrap_or(0);
             let obj = format!("{what} annotation {id}");
-            if !ids.insert(id) {
+            let (class, track) = self.object(&obj, sample, id, a)?;
+            let id = u32::try_from(id).map_err(|_| {
+                Error::format(self.file, format!("{obj}: an object id beyond 32 bits"))
+            })?;
+            if objects.insert(id, (class.clone(), track)).is_some() {
                 return Err(Error::format(
                     self.file,
                     format!("{obj}: id {id} twice in the frame"),
                 ));
             }
-            let category = a.get("category_id").and_then(Value::as_u64);
-            let class = category
-                .and_then(|c| self.categories.get(&c))
-                .ok_or_else(|| {
-                    Error::format(
-                        self.file,
-                        format!("{obj}: category {category:?} is not among the categories"),
-                    )
-                })?;
-            let mut geometry = cuboid(self.file, &obj, a)?;
-            if let Some(m) = &to_scan {
-                geometry = geometry.moved(m);
+            if a.get("type").and_then(Value::as_str) == Some("cuboid") {
+                let mut geometry = cuboid(self.file, &obj, a)?;
+                if let Some(m) = &to_scan {
+                    geometry = geometry.moved(m);
+                }
+                boxes.push(AnnotatedBox {
+                    geometry,
+                    class_name: class,
+                    track,
+                });
             }
-            let track = match a.get("track_id").and_then(Value::as_u64) {
-                Some(t) => format!("track {t}"),
-                None => format!("{sample}/{id}"),
-            };
-            boxes.push(AnnotatedBox {
-                geometry,
-                class_name: class.clone(),
-                track: self.tracks.of(&track),
-            });
         }
+        let points = match label.get("point_annotations").and_then(Value::as_array) {
+            Some(ids) => Some(self.point_annotations(what, ids, objects)?),
+            None => None,
+        };
         let frame = AnnotatedFrame {
             scan: scan.clone(),
             file: self.file.into(),
             boxes,
+            points,
         };
         if self.frames.insert(scan.clone(), frame).is_some() {
             return Err(Error::format(
@@ -184,6 +181,48 @@ impl Reader<'_> {
             ));
         }
         Ok(())
+    }
+
+    /// An annotation's class name (by its category) and track.
+    fn object(&mut self, obj: &str, sample: &str, id: u64, a: &Value) -> Result<(String, usize)> {
+        let category = a.get("category_id").and_then(Value::as_u64);
+        let class = category
+            .and_then(|c| self.categories.get(&c))
+            .ok_or_else(|| {
+                Error::format(
+                    self.file,
+                    format!("{obj}: category {category:?} is not among the categories"),
+                )
+            })?;
+        let track = match a.get("track_id").and_then(Value::as_u64) {
+            Some(t) => format!("track {t}"),
+            None => format!("{sample}/{id}"),
+        };
+        Ok((class.clone(), self.tracks.of(&track)))
+    }
+
+    /// A segmentation label's `point_annotations` (each point's object id, 0 for none): every
+    /// id one of the label's annotations.
+    fn point_annotations(
+        &self,
+        what: &str,
+        ids: &[Value],
+        classes: BTreeMap<u32, (String, usize)>,
+    ) -> Result<PointAnnotations> {
+        let mut objects = Vec::with_capacity(ids.len());
+        for (k, v) in ids.iter().enumerate() {
+            let id = v.as_u64().and_then(|v| u32::try_from(v).ok());
+            match id {
+                Some(id) if id == 0 || classes.contains_key(&id) => objects.push(id),
+                _ => {
+                    return Err(Error::format(
+                        self.file,
+                        format!("{what}: point {k} names object {v}, which the label's annotations do not list"),
+                    ))
+                }
+            }
+        }
+        Ok(PointAnnotations { objects, classes })
     }
 }
 

@@ -144,5 +144,6 @@ fn read_frame(file: &Path, scan: String, tracks: &mut Tracks) -> Result<Annotate
         scan,
         file: file.into(),
         boxes,
+        points: None,
     })
 }
