@@ -311,34 +311,66 @@ fn read_json(file: &Path) -> Result<serde_json::Value> {
     })
 }
 
-/// The box of the web editors' form (Supervisely, SUSTechPOINTS, Xtreme1), checked: its
-/// centre, its x, y, z extents, and Euler angles x, y, z applied as `Rx(x) * Ry(y) * Rz(z)`
-/// (three.js's `XYZ` order, SUSTechPOINTS' `euler_angle_to_rotate_matrix`); `what` names the
-/// object in errors.
+/// The order in which a format composes its Euler angles into a rotation.
+#[derive(Debug, Clone, Copy)]
+enum EulerOrder {
+    /// `Rx(x) * Ry(y) * Rz(z)`: three.js's `XYZ` order (the web editors: Supervisely,
+    /// SUSTechPOINTS' `euler_angle_to_rotate_matrix`, Xtreme1).
+    Xyz,
+    /// `Rz(z) * Ry(y) * Rx(x)`: OpenLABEL's (its reference library VCD: `euler2R([rz, ry, rx])`,
+    /// sequence `ZYX`).
+    Zyx,
+}
+
+/// The box of a centre, x, y, z extents and Euler angles x, y, z composed in `order`, checked;
+/// `what` names the object in errors.
+fn centred_euler(
+    file: &Path,
+    what: &str,
+    (centre, sizes): ([f64; 3], [f64; 3]),
+    [x, y, z]: [f64; 3],
+    order: EulerOrder,
+) -> Result<Box3> {
+    check_box(file, what, centre, sizes, &[x, y, z])?;
+    let r = match order {
+        EulerOrder::Xyz => axis(0, x) * axis(1, y) * axis(2, z),
+        EulerOrder::Zyx => axis(2, z) * axis(1, y) * axis(0, x),
+    };
+    Ok(centred(centre, sizes, *r.matrix()))
+}
+
+/// The box of the web editors' form: [`centred_euler`] in the `XYZ` order.
 fn centred_xyz_euler(
     file: &Path,
     what: &str,
     centre: [f64; 3],
     sizes: [f64; 3],
-    [x, y, z]: [f64; 3],
+    angles: [f64; 3],
 ) -> Result<Box3> {
-    check_box(file, what, centre, sizes, &[x, y, z])?;
-    let r = axis(0, x) * axis(1, y) * axis(2, z);
-    Ok(centred(centre, sizes, *r.matrix()))
+    centred_euler(file, what, (centre, sizes), angles, EulerOrder::Xyz)
 }
 
-/// The box of OpenLABEL's Euler form, checked: Euler angles applied `Rz(z) * Ry(y) * Rx(x)`
-/// (the ASAM OpenLABEL reference library VCD's `euler2R([rz, ry, rx])`, sequence `ZYX`).
-fn centred_zyx_euler(
-    file: &Path,
-    what: &str,
-    centre: [f64; 3],
-    sizes: [f64; 3],
-    [x, y, z]: [f64; 3],
-) -> Result<Box3> {
-    check_box(file, what, centre, sizes, &[x, y, z])?;
-    let r = axis(2, z) * axis(1, y) * axis(0, x);
-    Ok(centred(centre, sizes, *r.matrix()))
+/// Reads one annotation file a scan, each named by its file's stem (`label/000042.json`
+/// annotates scan `000042`), with `read_frame`.
+fn frames_by_stem(
+    format: BoxFormat,
+    files: Vec<PathBuf>,
+    mut read_frame: impl FnMut(&Path, String, &mut Tracks) -> Result<AnnotatedFrame>,
+) -> Result<Annotations> {
+    let mut tracks = Tracks::default();
+    let mut frames = BTreeMap::new();
+    for file in files {
+        let scan = (file.file_stem().and_then(|s| s.to_str()))
+            .unwrap_or("")
+            .to_string();
+        let frame = read_frame(&file, scan.clone(), &mut tracks)?;
+        frames.insert(scan, frame);
+    }
+    Ok(Annotations {
+        format,
+        frames,
+        tracks: tracks.ids,
+    })
 }
 
 /// The box of a rotation quaternion `[qx, qy, qz, qw]` (Segments.ai, OpenLABEL), checked

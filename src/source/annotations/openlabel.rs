@@ -22,8 +22,8 @@ use std::path::{Path, PathBuf};
 use serde_json::{Map, Value};
 
 use super::{
-    centred_quaternion, centred_zyx_euler, read_json, AnnotatedFrame, Annotations, BoxFormat,
-    Tracks,
+    centred_euler, centred_quaternion, read_json, AnnotatedFrame, Annotations, BoxFormat,
+    EulerOrder, Tracks,
 };
 use crate::error::{Error, Result};
 use crate::source::boxes::AnnotatedBox;
@@ -260,9 +260,13 @@ fn cuboid(file: &Path, what: &str, c: &Value) -> Result<crate::source::boxes::Bo
         )
     })?;
     match *v.as_slice() {
-        [x, y, z, rx, ry, rz, sx, sy, sz] => {
-            centred_zyx_euler(file, what, [x, y, z], [sx, sy, sz], [rx, ry, rz])
-        }
+        [x, y, z, rx, ry, rz, sx, sy, sz] => centred_euler(
+            file,
+            what,
+            ([x, y, z], [sx, sy, sz]),
+            [rx, ry, rz],
+            EulerOrder::Zyx,
+        ),
         [x, y, z, qx, qy, qz, qw, sx, sy, sz] => {
             centred_quaternion(file, what, [x, y, z], [sx, sy, sz], [qx, qy, qz, qw])
         }

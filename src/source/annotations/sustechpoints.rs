@@ -5,7 +5,7 @@
 //! (Euler angles x, y, z in radians, applied as `Rx * Ry * Rz`: the tool's
 //! `tools/utils.py::euler_angle_to_rotate_matrix`), in the point cloud's frame.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
@@ -53,20 +53,7 @@ pub fn read(path: &Path) -> Result<Annotations> {
             message: "holds no label file (<frame>.json)".into(),
         });
     }
-    let mut tracks = Tracks::default();
-    let mut frames = BTreeMap::new();
-    for file in files {
-        let scan = (file.file_stem().and_then(|s| s.to_str()))
-            .unwrap_or("")
-            .to_string();
-        let frame = read_frame(&file, scan.clone(), &mut tracks)?;
-        frames.insert(scan, frame);
-    }
-    Ok(Annotations {
-        format: BoxFormat::SusTechPoints,
-        frames,
-        tracks: tracks.ids,
-    })
+    super::frames_by_stem(BoxFormat::SusTechPoints, files, read_frame)
 }
 
 /// One frame's label file.

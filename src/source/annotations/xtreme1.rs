@@ -12,7 +12,7 @@
 //! boxes from several sources uses its `Ground Truth` source; without one it is an error that
 //! names them. A track is the object's `trackId` (its `id` without one).
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
@@ -59,20 +59,7 @@ pub fn read(path: &Path) -> Result<Annotations> {
             message: "no Xtreme1 annotation results (result/<name>.json)".into(),
         });
     }
-    let mut tracks = Tracks::default();
-    let mut frames = BTreeMap::new();
-    for file in files {
-        let scan = (file.file_stem().and_then(|s| s.to_str()))
-            .unwrap_or("")
-            .to_string();
-        let frame = read_frame(&file, scan.clone(), &mut tracks)?;
-        frames.insert(scan, frame);
-    }
-    Ok(Annotations {
-        format: BoxFormat::Xtreme1,
-        frames,
-        tracks: tracks.ids,
-    })
+    super::frames_by_stem(BoxFormat::Xtreme1, files, read_frame)
 }
 
 /// Whether an object is a 3D box.
