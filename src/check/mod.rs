@@ -259,7 +259,8 @@ pub fn check(
     let mut annotations = Vec::new();
     for drive in &drives {
         let mut c = Collector::new(&drive.name(), opts);
-        let read = inventory::read_drive(drive, &mut c);
+        let mut read = inventory::read_drive(drive, &mut c);
+        imported::load(&mut read, &mut c);
         tracklets::check(&read, &mut c);
         imported::check(&read, &mut c);
         calibration::check_files(&read, &mut c);

@@ -96,9 +96,7 @@ impl CheckName {
                 !matches!(self, LabelCount | LabelIds | InstanceClasses | MovingStatic)
             }
             // The box checks of a sequence run on the boxes `kitti2pgm label` imported.
-            DatasetKind::Sequence => {
-                !matches!(self, BoxGround | AnnotationEnds | AnnotationFalloff)
-            }
+            DatasetKind::Sequence => !matches!(self, AnnotationFalloff),
             DatasetKind::Object => !matches!(
                 self,
                 PoseJump

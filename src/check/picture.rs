@@ -48,7 +48,8 @@ impl<'a> Pictures<'a> {
         }
         if !self.read.contains_key(&f.drive) {
             let mut quiet = Collector::new(&f.drive, self.opts);
-            let r = inventory::read_drive(drive, &mut quiet);
+            let mut r = inventory::read_drive(drive, &mut quiet);
+            super::imported::load(&mut r, &mut quiet);
             self.read.insert(f.drive.clone(), r);
         }
         let r = &self.read[&f.drive];

@@ -3,12 +3,14 @@
 //! what is missing.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use super::{frame_ranges, CheckName as C, Collector, DriveInventory, ObjectRef, Severity as S};
 use crate::error::Result;
 use crate::geom::Matrix3x4;
-use crate::label::LabelBox;
+use crate::label::{ClassMap, LabelBox};
+use crate::source::annotations::FrameBoxes;
+use crate::source::boxes::AnnotatedBox;
 use crate::source::kitti::calib::{Calibration, FrameCalib};
 use crate::source::kitti::object::ObjectLabel;
 use crate::source::kitti::timestamps::Timestamp;
@@ -26,6 +28,8 @@ pub(crate) struct DriveRead {
     pub images: BTreeMap<u8, Vec<u32>>,
     /// The layout's own files.
     pub layout: LayoutRead,
+    /// The boxes a sequence labelled by `kitti2pgm label` was made from.
+    pub imported: Option<Imported>,
 }
 
 /// The files of a drive that its layout has, as read (`None` where one could not be).
@@ -89,6 +93,7 @@ impl DriveRead {
             scans: BTreeMap::new(),
             images: BTreeMap::new(),
             layout: LayoutRead::empty(drive.dataset),
+            imported: None,
         }
     }
 
@@ -171,10 +176,14 @@ pub(crate) struct FrameBox {
 }
 
 impl DriveRead {
-    /// The boxes at `frame` (`DontCare` regions left out), and the ghosts of the tracklets
-    /// that ended just before ([`FrameBox::ghost`]).
+    /// The boxes at `frame` (`DontCare` regions left out; a labelled sequence's imported
+    /// boxes), and the ghosts of the tracklets or tracks that ended just before
+    /// ([`FrameBox::ghost`]).
     pub(crate) fn boxes_at(&self, frame: u32) -> Vec<FrameBox> {
         let mut out = Vec::new();
+        if let Some(i) = &self.imported {
+            out.extend(i.boxes_at(frame));
+        }
         if let Some(t) = self.tracklets() {
             for (i, tr, p) in t.at(frame) {
                 out.push(FrameBox {
@@ -222,6 +231,68 @@ impl DriveRead {
                     visible: false,
                 });
             }
+        }
+        out
+    }
+}
+
+/// A labelled sequence's imported boxes, as the checks read them.
+#[derive(Debug)]
+pub(crate) struct Imported {
+    /// The boxes by frame, their tracks numbered as the label files' instances (id - 1).
+    pub boxes: FrameBoxes,
+    /// The class map the labels were written with.
+    pub map: ClassMap,
+}
+
+impl Imported {
+    /// The object a box is, as findings name it.
+    pub(crate) fn object(&self, b: &AnnotatedBox) -> ObjectRef {
+        let id = self.boxes.tool_ids.get(&b.track).map_or("", String::as_str);
+        ObjectRef {
+            index: b.track as u32,
+            kind: format!("{} ({id})", b.class_name),
+        }
+    }
+
+    /// The annotation file of `frame` (the export, for a frame without one).
+    pub(crate) fn file(&self, frame: u32) -> PathBuf {
+        (self.boxes.files.get(&frame).cloned()).unwrap_or_else(|| self.boxes.file.clone())
+    }
+
+    /// The boxes at `frame`, and the ghosts of the tracks that ended just before (carried one
+    /// frame on by their last displacement: a track seen in the two frames before `frame`, not
+    /// at it); imported boxes count as visible.
+    pub(crate) fn boxes_at(&self, frame: u32) -> Vec<FrameBox> {
+        let at = |f: u32| self.boxes.frames.get(&f);
+        let mut out: Vec<FrameBox> = (at(frame).into_iter().flatten())
+            .map(|b| FrameBox {
+                object: self.object(b),
+                label_box: LabelBox::of(&b.geometry, 0, crate::label::instance_of(b.track)),
+                ghost: false,
+                visible: true,
+            })
+            .collect();
+        let (Some(before), Some(last)) = (
+            frame.checked_sub(2).and_then(at),
+            frame.checked_sub(1).and_then(at),
+        ) else {
+            return out;
+        };
+        let now: Vec<usize> = at(frame).into_iter().flatten().map(|b| b.track).collect();
+        for b in last.iter().filter(|b| !now.contains(&b.track)) {
+            let Some(p) = before.iter().find(|p| p.track == b.track) else {
+                continue;
+            };
+            let step = b.geometry.pose.translation.vector - p.geometry.pose.translation.vector;
+            let mut moved = b.geometry.clone();
+            moved.pose.translation.vector += step;
+            out.push(FrameBox {
+                object: self.object(b),
+                label_box: LabelBox::of(&moved, 0, crate::label::instance_of(b.track)),
+                ghost: true,
+                visible: false,
+            });
         }
         out
     }

@@ -91,6 +91,10 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector, progress: &(dyn Fn(u64) + 
         );
     }
     boxes(r, &seen, c);
+    let measured: Vec<(usize, bool)> = (seen.iter().flat_map(|s| &s.boxes))
+        .map(|b| (b.points, b.ghost))
+        .collect();
+    super::imported::mostly_empty(r, c, &measured);
     camera(r, &seen, c);
     if let Some(p) = &sensor {
         beam_model(r, &seen, c, &p.name);
@@ -288,12 +292,24 @@ fn bottom(b: &LabelBox) -> Real {
         .fold(Real::INFINITY, Real::min)
 }
 
+/// The annotation file of a drive's boxes at frame `f`: the tracklets, the frame's imported
+/// annotation file, or its `label_2` file.
+fn box_file(r: &DriveRead, f: u32) -> std::path::PathBuf {
+    match (r.tracklets(), &r.imported) {
+        (Some(tr), _) => tr.path.clone(),
+        (None, Some(i)) => i.file(f),
+        (None, None) => r.drive.object_labels_path(f),
+    }
+}
+
 /// Box findings, per object: empty boxes, boxes off the ground, annotations that end early.
 fn boxes(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector) {
     let t = c.t().clone();
-    let file = |f: u32| match r.tracklets() {
-        Some(tr) => tr.path.clone(),
-        None => r.drive.object_labels_path(f),
+    let file = |f: u32| box_file(r, f);
+    // Imported boxes carry no occlusion: every one is taken as visible.
+    let marked = match r.imported {
+        Some(_) => "a box",
+        None => "marked fully visible",
     };
     let mut empty: BTreeMap<ObjectRef, Vec<u32>> = BTreeMap::new();
     let mut off: BTreeMap<ObjectRef, (Vec<u32>, Real, u32)> = BTreeMap::new();
@@ -326,7 +342,7 @@ fn boxes(r: &DriveRead, seen: &[FrameSeen], c: &mut Collector) {
             Some(frames[0]),
             Some(o),
             format!(
-                "marked fully visible within {} m, but no point inside: frames {}",
+                "{marked} within {} m, but no point inside: frames {}",
                 t.empty_max_range_m,
                 frame_ranges(&frames)
             ),

@@ -222,7 +222,7 @@ pub fn imported_boxes(seq: &Path) -> Result<Option<crate::source::annotations::F
         .collect();
     let mut out = annotations::FrameBoxes {
         file: rec.boxes.clone(),
-        frames: BTreeMap::new(),
+        ..Default::default()
     };
     for (name, f) in &rec.frames {
         let (Ok(frame), Some(af)) = (name.parse::<u32>(), a.frames.get(&f.annotation)) else {
@@ -232,10 +232,12 @@ pub fn imported_boxes(seq: &Path) -> Result<Option<crate::source::annotations::F
             .map(|b| {
                 let id = a.tracks.get(b.track).map_or("", String::as_str);
                 let track = instance.get(id).map_or(b.track, |&i| usize::from(i) - 1);
+                out.tool_ids.insert(track, id.to_string());
                 crate::source::boxes::AnnotatedBox { track, ..b.clone() }
             })
             .collect();
         out.frames.insert(frame, boxes);
+        out.files.insert(frame, af.file.clone());
     }
     Ok(Some(out))
 }

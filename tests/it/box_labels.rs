@@ -484,9 +484,40 @@ fn check_runs_the_box_checks_on_imported_boxes() {
         .any(|f| f["object"]["kind"] == "Car (4)"));
     assert!(of("box-overlap").iter().any(|f| f["frame"] == 0));
     assert!(of("empty-box").is_empty(), "the boxes hold points");
-    // Boxes 100 m off: every box is empty, and one error says why.
+    // A track in front of the sensor, annotated in frames 0 and 1 and not 2, on scans that do
+    // not change: its box carried on still holds its points.
+    let mut front = test_boxes();
+    front.push(([1.6, 0.0, 0.0], [1.6, 2.4, 3.0], [0.0, 0.0, 0.0]));
+    let types = ["Car", "Pedestrian", "Truck", "Car", "BicycleRider", "Car"];
+    for f in 0..2 {
+        let mut b = front.clone();
+        if f == 1 {
+            b[2].0[0] += 6.0;
+            b[4].2[2] += 2.5;
+        }
+        write_frame(&scene, f, &b, &types);
+    }
+    assert_eq!(label(&root, &scene, &[]).0, 0);
+    let (_, out, _) = run_text(&["check", s(&root), "--json", "--no-progress"]);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let ends: Vec<_> = (j["findings"].as_array().unwrap().iter())
+        .filter(|f| f["check"] == "annotation-ends")
+        .collect();
+    assert_eq!(ends.len(), 1, "{ends:?}");
+    assert_eq!(
+        (
+            ends[0]["frame"].as_u64(),
+            ends[0]["object"]["kind"].as_str()
+        ),
+        (Some(2), Some("Car (6)"))
+    );
+    assert!(ends[0]["file"]
+        .as_str()
+        .unwrap()
+        .ends_with("label/000002.json"));
+    // Boxes 20 m off, where the scan has no point: every box is empty, and one error says why.
     let far: Vec<TestBox> = (test_boxes().into_iter())
-        .map(|(c, sz, r)| ([c[0] + 100.0, c[1], c[2]], sz, r))
+        .map(|(c, sz, r)| ([c[0] + 20.0, c[1], c[2]], sz, r))
         .collect();
     for f in 0..3 {
         write_frame(&scene, f, &far, &TYPES);
@@ -497,7 +528,11 @@ fn check_runs_the_box_checks_on_imported_boxes() {
     let empty: Vec<_> = (j["findings"].as_array().unwrap().iter())
         .filter(|f| f["check"] == "empty-box")
         .collect();
-    assert_eq!(empty.len(), 16, "15 boxes and the summary");
+    assert_eq!(
+        empty.len(),
+        6,
+        "each of the 5 tracks (frames 0-2) and the summary"
+    );
     assert!(empty
         .iter()
         .any(|f| f["severity"] == "error"

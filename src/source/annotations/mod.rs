@@ -173,6 +173,10 @@ pub struct FrameBoxes {
     pub file: PathBuf,
     /// The boxes of each frame, in the file's order.
     pub frames: BTreeMap<u32, Vec<AnnotatedBox>>,
+    /// The annotation file of each frame.
+    pub files: BTreeMap<u32, PathBuf>,
+    /// The annotation tool's own id of each track.
+    pub tool_ids: BTreeMap<usize, String>,
 }
 
 impl super::boxes::BoxSource for FrameBoxes {
