@@ -22,9 +22,9 @@ pub struct LabelArgs {
     /// The sequence the boxes annotate (default: the only one under ROOT).
     #[arg(long, value_name = "NN")]
     pub sequence: Option<u32>,
-    /// Which object type is which class: a built-in map (kitti-paper-4 for KITTI's types,
+    /// Which object type is which class: a built-in map (kitti-boxes for KITTI's types,
     /// sustechpoints, nuscenes-detection) or a YAML file (classes with their types). Default:
-    /// the format's own set (sustechpoints for SUSTechPOINTS, kitti-paper-4 for CVAT's KITTI
+    /// the format's own set (sustechpoints for SUSTechPOINTS, kitti-boxes for CVAT's KITTI
     /// export); other formats name one.
     #[arg(long, value_name = "NAME|YAML")]
     pub class_map: Option<PathBuf>,

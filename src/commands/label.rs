@@ -126,7 +126,7 @@ fn params(
     let mut map = match (&a.class_map, format) {
         (Some(m), _) => ClassMap::named_or_file(m)?,
         (None, BoxFormat::SusTechPoints) => ClassMap::sustechpoints(),
-        (None, BoxFormat::CvatKittiRaw) => ClassMap::kitti_paper(),
+        (None, BoxFormat::CvatKittiRaw) => ClassMap::kitti_boxes(),
         (None, other) => {
             return Err(Error::Config(format!(
                 "{other} exports name their own classes: say which is which with --class-map \

@@ -312,6 +312,18 @@ impl ClassMap {
         }
     }
 
+    /// The paper's 4 classes for KITTI's box types as annotation tools export them (CVAT's
+    /// Kitti Raw format): [`ClassMap::kitti_paper`]'s types, and Tram, Misc and DontCare known
+    /// and labelling nothing (the paper's map leaves them background too).
+    pub fn kitti_boxes() -> ClassMap {
+        let mut m = ClassMap::kitti_paper();
+        m.name = "kitti-boxes".into();
+        for t in ["Tram", "Misc", "DontCare"] {
+            m.object_types.insert(t.into(), m.background);
+        }
+        m
+    }
+
     /// SUSTechPOINTS' object types (its `obj_type_map`, public/js/obj_cfg.js) in 8 classes:
     /// background, car (Car, Van, PoliceCar, TourCar), truck (Truck, ConcreteTruck,
     /// LongVehicle and the machines), bus (Bus, Tram), pedestrian (Pedestrian, RoadWorker,
@@ -347,6 +359,9 @@ mod tests {
                 m.name
             );
         }
+        let k = ClassMap::kitti_boxes();
+        assert!(k.knows_type("Tram") && k.class_of_object("Tram") == k.background);
+        assert_eq!(k.name(k.class_of_object("Van")), "car");
         let s = ClassMap::sustechpoints();
         assert_eq!(s.name(s.class_of_object("Van")), "car");
         assert_eq!(s.name(s.class_of_object("MotorcyleRider")), "rider");

@@ -130,7 +130,8 @@ impl ClassMap {
     }
 
     /// The built-in map called `name`: the name outputs record (`kitti-paper-4`,
-    /// `semantic-kitti`, `nuscenes`, and the box maps `sustechpoints`, `nuscenes-detection`) or
+    /// `semantic-kitti`, `nuscenes`, and the box maps `kitti-boxes`, `sustechpoints`,
+    /// `nuscenes-detection`) or
     /// its short forms (`kitti-paper`, `kitti_paper`, `semantic_kitti`, `nuscenes-16`,
     /// `nuscenes-lidarseg`, `sustech`).
     pub fn builtin(name: &str) -> Option<ClassMap> {
@@ -141,16 +142,18 @@ impl ClassMap {
             "semantic-kitti" | "semantic_kitti" => Some(ClassMap::semantic_kitti()),
             "nuscenes" | "nuscenes-16" | "nuscenes-lidarseg" => Some(ClassMap::nuscenes()),
             "sustechpoints" | "sustech" => Some(ClassMap::sustechpoints()),
+            "kitti-boxes" | "kitti_boxes" => Some(ClassMap::kitti_boxes()),
             "nuscenes-detection" | "nuscenes_detection" => Some(ClassMap::nuscenes_detection()),
             _ => None,
         }
     }
 
     /// The names of the built-in maps, as outputs record them.
-    pub const BUILTIN: [&'static str; 5] = [
+    pub const BUILTIN: [&'static str; 6] = [
         "kitti-paper-4",
         "semantic-kitti",
         "nuscenes",
+        "kitti-boxes",
         "sustechpoints",
         "nuscenes-detection",
     ];
