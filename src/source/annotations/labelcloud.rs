@@ -8,7 +8,6 @@
 //! (-pi..pi); the files do not say which: option `angles`, default degrees. labelCloud gives a
 //! box no id across frames: each box is a track of its own.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
@@ -60,61 +59,54 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Annotations> {
         AngleUnit::Degrees => std::f64::consts::PI / 180.0,
         AngleUnit::Radians => 1.0,
     };
-    let mut tracks = Tracks::default();
-    let mut frames = BTreeMap::new();
-    for file in files {
-        let scan = (file.file_stem().and_then(|s| s.to_str()))
-            .unwrap_or("")
-            .to_string();
-        let root = read_json(&file)?;
-        let objects = root
-            .get("objects")
-            .and_then(Value::as_array)
-            .ok_or_else(|| {
-                Error::format(
-                    &file,
-                    "no \"objects\" list: not a labelCloud centroid label",
-                )
-            })?;
-        let mut boxes = Vec::with_capacity(objects.len());
-        for (i, o) in objects.iter().enumerate() {
-            let what = format!("object {i}");
-            let class = o.get("name").and_then(Value::as_str);
-            let class =
-                class.ok_or_else(|| Error::format(&file, format!("{what}: no \"name\"")))?;
-            let what = format!("object {i} ({class})");
-            let centre = xyz(o.get("centroid"), "centroid", &file, &what)?;
-            let d = o.get("dimensions");
-            let d = d.ok_or_else(|| Error::format(&file, format!("{what}: no \"dimensions\"")))?;
-            let w = |k: &str| number(d, k, &file, &format!("{what} dimensions"));
-            let sizes = [w("length")?, w("width")?, w("height")?];
-            let angles = xyz(o.get("rotations"), "rotations", &file, &what)?;
-            check_box(&file, &what, centre, sizes, &angles)?;
-            let geometry = BoxConvention::CENTRED_LWH.place(
-                centre,
-                sizes,
-                &BoxRotation::Euler(angles.map(|a| a * radians_per_unit)),
-                None,
-            );
-            boxes.push(AnnotatedBox {
-                geometry,
-                class_name: class.to_string(),
-                track: tracks.of(&format!("{scan}#{i}")),
-            });
-        }
-        frames.insert(
-            scan.clone(),
-            AnnotatedFrame {
-                scan,
-                file,
-                boxes,
-                points: None,
-            },
+    super::frames_by_stem(BoxFormat::LabelCloud, files, |file, scan, tracks| {
+        read_frame(file, scan, tracks, radians_per_unit)
+    })
+}
+
+/// One label file's boxes, its angles in `radians_per_unit`.
+fn read_frame(
+    file: &Path,
+    scan: String,
+    tracks: &mut Tracks,
+    radians_per_unit: f64,
+) -> Result<AnnotatedFrame> {
+    let root = read_json(file)?;
+    let objects = root
+        .get("objects")
+        .and_then(Value::as_array)
+        .ok_or_else(|| {
+            Error::format(file, "no \"objects\" list: not a labelCloud centroid label")
+        })?;
+    let mut boxes = Vec::with_capacity(objects.len());
+    for (i, o) in objects.iter().enumerate() {
+        let what = format!("object {i}");
+        let class = o.get("name").and_then(Value::as_str);
+        let class = class.ok_or_else(|| Error::format(file, format!("{what}: no \"name\"")))?;
+        let what = format!("object {i} ({class})");
+        let centre = xyz(o.get("centroid"), "centroid", file, &what)?;
+        let d = o.get("dimensions");
+        let d = d.ok_or_else(|| Error::format(file, format!("{what}: no \"dimensions\"")))?;
+        let w = |k: &str| number(d, k, file, &format!("{what} dimensions"));
+        let sizes = [w("length")?, w("width")?, w("height")?];
+        let angles = xyz(o.get("rotations"), "rotations", file, &what)?;
+        check_box(file, &what, centre, sizes, &angles)?;
+        let geometry = BoxConvention::CENTRED_LWH.place(
+            centre,
+            sizes,
+            &BoxRotation::Euler(angles.map(|a| a * radians_per_unit)),
+            None,
         );
+        boxes.push(AnnotatedBox {
+            geometry,
+            class_name: class.to_string(),
+            track: tracks.of(&format!("{scan}#{i}")),
+        });
     }
-    Ok(Annotations {
-        format: BoxFormat::LabelCloud,
-        frames,
-        tracks: tracks.ids,
+    Ok(AnnotatedFrame {
+        scan,
+        file: file.into(),
+        boxes,
+        points: None,
     })
 }
