@@ -203,3 +203,23 @@ def test_label_points_with_a_class_map_equals_kitti2pgm_label(tmp_path, kitti2pg
     assert (cls2 == 1).sum() < (cls == 1).sum()
     grown, _ = k2.label_points(pts, frame["boxes"], class_map="sustechpoints", unknown_class="car", margin=0.3)
     assert (grown > 0).sum() > (cls > 0).sum()
+
+
+def test_dataset_reads_a_box_labelled_root_with_its_recorded_class_map(tmp_path, kitti2pgm_path):
+    """Issue 46: Dataset on a root labelled by `kitti2pgm label` takes the class map recorded
+    beside the labels, as convert does, and its map's label channel holds the boxes' classes."""
+    import shutil
+
+    root = tmp_path / "root"
+    shutil.copytree(OWN, root)
+    subprocess.run([kitti2pgm_path, "--no-progress", "label", str(root), "--boxes",
+                    str(REPO / "fixtures" / "own_boxes")], check=True)
+    ds = k2.Dataset(str(root), sensor="vlp16", all_frames=True)
+    assert ds.class_map["name"] == "sustechpoints"
+    m = ds.project(0, cols=1024)["map"]
+    labels = m[..., 5][m[..., 4] > 0]
+    names = [c["name"] for c in ds.class_map["classes"]]
+    assert {names[int(c)] for c in np.unique(labels)} >= {"background", "car", "truck", "pedestrian"}
+    # Named explicitly, another map is taken (and SemanticKITTI's does not list ids 2-5).
+    with pytest.raises(ValueError, match="learning_map"):
+        k2.Dataset(str(root), sensor="vlp16", all_frames=True, class_map="semantic-kitti").project(0, cols=1024)
