@@ -112,6 +112,10 @@ pub struct BoxLabelRecord {
     pub instances: Vec<InstanceEntry>,
     /// The label files written, by frame name (`000042`).
     pub frames: BTreeMap<String, LabelledFrame>,
+    /// While the run writes (`complete: false`): the frames whose label files it may write, so
+    /// that the run after an interruption knows them for its own.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pending: Vec<String>,
 }
 
 /// The record's path in sequence folder `seq`.

@@ -379,6 +379,24 @@ fn an_interrupted_run_is_refused_by_convert_and_finished_by_the_next() {
     let (code, _, err) =
         super::util::convert_json(&root, &out, &["--sensor", "vlp16", "--all-frames"]);
     assert_eq!(code, 0, "{err}");
+    // A run killed after writing a frame's new labels: its unfinished record lists the frame as
+    // pending, so the next run takes the file for its own (no --overwrite) and writes it again.
+    let mut boxes = test_boxes();
+    boxes[0].0[0] += 0.5;
+    write_frame(&scene, 0, &boxes, &TYPES);
+    let mut j: serde_json::Value = serde_json::from_slice(&std::fs::read(&rec).unwrap()).unwrap();
+    j["complete"] = serde_json::json!(false);
+    j["pending"] = serde_json::json!(["000000"]);
+    std::fs::write(&rec, j.to_string()).unwrap();
+    std::fs::write(label_file(&root, 0), vec![3u8; points().len() * 4]).unwrap();
+    let (code, r, err) = label(&root, &scene, &[]);
+    assert_eq!((code, r["frames_written"].as_u64()), (0, Some(1)), "{err}");
+    assert_reference(&label_file(&root, 0), &boxes, &CLASSES, 0.0);
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&rec).unwrap()).unwrap();
+    assert!(j["complete"] == true && j.get("pending").is_none(), "{j}");
+    // Without the pending mark, the same file is taken for a hand edit and refused.
+    std::fs::write(label_file(&root, 0), vec![3u8; points().len() * 4]).unwrap();
+    fails_with(&["label", s(&root), "--boxes", s(&scene)], "input");
 }
 
 /// 500 small boxes on a grid around the sensor, and a margin: the reference's labels.

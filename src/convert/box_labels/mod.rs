@@ -15,6 +15,7 @@
 //!   longer annotated, and keeps the rest byte for byte;
 //! - a frame whose scan cannot be read fails alone; the others are written.
 
+mod existing;
 pub mod frame;
 pub mod scans;
 
@@ -25,7 +26,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::format::box_labels::{self as record, BoxLabelParams, BoxLabelRecord, LabelledFrame};
+use crate::format::box_labels::{self as record, BoxLabelParams, BoxLabelRecord};
 use crate::format::Durability;
 use crate::fs::Fingerprint;
 use crate::label::{ClassCounts, ClassId, ClassMap, LabelBox};
@@ -141,7 +142,16 @@ pub fn label_sequence(
         .filter(|name| !jobs.iter().any(|j| format!("{:06}", j.frame) == **name))
         .cloned()
         .collect();
-    let jobs = refuse_foreign(&drive, jobs, &stale, &old_frames, opts.overwrite)?;
+    // Label files an interrupted run may have written: its record lists them as pending.
+    let pending: BTreeSet<String> = (old.iter())
+        .filter(|r| !r.complete)
+        .flat_map(|r| r.pending.iter().cloned())
+        .collect();
+    let theirs = existing::Previous {
+        frames: &old_frames,
+        pending: &pending,
+    };
+    let jobs = existing::refuse_foreign(&drive, jobs, &stale, &theirs, opts.overwrite)?;
     let mut rec = BoxLabelRecord {
         version: record::VERSION,
         complete: false,
@@ -150,6 +160,7 @@ pub fn label_sequence(
         box_files: opts.box_files.clone(),
         instances: instances.values().cloned().collect(),
         frames: old_frames,
+        pending: jobs.iter().map(|j| format!("{:06}", j.frame)).collect(),
     };
     record::write(seq, &rec, opts.durability)?;
     for name in &stale {
@@ -164,6 +175,7 @@ pub fn label_sequence(
     run_jobs(jobs, &map, opts, progress, &mut rec, &mut report)?;
     report.unknown_type_boxes = classes.unknown_used;
     rec.complete = true;
+    rec.pending.clear();
     record::write(seq, &rec, opts.durability)?;
     Ok(report)
 }
@@ -425,72 +437,4 @@ fn frame_boxes(
             )
         })
         .collect()
-}
-
-/// The jobs, each with the record of the label file there when `label` wrote it and nobody
-/// changed it since; a label file there that is not such (another tool's, hand-edited) is
-/// refused unless `overwrite`, and one the dataset ships always: checked for every frame
-/// (the jobs and the `stale` frames to remove) before anything is written.
-fn refuse_foreign(
-    drive: &Drive,
-    mut jobs: Vec<FrameJob>,
-    stale: &[String],
-    old: &BTreeMap<String, LabelledFrame>,
-    overwrite: bool,
-) -> Result<Vec<FrameJob>> {
-    let ships_labels = drive
-        .dir
-        .join(crate::source::unpacked::NUSCENES_MARKER)
-        .exists();
-    let mut foreign = Vec::new();
-    let stale_paths = stale.iter().map(|n| {
-        let label = drive
-            .dir
-            .join(crate::source::kitti::sequence::LABELS)
-            .join(format!("{n}.label"));
-        (n.clone(), label, None)
-    });
-    let job_paths = jobs
-        .iter()
-        .enumerate()
-        .map(|(i, j)| (format!("{:06}", j.frame), j.label.clone(), Some(i)));
-    let all: Vec<(String, PathBuf, Option<usize>)> = job_paths.chain(stale_paths).collect();
-    for (name, label, job) in all {
-        let Some(now) = crate::fs::inputs::fingerprint(&label)? else {
-            continue;
-        };
-        match old.get(&name) {
-            Some(o) if o.label.same_content(&now) => {
-                if let Some(i) = job {
-                    jobs[i].previous = Some(o.clone());
-                }
-            }
-            Some(_) => foreign.push((label, "edited since `kitti2pgm label` wrote it")),
-            None => {
-                let kitti_scan = job.is_some_and(|i| {
-                    jobs[i].scan.extension().is_some_and(|e| e == "bin")
-                        && !jobs[i].scan.to_string_lossy().ends_with(".pcd.bin")
-                });
-                if ships_labels || kitti_scan {
-                    return Err(Error::Input {
-                        path: label,
-                        message: "a label file of the dataset itself (SemanticKITTI's, nuScenes'): `label` never writes over it; label a copy of the scans".into(),
-                    });
-                }
-                foreign.push((label, "not written by `kitti2pgm label`"));
-            }
-        }
-    }
-    if foreign.is_empty() || overwrite {
-        return Ok(jobs);
-    }
-    let (first, why) = &foreign[0];
-    Err(Error::Input {
-        path: first.clone(),
-        message: format!(
-            "a label file is already there, {why} ({} such file(s) in {}): --overwrite replaces them",
-            foreign.len(),
-            drive.dir.display()
-        ),
-    })
 }
