@@ -37,6 +37,17 @@ impl Fingerprint {
         self.size == other.size && self.xxh3 == other.xxh3
     }
 
+    /// The fingerprint of a file just written at `path`, whose `size` bytes hash to `xxh3`
+    /// (known to the writer): its modification time read back.
+    pub fn of_written(path: &Path, size: u64, xxh3: u64) -> Result<Fingerprint> {
+        let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+        Ok(Fingerprint {
+            size,
+            mtime_ns: mtime_ns(&meta),
+            xxh3,
+        })
+    }
+
     fn of(meta: &Metadata, bytes: &[u8]) -> Fingerprint {
         Fingerprint {
             size: bytes.len() as u64,

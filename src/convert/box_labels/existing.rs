@@ -63,10 +63,7 @@ pub(super) fn refuse_foreign(
             }
             Some(_) => foreign.push((label, "edited since `kitti2pgm label` wrote it")),
             None => {
-                let kitti_scan = job.is_some_and(|i| {
-                    jobs[i].scan.extension().is_some_and(|e| e == "bin")
-                        && !jobs[i].scan.to_string_lossy().ends_with(".pcd.bin")
-                });
+                let kitti_scan = job.is_some_and(|i| crate::source::is_kitti_bin(&jobs[i].scan));
                 if ships_labels || kitti_scan {
                     return Err(Error::Input {
                         path: label,

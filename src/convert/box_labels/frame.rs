@@ -106,7 +106,7 @@ pub fn label_frame(
     }
     let label = match (unchanged, &job.previous) {
         (true, Some(p)) => p.label,
-        _ => written_fingerprint(&job.label, bytes.len() as u64, xxh3),
+        _ => Fingerprint::of_written(&job.label, bytes.len() as u64, xxh3)?,
     };
     Ok(FrameDone {
         record: LabelledFrame {
@@ -161,19 +161,5 @@ fn hash_boxes(h: &mut xxhash_rust::xxh3::Xxh3, boxes: &[LabelBox]) {
         for v in t.iter().chain(q.iter()).chain(e.iter()) {
             h.update(&v.to_le_bytes());
         }
-    }
-}
-
-/// The fingerprint of a label file just written (`size` bytes hashing to `xxh3`).
-fn written_fingerprint(path: &Path, size: u64, xxh3: u64) -> Fingerprint {
-    let mtime_ns = std::fs::metadata(path)
-        .and_then(|m| m.modified())
-        .ok()
-        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-        .map_or(0, |d| d.as_nanos().min(i64::MAX as u128) as i64);
-    Fingerprint {
-        size,
-        mtime_ns,
-        xxh3,
     }
 }

@@ -302,6 +302,16 @@ fn xyz(v: Option<&serde_json::Value>, key: &str, file: &Path, what: &str) -> Res
     Ok([w("x")?, w("y")?, w("z")?])
 }
 
+/// The scan name a file reference gives (a URL, a URI, a path): its last segment without a
+/// query or fragment, and without its extension (`.pcd.bin` whole): `https://x/a/000042.pcd?sig=1`
+/// -> `000042`.
+fn uri_stem(uri: &str) -> String {
+    let file = uri.split(['?', '#']).next().unwrap_or(uri);
+    let file = file.rsplit('/').next().unwrap_or(file);
+    let file = file.strip_suffix(".pcd.bin").unwrap_or(file);
+    file.rsplit_once('.').map_or(file, |(s, _)| s).to_string()
+}
+
 /// Reads a JSON file (a regular file of at most the text limit).
 fn read_json(file: &Path) -> Result<serde_json::Value> {
     let text = crate::fs::read_text(file, crate::fs::Limit::Text)?;

@@ -210,13 +210,8 @@ fn scan_name(frame: &Value, file: &Path, n: u64, single: bool) -> String {
     .into_iter()
     .flat_map(|s| s.values())
     .find_map(|s| s.get("uri").and_then(Value::as_str));
-    let stem = |s: &str| {
-        let name = s.rsplit('/').next().unwrap_or(s);
-        let name = name.strip_suffix(".pcd.bin").unwrap_or(name);
-        name.rsplit_once('.').map_or(name, |(s, _)| s).to_string()
-    };
     match uri {
-        Some(u) => stem(u),
+        Some(u) => super::uri_stem(u),
         None if single => file
             .file_stem()
             .map_or(n.to_string(), |s| s.to_string_lossy().into_owned()),

@@ -251,12 +251,7 @@ fn label_attributes<'a>(file: &Path, what: &str, s: &'a Value) -> Result<Option<
 
 /// A frame's scan name: its `name`, else its point cloud URL's file stem, else the sample's.
 fn scan_name(attributes: &Value, sample: &str) -> String {
-    let stem = |s: &str| {
-        let file = s.split(['?', '#']).next().unwrap_or(s);
-        let file = file.rsplit('/').next().unwrap_or(file);
-        let file = file.strip_suffix(".pcd.bin").unwrap_or(file);
-        file.rsplit_once('.').map_or(file, |(s, _)| s).to_string()
-    };
+    let stem = super::uri_stem;
     (attributes.get("name").and_then(Value::as_str).map(stem))
         .or_else(|| {
             attributes
