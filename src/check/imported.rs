@@ -1,5 +1,5 @@
 //! The box checks on imported boxes: a sequence labelled by `kitti2pgm label` has its box export
-//! read again, with the options its record holds ([`crate::format::box_labels::imported_boxes`]),
+//! read again, with the options its record holds ([`BoxLabelRecord::imported_boxes`](crate::format::box_labels::BoxLabelRecord::imported_boxes)),
 //! and the checks that KITTI's tracklets get run on its boxes: box sizes per type
 //! (`box-size`), speeds and jumps along each track (`pose-jump`) and heading flips (`yaw-flip`)
 //! over runs of consecutive frames, overlapping boxes (`box-overlap`) here; and, with the scans
@@ -26,7 +26,7 @@ pub(crate) fn load(r: &mut DriveRead, c: &mut Collector) {
     let dir = r.drive.dir.clone();
     let loaded = crate::format::box_labels::read(&dir).and_then(|rec| {
         let Some(rec) = rec else { return Ok(None) };
-        let boxes = crate::format::box_labels::imported_boxes(&dir)?.unwrap_or_default();
+        let boxes = rec.imported_boxes()?;
         Ok(Some(Imported {
             boxes,
             map: rec.params.class_map,

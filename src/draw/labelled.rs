@@ -34,7 +34,7 @@ impl LabelledSequence {
             path: seq.into(),
             message: "not a sequence folder (sequences/<NN>/)".into(),
         })?;
-        let boxes = box_labels::imported_boxes(seq)?.unwrap_or_default();
+        let boxes = rec.imported_boxes()?;
         let frames = rec.frames.keys().filter_map(|n| n.parse().ok()).collect();
         Ok(Some(LabelledSequence {
             drive,

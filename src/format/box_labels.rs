@@ -211,43 +211,41 @@ pub fn default_class_map(plan: &crate::plan::Plan) -> Result<ClassMap> {
     Ok(recorded_class_map(seqs)?.unwrap_or_else(|| ClassMap::default_for(plan.layout())))
 }
 
-/// The boxes a labelled sequence `seq` was made from, read again from the export its record
-/// names with the record's options, by frame number, each box's track such that
-/// [`crate::label::instance_of`] gives the instance id its label files hold; `None` for a
-/// sequence that `label` did not label.
-pub fn imported_boxes(seq: &Path) -> Result<Option<crate::source::annotations::FrameBoxes>> {
-    use crate::source::annotations;
-    let Some(rec) = read(seq)? else {
-        return Ok(None);
-    };
-    let a = annotations::read(&rec.boxes, rec.params.format, &rec.params.read_options())?;
-    let instance: BTreeMap<&str, u16> = (rec.instances.iter())
-        .map(|e| (e.track.as_str(), e.instance))
-        .collect();
-    let mut out = annotations::FrameBoxes {
-        file: rec.boxes.clone(),
-        ..Default::default()
-    };
-    for (name, f) in &rec.frames {
-        let (Ok(frame), Some(af)) = (name.parse::<u32>(), a.frames.get(&f.annotation)) else {
-            continue;
-        };
-        let boxes = (af.boxes.iter())
-            .map(|b| {
-                let id = a.tracks.get(b.track).map_or("", String::as_str);
-                let track = instance.get(id).map_or(b.track, |&i| usize::from(i) - 1);
-                out.tool_ids.insert(track, id.to_string());
-                crate::source::boxes::AnnotatedBox { track, ..b.clone() }
-            })
+impl BoxLabelRecord {
+    /// The boxes the labels were made from, read again from the export the record names with
+    /// its options, by frame number, each box's track such that [`crate::label::instance_of`]
+    /// gives the instance id the label files hold.
+    pub fn imported_boxes(&self) -> Result<crate::source::annotations::FrameBoxes> {
+        use crate::source::annotations;
+        let a = annotations::read(&self.boxes, self.params.format, &self.params.read_options())?;
+        let instance: BTreeMap<&str, u16> = (self.instances.iter())
+            .map(|e| (e.track.as_str(), e.instance))
             .collect();
-        out.frames.insert(frame, boxes);
-        out.files.insert(frame, af.file.clone());
+        let mut out = annotations::FrameBoxes {
+            file: self.boxes.clone(),
+            ..Default::default()
+        };
+        for (name, f) in &self.frames {
+            let (Ok(frame), Some(af)) = (name.parse::<u32>(), a.frames.get(&f.annotation)) else {
+                continue;
+            };
+            let boxes = (af.boxes.iter())
+                .map(|b| {
+                    let id = a.tracks.get(b.track).map_or("", String::as_str);
+                    let track = instance.get(id).map_or(b.track, |&i| usize::from(i) - 1);
+                    out.tool_ids.insert(track, id.to_string());
+                    crate::source::boxes::AnnotatedBox { track, ..b.clone() }
+                })
+                .collect();
+            out.frames.insert(frame, boxes);
+            out.files.insert(frame, af.file.clone());
+        }
+        Ok(out)
     }
-    Ok(Some(out))
 }
 
 /// Gives every labelled sequence of `plan` the boxes its labels were made from
-/// ([`imported_boxes`]; `--viz` draws them), their files among the drive's inputs (a changed
+/// ([`BoxLabelRecord::imported_boxes`]; `--viz` draws them), their files among the drive's inputs (a changed
 /// export reconverts its frames). A sequence whose export cannot be read keeps no boxes: the
 /// errors are returned, for the caller to say.
 pub fn attach_imported_boxes(plan: &mut crate::plan::Plan) -> Vec<crate::Error> {
@@ -256,7 +254,11 @@ pub fn attach_imported_boxes(plan: &mut crate::plan::Plan) -> Vec<crate::Error> 
         if dp.drive.dataset != crate::source::DatasetKind::Sequence {
             continue;
         }
-        let (boxes, inputs) = crate::fs::recording(|| imported_boxes(&dp.drive.dir));
+        let (boxes, inputs) = crate::fs::recording(|| {
+            read(&dp.drive.dir)?
+                .map(|rec| rec.imported_boxes())
+                .transpose()
+        });
         match boxes {
             Ok(Some(b)) => {
                 dp.boxes = std::sync::Arc::new(b);
