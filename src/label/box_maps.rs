@@ -206,6 +206,43 @@ const NUSCENES_BACKGROUND: &[&str] = &[
     "vehicle.emergency.police",
 ];
 
+/// A box class map's rule for object types, with the class that the types it does not know
+/// become (without one, such types have no class: the caller's error).
+#[derive(Debug, Clone, Copy)]
+pub struct TypeRule<'a> {
+    /// The map.
+    pub map: &'a ClassMap,
+    unknown: Option<ClassId>,
+}
+
+impl<'a> TypeRule<'a> {
+    /// The rule of `map`, unknown types becoming the class called `unknown_class` (a class
+    /// name that is not the map's is an error listing its classes).
+    pub fn new(map: &'a ClassMap, unknown_class: Option<&str>) -> Result<TypeRule<'a>> {
+        let unknown = match unknown_class {
+            None => None,
+            Some(name) => Some(map.id_of(name).ok_or_else(|| {
+                Error::Config(format!(
+                    "unknown class {name:?}: not a class of {} ({})",
+                    map.name,
+                    map.names().join(", ")
+                ))
+            })?),
+        };
+        Ok(TypeRule { map, unknown })
+    }
+
+    /// The class of a box (or object) of type `object_type`, and whether it is the unknown
+    /// types' class; `None` for a type the map does not know, without an unknown class.
+    pub fn class_of(&self, object_type: &str) -> Option<(ClassId, bool)> {
+        match (self.map.object_types.get(object_type), self.unknown) {
+            (Some(&c), _) => Some((c, false)),
+            (None, Some(c)) => Some((c, true)),
+            (None, None) => None,
+        }
+    }
+}
+
 impl ClassMap {
     /// Whether the map names the object type `name` (as a class's type or a background type):
     /// a box of a type it does not know is the user's to decide (`label --unknown-class`).
@@ -385,6 +422,11 @@ mod tests {
         assert_eq!(m.colour(2), [1, 2, 3]);
         assert!(m.knows_type("DontCare") && !m.knows_type("Tram"));
         assert_eq!(m.miou, [1, 2]);
+        let rule = TypeRule::new(&m, Some("background")).unwrap();
+        assert_eq!(rule.class_of("Rider"), Some((2, false)));
+        assert_eq!(rule.class_of("Tram"), Some((0, true)));
+        assert_eq!(TypeRule::new(&m, None).unwrap().class_of("Tram"), None);
+        assert!(TypeRule::new(&m, Some("tram")).is_err());
         let p = m.clone().for_point_labels();
         assert_eq!(p.class_of_raw(2), Some(2));
         assert_eq!(p.raw_of_class(1), Some(1));

@@ -16,6 +16,7 @@ pub mod counts;
 pub mod nuscenes;
 mod raw_ids;
 
+pub use box_maps::TypeRule;
 pub use boxes::{LabelBox, Labeller, PointLabels};
 pub use classes::{ClassId, ClassInfo, ClassMap};
 pub use counts::ClassCounts;

@@ -29,7 +29,7 @@ use crate::error::{Error, Result};
 use crate::format::box_labels::{self as record, BoxLabelParams, BoxLabelRecord};
 use crate::format::Durability;
 use crate::fs::Fingerprint;
-use crate::label::{ClassCounts, ClassId, ClassMap, LabelBox};
+use crate::label::{ClassCounts, ClassId, ClassMap, LabelBox, TypeRule};
 use crate::source::annotations::{AnnotatedFrame, Annotations};
 use crate::source::kitti::Drive;
 use frame::{FrameDone, FrameJob};
@@ -255,27 +255,19 @@ struct Classes {
 /// error that lists them with the map's types and classes.
 fn resolve_classes(a: &Annotations, params: &BoxLabelParams) -> Result<Classes> {
     let map = &params.class_map;
-    let unknown = match &params.unknown_class {
-        None => None,
-        Some(name) => Some(map.id_of(name).ok_or_else(|| {
-            Error::Config(format!(
-                "--unknown-class {name}: not a class of {} ({})",
-                map.name,
-                map.names().join(", ")
-            ))
-        })?),
-    };
+    let rule = TypeRule::new(map, params.unknown_class.as_deref())?;
     let mut out = Classes::default();
     let mut missing: BTreeMap<&str, (usize, &Path)> = BTreeMap::new();
     for f in a.frames.values() {
         for (t, _) in f.objects() {
-            if let Some(&c) = map.object_types.get(t) {
-                out.by_type.insert(t.into(), c);
-            } else if let Some(c) = unknown {
-                out.by_type.insert(t.into(), c);
-                *out.unknown_used.entry(t.into()).or_default() += 1;
-            } else {
-                missing.entry(t).or_insert((0, &f.file)).0 += 1;
+            match rule.class_of(t) {
+                Some((c, unknown)) => {
+                    out.by_type.insert(t.into(), c);
+                    if unknown {
+                        *out.unknown_used.entry(t.into()).or_default() += 1;
+                    }
+                }
+                None => missing.entry(t).or_insert((0, &f.file)).0 += 1,
             }
         }
     }

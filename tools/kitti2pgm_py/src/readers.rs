@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use kitti2pgm::geom::{na, Matrix3x4, Real};
-use kitti2pgm::label::{ClassMap, LabelBox, Labeller};
+use kitti2pgm::label::{ClassMap, LabelBox, Labeller, TypeRule};
 use kitti2pgm::source::boxes::{BoxConvention, BoxRotation};
 use kitti2pgm::source::kitti::calib::{Calibration, FrameCalib};
 use kitti2pgm::source::Scan;
@@ -205,7 +205,7 @@ pub(crate) fn class_map_of(name: &str) -> PyResult<ClassMap> {
 fn box_of(
     d: &Bound<'_, PyAny>,
     index: usize,
-    classes: Option<&BoxClasses>,
+    classes: Option<&TypeRule>,
     margin: f64,
 ) -> PyResult<LabelBox> {
     let get = |k: &str| d.get_item(k);
@@ -250,7 +250,14 @@ fn box_of(
             let name: String = get("class_name")
                 .map_err(|_| err("no 'class' or 'class_name'"))?
                 .extract()?;
-            classes.of(&name)?
+            let known = classes.class_of(&name).map(|(c, _)| c);
+            known.ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "object type {name:?} is not one the class map {} knows ({}): pass unknown_class=",
+                    classes.map.name,
+                    classes.map.object_types.keys().cloned().collect::<Vec<_>>().join(", ")
+                ))
+            })?
         }
         (Err(_), None) => return Err(err("no 'class' (or 'class_name' with class_map=)")),
     };
@@ -269,44 +276,6 @@ fn box_of(
     );
     geometry.half_extents.add_scalar_mut(margin as Real);
     Ok(LabelBox::of(&geometry, class, instance))
-}
-
-/// A class map's rule for boxes' class names, as `kitti2pgm label` applies it: the map's object
-/// types (with `unknown_class` for the types it does not know; without, such a type is an
-/// error naming the map's types).
-pub(crate) struct BoxClasses {
-    map: ClassMap,
-    unknown: Option<u8>,
-}
-
-impl BoxClasses {
-    fn new(map: ClassMap, unknown_class: Option<&str>) -> PyResult<BoxClasses> {
-        let unknown = match unknown_class {
-            None => None,
-            Some(name) => Some(map.id_of(name).ok_or_else(|| {
-                PyValueError::new_err(format!(
-                    "unknown_class {name:?} is not a class of {} ({})",
-                    map.name,
-                    map.names().join(", ")
-                ))
-            })?),
-        };
-        Ok(BoxClasses { map, unknown })
-    }
-
-    fn of(&self, name: &str) -> PyResult<u8> {
-        match (self.map.object_types.get(name), self.unknown) {
-            (Some(&c), _) => Ok(c),
-            (None, Some(c)) => Ok(c),
-            (None, None) => {
-                Err(PyValueError::new_err(format!(
-                "object type {name:?} is not one the class map {} knows ({}): pass unknown_class=",
-                self.map.name,
-                self.map.object_types.keys().cloned().collect::<Vec<_>>().join(", ")
-            )))
-            }
-        }
-    }
 }
 
 /// Reads a box annotation export (format: "cvat-kitti-raw", "supervisely", "sustechpoints",
@@ -441,9 +410,11 @@ fn label_points<'py>(
             "margin must be 0 to 1 metre, not {margin}"
         )));
     }
-    let classes = class_map
-        .map(|m| BoxClasses::new(class_map_of(m)?, unknown_class))
-        .transpose()?;
+    let map = class_map.map(class_map_of).transpose()?;
+    let classes = (map.as_ref())
+        .map(|m| TypeRule::new(m, unknown_class))
+        .transpose()
+        .map_err(py_err)?;
     let background = classes.as_ref().map_or(background, |c| c.map.background);
     let boxes: Vec<LabelBox> = boxes
         .try_iter()?
