@@ -23,6 +23,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
+from pcd_numpy_peer import read_pcd  # the PCD reader of the conversion peer, beside this file
 
 CLASSES = {"Car": 1, "Truck": 2, "Pedestrian": 4, "BicycleRider": 5}
 
@@ -44,16 +45,6 @@ def make_scene(args):
                          "psr": {"position": xyz(centre), "scale": xyz(size), "rotation": xyz(rot)}})
         with open(os.path.join(args.scene, "label", f"{f:06d}.json"), "w") as out:
             json.dump(objs, out)
-
-
-def read_pcd(path):
-    with open(path, "rb") as f:
-        raw = f.read()
-    head, _, body = raw.partition(b"DATA binary\n")
-    h = dict(line.split(None, 1) for line in head.decode().splitlines() if line and not line.startswith("#"))
-    names, sizes, types = h["FIELDS"].split(), h["SIZE"].split(), h["TYPE"].split()
-    dtype = np.dtype([(n, f"<{t.lower()}{s}") for n, s, t in zip(names, sizes, types)])
-    return np.frombuffer(body, dtype=dtype, count=int(h["POINTS"]))
 
 
 def rotation(x, y, z):
