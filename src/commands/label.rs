@@ -38,12 +38,8 @@ pub fn run(a: LabelArgs, g: &Global) -> anyhow::Result<Outcome> {
     let sensor_pose = (a.sensor_pose.as_deref())
         .map(kitti2pgm::sensor::SensorPose::parse)
         .transpose()?;
-    let read_options = annotations::ReadOptions {
-        origin: a.origin,
-        sizes: a.sizes,
-        angles: a.angles,
-        to_scan: sensor_pose.map(|p| p.isometry().inverse()),
-    };
+    let read_options =
+        kitti2pgm::format::box_labels::read_options(a.origin, a.sizes, a.angles, sensor_pose);
     let (read, inputs) =
         kitti2pgm::fs::inputs::recording(|| annotations::read(&a.boxes, format, &read_options));
     let annotations = read?;

@@ -49,15 +49,28 @@ pub struct BoxLabelParams {
     pub class_map: ClassMap,
 }
 
+/// How to read a box export whose boxes sit at `origin`, list their sizes in `sizes` and their
+/// angles in `angles` (each `None`: the format's default), drawn in a frame where the sensor
+/// has `sensor_pose` (`None`: the scan's own frame): the boxes are carried into the scan's frame
+/// by the pose's inverse.
+pub fn read_options(
+    origin: Option<BoxOrigin>,
+    sizes: Option<CvatSizes>,
+    angles: Option<AngleUnit>,
+    sensor_pose: Option<SensorPose>,
+) -> crate::source::annotations::ReadOptions {
+    crate::source::annotations::ReadOptions {
+        origin,
+        sizes,
+        angles,
+        to_scan: sensor_pose.map(|s| s.isometry().inverse()),
+    }
+}
+
 impl BoxLabelParams {
-    /// The reading options of the box export these parameters hold.
+    /// The reading options of the box export these parameters hold ([`read_options`]).
     pub fn read_options(&self) -> crate::source::annotations::ReadOptions {
-        crate::source::annotations::ReadOptions {
-            origin: self.origin,
-            sizes: self.sizes,
-            angles: self.angles,
-            to_scan: self.sensor_pose.map(|s| s.isometry().inverse()),
-        }
+        read_options(self.origin, self.sizes, self.angles, self.sensor_pose)
     }
 
     /// The parameters as one canonical string (part of every frame's key).

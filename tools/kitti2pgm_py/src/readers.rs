@@ -296,36 +296,23 @@ fn read_boxes<'py>(
     angles: Option<&str>,
     sensor_pose: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use kitti2pgm::source::annotations::{self, AngleUnit, BoxFormat, CvatSizes, ReadOptions};
+    use kitti2pgm::source::annotations::{self, AngleUnit, BoxFormat, CvatSizes};
     use kitti2pgm::source::boxes::BoxOrigin;
     let format = crate::named::<BoxFormat>("format", format)?;
-    let origin = match origin {
-        None => None,
-        Some("centre" | "center") => Some(BoxOrigin::Centre),
-        Some("bottom") => Some(BoxOrigin::BottomCentre),
-        Some(o) => {
-            return Err(PyValueError::new_err(format!(
-                "origin must be \"centre\" or \"bottom\", not {o:?}"
-            )))
-        }
-    };
+    let origin = origin
+        .map(|s| crate::named::<BoxOrigin>("origin", s))
+        .transpose()?;
     let sizes = sizes
         .map(|s| crate::named::<CvatSizes>("sizes", s))
         .transpose()?;
     let angles = angles
         .map(|s| crate::named::<AngleUnit>("angles", s))
         .transpose()?;
-    let to_scan = sensor_pose
+    let sensor_pose = sensor_pose
         .map(kitti2pgm::sensor::SensorPose::parse)
         .transpose()
-        .map_err(py_err)?
-        .map(|p| p.isometry().inverse());
-    let opts = ReadOptions {
-        origin,
-        sizes,
-        angles,
-        to_scan,
-    };
+        .map_err(py_err)?;
+    let opts = kitti2pgm::format::box_labels::read_options(origin, sizes, angles, sensor_pose);
     let a = py
         .detach(|| annotations::read(&path, format, &opts))
         .map_err(py_err)?;
