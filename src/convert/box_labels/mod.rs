@@ -138,8 +138,9 @@ pub fn label_sequence(
         .map(|f| format!("{f:06}"))
         .collect();
     let old_frames = old.as_ref().map(|r| r.frames.clone()).unwrap_or_default();
+    let planned: BTreeSet<String> = jobs.iter().map(|j| format!("{:06}", j.frame)).collect();
     let stale: Vec<String> = (old_frames.keys())
-        .filter(|name| !jobs.iter().any(|j| format!("{:06}", j.frame) == **name))
+        .filter(|name| !planned.contains(*name))
         .cloned()
         .collect();
     // Label files an interrupted run may have written: its record lists them as pending.
@@ -160,7 +161,7 @@ pub fn label_sequence(
         box_files: opts.box_files.clone(),
         instances: instances.values().cloned().collect(),
         frames: old_frames,
-        pending: jobs.iter().map(|j| format!("{:06}", j.frame)).collect(),
+        pending: planned.into_iter().collect(),
     };
     record::write(seq, &rec, opts.durability)?;
     for name in &stale {
