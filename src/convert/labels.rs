@@ -90,27 +90,8 @@ pub fn frame_labels(
                     map.name
                 )));
             }
-            let raw = label_file::read_raw(&path)?;
-            if raw.len() != scan.file_len {
-                return Err(Error::LabelCount {
-                    path,
-                    labels: raw.len(),
-                    scan: drive.scan_path(frame),
-                    points: scan.file_len,
-                    note: None,
-                });
-            }
-            let class = map.classes_of_raw(&raw, &path)?;
-            let instance: Vec<u16> = raw.iter().map(|v| (v >> 16) as u16).collect();
-            let points = if scan.dropped.is_empty() {
-                PointLabels { class, instance }
-            } else {
-                let kept = scan.file_indices();
-                PointLabels {
-                    class: kept.iter().map(|&i| class[i as usize]).collect(),
-                    instance: kept.iter().map(|&i| instance[i as usize]).collect(),
-                }
-            };
+            let scan_path = drive.scan_path(frame);
+            let points = label_file::read_point_labels(&path, scan, &scan_path, map)?;
             // A sequence labelled from boxes has them ([`crate::format::box_labels`]): for the
             // pictures, never for the labels, which are the file's.
             let boxes = (dp.label_boxes(frame, map).into_iter())

@@ -47,21 +47,12 @@ impl LabelledSequence {
     /// The picture of frame `frame`: its scan, its label file's classes, its boxes.
     pub fn picture(&self, frame: u32) -> Result<RgbImage> {
         let scan = crate::source::read_file(&self.drive.scan_path(frame), None)?;
-        let path = self.drive.point_labels_path(frame);
-        let raw = crate::format::label_file::read_raw(&path)?;
-        if raw.len() != scan.file_len {
-            return Err(Error::LabelCount {
-                path,
-                labels: raw.len(),
-                scan: self.drive.scan_path(frame),
-                points: scan.file_len,
-                note: None,
-            });
-        }
-        let classes = self.map.classes_of_raw(&raw, &path)?;
-        let kept: Vec<u8> = (scan.file_indices().iter())
-            .map(|&i| classes[i as usize])
-            .collect();
+        let labels = crate::format::label_file::read_point_labels(
+            &self.drive.point_labels_path(frame),
+            &scan,
+            &self.drive.scan_path(frame),
+            &self.map,
+        )?;
         let boxes: Vec<LabelBox> =
             crate::label::label_boxes(&self.boxes.boxes_at(frame), &self.map)
                 .into_iter()
@@ -75,7 +66,7 @@ impl LabelledSequence {
         );
         Ok(super::boxes::labelled_bird_eye(
             &scan.points,
-            &kept,
+            &labels.class,
             &boxes,
             &self.map,
             &title,

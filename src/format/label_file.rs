@@ -65,6 +65,38 @@ pub fn write_predictions(
     Ok((path, missing))
 }
 
+/// A sequence frame's per-point labels for the kept points of its `scan` (read from
+/// `scan_path`): the `.label` file at `path`, its raw ids (low 16 bits) through `map`'s
+/// `learning_map`, its instances (high 16 bits). A file of another point count than the scan
+/// file's is an error naming both; an id the map does not list, one naming the point.
+pub fn read_point_labels(
+    path: &Path,
+    scan: &crate::source::Scan,
+    scan_path: &Path,
+    map: &ClassMap,
+) -> Result<crate::label::PointLabels> {
+    let raw = read_raw(path)?;
+    if raw.len() != scan.file_len {
+        return Err(Error::LabelCount {
+            path: path.into(),
+            labels: raw.len(),
+            scan: scan_path.into(),
+            points: scan.file_len,
+            note: None,
+        });
+    }
+    let class = map.classes_of_raw(&raw, path)?;
+    let instance: Vec<u16> = raw.iter().map(|v| (v >> 16) as u16).collect();
+    if scan.dropped.is_empty() {
+        return Ok(crate::label::PointLabels { class, instance });
+    }
+    let kept = scan.file_indices();
+    Ok(crate::label::PointLabels {
+        class: kept.iter().map(|&i| class[i as usize]).collect(),
+        instance: kept.iter().map(|&i| instance[i as usize]).collect(),
+    })
+}
+
 /// The bytes of a `.label` file for `class` and `instance` (same length).
 pub fn encode(class: &[ClassId], instance: &[u16]) -> Vec<u8> {
     debug_assert_eq!(class.len(), instance.len());
