@@ -417,6 +417,8 @@ pub enum Role {
     ClassMap,
     /// A sensor's calibration table.
     Calibration,
+    /// A model file (`infer`).
+    Model,
 }
 
 impl std::fmt::Display for Role {
@@ -429,6 +431,7 @@ impl std::fmt::Display for Role {
             Role::List => "an input list",
             Role::ClassMap => "the class map",
             Role::Calibration => "the sensor calibration",
+            Role::Model => "the model",
         })
     }
 }

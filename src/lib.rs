@@ -18,6 +18,8 @@
 //! - [`convert`] runs them over frames in parallel, with the typed [`provenance`] recorded;
 //!   `unpack` makes sequence folders of bags and nuScenes roots;
 //! - [`report`] reads what was written: ground truth, statistics, scores, shard inspection;
+//! - [`infer`] runs a trained model (ONNX) on scans projected as its training data was, and
+//!   carries its classes back to every point;
 //! - [`check`] lints the inputs; [`draw`] pictures: previews and charts.
 //!
 //! ```no_run
@@ -38,6 +40,7 @@ pub mod error;
 pub mod format;
 pub mod fs;
 pub mod geom;
+pub mod infer;
 
 #[macro_use]
 mod names;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs kitti2pgm, all of it, from this checkout:
-#   - the CLI: `cargo install --path .` puts `kitti2pgm` in ~/.cargo/bin (Rust 1.89 or later);
+#   - the CLI: `cargo install --path .` puts `kitti2pgm` in ~/.cargo/bin (Rust 1.92 or later);
 #   - the Python side: the native module (`import kitti2pgm`, built from source by maturin), the
 #     shard reader (`kitti2pgm_data`) and the trainer (`python -m kitti2pgm_train`, with the
 #     ONNX export extra), the last two editable.
@@ -28,7 +28,7 @@ if ! command -v cargo >/dev/null 2>&1; then
   if [ -x "$HOME/.cargo/bin/cargo" ]; then
     export PATH="$HOME/.cargo/bin:$PATH"
   else
-    echo "install.sh: kitti2pgm needs Rust (cargo, 1.89 or later): see https://rustup.rs" >&2
+    echo "install.sh: kitti2pgm needs Rust (cargo, 1.92 or later): see https://rustup.rs" >&2
     exit 1
   fi
 fi

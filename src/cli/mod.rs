@@ -4,11 +4,13 @@
 //! submission).
 
 mod convert;
+mod infer;
 mod inputs;
 mod label;
 mod reports;
 
 pub use convert::{ConvertArgs, FormatArg, SplitArgs};
+pub use infer::InferArgs;
 pub use inputs::{CheckArgs, SubmissionArgs, UnpackArgs};
 pub use label::LabelArgs;
 pub use reports::{InspectArgs, PreviewArgs, ScoreArgs, StatsArgs, UnprojectArgs};
@@ -42,6 +44,7 @@ impl Args {
             Command::Stats(a) => a.json,
             Command::Score(a) => a.json,
             Command::Unproject(a) => a.json,
+            Command::Infer(a) => a.json,
             Command::Submission(a) => a.json,
             Command::Check(a) => a.json,
             Command::Inspect(a) => a.json,
@@ -110,6 +113,17 @@ pub enum Command {
     /// (a 90-degree map's back) are "not predicted": raw id 0 (unlabeled) for SemanticKITTI,
     /// class 0xffff for the others; counted. Exit status 3 when some frames fail.
     Unproject(UnprojectArgs),
+    /// Run a trained model (ONNX) on scans: each scan projected exactly as the model's training
+    /// data was, the model run, its classes carried back to every point.
+    ///
+    /// The model exported by `python -m kitti2pgm_train export` records its map (rows, columns,
+    /// field of view, row source, sensor model and pose, colour, class map) and its input's
+    /// channels; a scan of a sensor whose beam model does not fit that map is refused, with the
+    /// numbers. Outputs per-point predictions in the layout `score` and `submission` read
+    /// (SemanticKITTI's predictions/ for sequence roots), --maps the map predictions. ONNX
+    /// Runtime is loaded from the onnxruntime Python package (tools/install.sh). Exit status: 0
+    /// all predicted, 1 fatal error or every scan failed, 3 some scans failed.
+    Infer(InferArgs),
     /// Check a SemanticKITTI prediction folder before submitting it, as the benchmark's
     /// validate_submission.py does: every scan of the sequences has
     /// sequences/<NN>/predictions/<frame6>.label with one raw id of the dataset's learning_map

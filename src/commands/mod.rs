@@ -2,6 +2,7 @@
 
 pub mod check;
 mod convert;
+mod infer;
 mod inspect;
 mod label;
 mod preview;
@@ -33,6 +34,7 @@ pub fn run(args: Args) -> anyhow::Result<Outcome> {
         Command::Inspect(a) => inspect::run(a),
         Command::Label(a) => label::run(a, &global),
         Command::Unproject(a) => unproject::run(a, &global),
+        Command::Infer(a) => infer::run(a, &global),
         Command::Submission(a) => submission::run(a),
         Command::Unpack(a) => unpack::run(a, &global),
     }

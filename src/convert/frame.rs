@@ -10,7 +10,7 @@ use crate::format::{label_file, pgm};
 use crate::fs::Inputs;
 use crate::label::ClassCounts;
 use crate::plan::DrivePlan;
-use crate::project::camera::CameraProjector;
+use crate::project::camera::{CameraProjector, RgbOptions};
 use crate::project::frame::{assemble, CellColours, PgmFrame, PointValues};
 use crate::project::{project, project_beams, ProjectionStats};
 use crate::provenance::MapParams;
@@ -198,39 +198,12 @@ fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<L
     let scan_path = dp.drive.scan_path(frame);
     let (scan, beams) = crate::sensor::read_scan(map.sensor.as_ref(), &scan_path)?;
     let labels = frame_labels(dp, frame, &scan, &map.class_map)?;
-    let mut png = None;
-    let camera = match &map.rgb {
+    let (camera, png) = match &map.rgb {
         Some(rgb) => {
-            let path = dp.drive.image_path(rgb.camera, frame);
-            let bytes = crate::fs::read(&path, crate::fs::Limit::Data)?;
-            let img = decode_image(&bytes, &path)?;
-            let (velo_to_image, size, calib_file) = dp.camera(frame, rgb.camera)?;
-            // The projection matrix maps into an image of the rectified size: a picture of
-            // another size would be sampled at the wrong pixels.
-            if let Some([w, h]) = size {
-                if (img.width() as f64, img.height() as f64) != (w, h) {
-                    return Err(Error::Shape {
-                        path,
-                        what: "the image".into(),
-                        found: vec![img.width() as usize, img.height() as usize],
-                        expected: format!(
-                            "{w}x{h}, the size camera {} is calibrated for in {}",
-                            rgb.camera,
-                            calib_file.display()
-                        ),
-                    });
-                }
-            }
-            if viz == Viz::On {
-                png = Some(bytes);
-            }
-            let proj = CameraProjector {
-                velo_to_image,
-                sampling: rgb.sampling,
-            };
-            Some((proj, img))
+            let (camera, png) = camera_of(dp, frame, rgb, viz)?;
+            (Some(camera), png)
         }
-        None => None,
+        None => (None, None),
     };
     Ok(LoadedFrame {
         id,
@@ -241,6 +214,44 @@ fn read_frame(dp: &DrivePlan, frame: u32, map: &MapParams, viz: Viz) -> Result<L
         beams,
         inputs: Inputs::default(),
     })
+}
+
+/// A frame's camera: its projection from the scan, and its decoded image.
+pub type FrameCamera = (CameraProjector, crate::raster::RgbImage);
+
+/// Camera `rgb.camera` of frame `frame` of `dp`: its projection from the scan and its decoded
+/// image (checked against the calibrated size); with [`Viz::On`] the image's file bytes too.
+pub fn camera_of(
+    dp: &DrivePlan,
+    frame: u32,
+    rgb: &RgbOptions,
+    viz: Viz,
+) -> Result<(FrameCamera, Option<Vec<u8>>)> {
+    let path = dp.drive.image_path(rgb.camera, frame);
+    let bytes = crate::fs::read(&path, crate::fs::Limit::Data)?;
+    let img = decode_image(&bytes, &path)?;
+    let (velo_to_image, size, calib_file) = dp.camera(frame, rgb.camera)?;
+    // The projection matrix maps into an image of the rectified size: a picture of another
+    // size would be sampled at the wrong pixels.
+    if let Some([w, h]) = size {
+        if (img.width() as f64, img.height() as f64) != (w, h) {
+            return Err(Error::Shape {
+                path,
+                what: "the image".into(),
+                found: vec![img.width() as usize, img.height() as usize],
+                expected: format!(
+                    "{w}x{h}, the size camera {} is calibrated for in {}",
+                    rgb.camera,
+                    calib_file.display()
+                ),
+            });
+        }
+    }
+    let proj = CameraProjector {
+        velo_to_image,
+        sampling: rgb.sampling,
+    };
+    Ok(((proj, img), (viz == Viz::On).then_some(bytes)))
 }
 
 impl LoadedFrame {

@@ -9,6 +9,7 @@
 mod arrays;
 mod bags;
 mod dataset;
+mod model;
 mod readers;
 mod unproject;
 
@@ -447,6 +448,7 @@ fn kitti2pgm_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("PRESETS", presets(m.py())?)?;
     readers::register(m)?;
     bags::register(m)?;
+    model::register(m)?;
     m.add_class::<dataset::Dataset>()?;
     m.add_class::<dataset::DatasetIter>()?;
     Ok(())

@@ -5,6 +5,12 @@ The exported model takes the raw channels exactly as a kitti2pgm shard stores th
 1 x H x W x C float32 tensor, C = the run's channels, e.g. x y z intensity range r g b), builds
 the mask (range > 0), selects and normalises each input group with the run's constants, and
 returns the predicted class of every cell (1 x H x W int64) and the logits (1 x K x H x W).
+
+The ONNX file records what feeding it needs, in one metadata entry that ``kitti2pgm infer``
+and ``kitti2pgm.Model`` read: the map parameters of the run's shards (map, sensor model and
+pose, colour, class map), the input's channels and that the normalisation is inside the graph.
+The native module builds the entry (``kitti2pgm.model_metadata``): kitti2pgm decides its key
+and checks its content.
 """
 
 from __future__ import annotations
@@ -52,13 +58,33 @@ class Deployable(nn.Module):
 
 
 def deployable(run: str) -> tuple:
-    """The run's best (or last) model wrapped for deployment, and an example input."""
+    """The run's best (or last) model wrapped for deployment, an example input and the run's
+    config."""
     model, config, norm = load_run(run, torch.device("cpu"))
     spec = config["shard_params"]["map"]["spec"]
     channels = config["channels"]
     net = Deployable(model, channels, TrainConfig.from_saved(config["args"]).input, norm.mean, norm.std).eval()
     example = torch.zeros(1, spec["rows"], spec["cols"], len(channels))
-    return net, example
+    return net, example, config
+
+
+def record_map(path: str, config: dict) -> None:
+    """Adds the metadata entry that tells kitti2pgm how to feed the model at ``path`` (an ONNX
+    file, rewritten in place)."""
+    import json
+
+    import kitti2pgm  # the native module (tools/install.sh)
+    import onnx
+
+    args = TrainConfig.from_saved(config["args"])
+    key, value = kitti2pgm.model_metadata(
+        json.dumps(config["shard_params"]["map"]), list(config["channels"]),
+        f"kitti2pgm_train {config.get('trainer_version', '?')}: {args.model} {args.input}")
+    m = onnx.load(path)
+    for old in [p for p in m.metadata_props if p.key == key]:
+        m.metadata_props.remove(old)
+    m.metadata_props.add(key=key, value=value)
+    onnx.save(m, path)
 
 
 @contextlib.contextmanager
@@ -77,7 +103,7 @@ def _atomic(path: str):
 
 def export(run: str, onnx_path: Optional[str] = None, torchscript_path: Optional[str] = None) -> dict:
     """Writes the ONNX and/or TorchScript file (atomically); returns their paths."""
-    net, example = deployable(run)
+    net, example, config = deployable(run)
     out = {}
     with torch.no_grad():
         if onnx_path:
@@ -86,6 +112,7 @@ def export(run: str, onnx_path: Optional[str] = None, torchscript_path: Optional
             with _atomic(onnx_path) as tmp:
                 torch.onnx.export(net, (example,), tmp, input_names=["tensor"], output_names=["labels", "logits"],
                                   dynamo=True, external_data=False, verbose=False)
+                record_map(tmp, config)
             out["onnx"] = onnx_path
         if torchscript_path:
             with _atomic(torchscript_path) as tmp:

@@ -1,0 +1,186 @@
+//! INFER one scan: read and project it as the model's training data was (`convert`'s code),
+//! run the model, carry the map's classes back to every point, write.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use super::model::Model;
+use super::InferOptions;
+use crate::error::Result;
+use crate::format::label_file::NOT_PREDICTED;
+use crate::format::npy;
+use crate::label::{ClassCounts, ClassId, PointLabels};
+use crate::plan::DrivePlan;
+use crate::project::frame::{assemble, CellColours, PgmFrame, PointValues};
+use crate::project::unproject::{unproject, Method, PointsInMap};
+use crate::project::{norm, project_scan, Projection};
+use crate::source::kitti::FrameId;
+use crate::source::Scan;
+
+/// The time one scan spent in each stage.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StageTimes {
+    /// Reading and projecting the scan (and its camera image).
+    pub read_project: Duration,
+    /// Running the model.
+    pub model: Duration,
+    /// Carrying the map's classes back to the points.
+    pub unproject: Duration,
+    /// Writing the outputs.
+    pub write: Duration,
+}
+
+impl std::ops::AddAssign for StageTimes {
+    fn add_assign(&mut self, o: StageTimes) {
+        self.read_project += o.read_project;
+        self.model += o.model;
+        self.unproject += o.unproject;
+        self.write += o.write;
+    }
+}
+
+/// What one scan gave.
+#[derive(Debug, Clone)]
+pub struct ScanResult {
+    /// The class of every point of the scan file, in file order (`None`: outside the map, or
+    /// dropped when read).
+    pub per_point: Vec<Option<ClassId>>,
+    /// The class of every cell (row-major).
+    pub cells: Vec<ClassId>,
+    /// Points per predicted class.
+    pub counts: ClassCounts,
+    /// The time of each stage.
+    pub times: StageTimes,
+}
+
+/// A scan projected with the model's map: the scan, where its points went, the map.
+pub struct Projected {
+    /// The scan as read.
+    pub scan: Scan,
+    /// Its projection, with every point's cell.
+    pub proj: Projection,
+    /// Its map.
+    pub map: PgmFrame,
+}
+
+/// Reads the scan at `path` and projects it with `model`'s map; with colour, the camera image of
+/// frame `frame` of `drive` colours it.
+pub fn project(model: &Model, path: &Path, camera: Option<(&DrivePlan, u32)>) -> Result<Projected> {
+    let params = &model.spec.map;
+    let (scan, proj) = project_scan(&params.spec, params.sensor.as_ref(), path)?;
+    let colours = match (&params.rgb, camera) {
+        (Some(rgb), Some((dp, frame))) => {
+            let ((cam, img), _) =
+                crate::convert::frame::camera_of(dp, frame, rgb, crate::convert::frame::Viz::Off)?;
+            Some(CellColours::of(&proj, |i| {
+                cam.colour(&img, &scan.points[i])
+            }))
+        }
+        (Some(_), None) => {
+            return Err(crate::error::Error::Config(format!(
+                "{}: the model takes colour channels (r, g, b), and a lone scan file has no \
+                 camera: run it on its KITTI raw drive",
+                path.display()
+            )))
+        }
+        (None, _) => None,
+    };
+    let n = scan.len();
+    let none = PointLabels {
+        class: vec![params.class_map.background; n],
+        instance: vec![0; n],
+    };
+    let map = assemble(PointValues::of_scan(&scan, &none), &proj, colours.as_ref());
+    Ok(Projected { scan, proj, map })
+}
+
+/// Reads and projects the scan file at `path` with `model`'s map, runs the model and carries
+/// its classes back to the points (no camera: a model that takes colour is refused).
+pub fn predict_file(model: &Model, path: &Path, method: &Method) -> Result<ScanResult> {
+    let t = Instant::now();
+    let p = project(model, path, None)?;
+    let read_project = t.elapsed();
+    let mut r = predict(model, &p, method)?;
+    r.times.read_project = read_project;
+    Ok(r)
+}
+
+/// Runs `model` on a projected scan and carries its classes back to the points.
+pub fn predict(model: &Model, p: &Projected, method: &Method) -> Result<ScanResult> {
+    let mut times = StageTimes::default();
+    let t = Instant::now();
+    let input = model.input_of(&p.map)?;
+    let cells = model.run(&input)?;
+    times.model = t.elapsed();
+    let t = Instant::now();
+    let classes = &model.spec.map.class_map;
+    let point_range: Vec<f32> = p.scan.points.iter().map(norm).collect();
+    let m = PointsInMap::of(&p.proj, &point_range);
+    let kept = unproject(&m, &cells, method, classes)?;
+    let counts = ClassCounts::count(classes.len(), kept.iter().flatten().copied());
+    let per_point = p.scan.to_file_order(&kept, None);
+    times.unproject = t.elapsed();
+    Ok(ScanResult {
+        per_point,
+        cells,
+        counts,
+        times,
+    })
+}
+
+/// Writes a frame's per-point predictions (in the layout `score` reads) and, when asked, its
+/// map prediction (`OUT/maps/<id>.npy`, rows x cols class ids as float32).
+pub fn write(id: &FrameId, r: &ScanResult, model: &Model, opts: &InferOptions) -> Result<u64> {
+    let classes = &model.spec.map.class_map;
+    let (_, missing) = crate::format::label_file::write_predictions(
+        &opts.out,
+        id,
+        &r.per_point,
+        classes,
+        opts.durability,
+    )?;
+    if opts.maps {
+        let dir = opts.out.join(super::MAPS_DIR);
+        write_map(
+            &crate::format::layout::npy_path_in(&dir, id),
+            r,
+            model,
+            opts,
+        )?;
+    }
+    Ok(missing)
+}
+
+/// Writes a lone scan's per-point predictions, `out/<stem>.label` (class ids,
+/// [`NOT_PREDICTED`] outside the map), and with maps `out/maps/<stem>.npy`.
+pub fn write_file(
+    out: &Path,
+    stem: &str,
+    r: &ScanResult,
+    model: &Model,
+    opts: &InferOptions,
+) -> Result<u64> {
+    let entries: Vec<u32> = r
+        .per_point
+        .iter()
+        .map(|c| c.map_or(NOT_PREDICTED, u32::from))
+        .collect();
+    let missing = r.per_point.iter().filter(|c| c.is_none()).count() as u64;
+    crate::format::create_dir(out)?;
+    let bytes = crate::format::label_file::encode_raw(&entries);
+    crate::format::atomic_write(&out.join(format!("{stem}.label")), &bytes, opts.durability)?;
+    if opts.maps {
+        let path = out.join(super::MAPS_DIR).join(format!("{stem}.npy"));
+        write_map(&path, r, model, opts)?;
+    }
+    Ok(missing)
+}
+
+/// Writes a map prediction: rows x cols class ids as float32 `.npy` (what `score` reads).
+fn write_map(path: &Path, r: &ScanResult, model: &Model, opts: &InferOptions) -> Result<()> {
+    let spec = &model.spec.map.spec;
+    crate::format::create_dir(path.parent().expect("a file in a folder"))?;
+    let data: Vec<f32> = r.cells.iter().map(|&c| c as f32).collect();
+    let bytes = npy::encode_f32(&[spec.rows as u64, spec.cols as u64], &data);
+    crate::format::atomic_write(path, &bytes, opts.durability)
+}
