@@ -13,7 +13,7 @@ use crate::label::{ClassCounts, ClassId, PointLabels};
 use crate::plan::DrivePlan;
 use crate::project::frame::{assemble, CellColours, PgmFrame, PointValues};
 use crate::project::unproject::{unproject, Method, PointsInMap};
-use crate::project::{norm, project_scan, Projection};
+use crate::project::{norm, project_scan, Projection, LASERS};
 use crate::source::kitti::FrameId;
 use crate::source::Scan;
 
@@ -68,6 +68,7 @@ pub struct Projected {
 pub fn project(model: &Model, path: &Path, camera: Option<(&DrivePlan, u32)>) -> Result<Projected> {
     let params = &model.spec.map;
     let (scan, proj) = project_scan(&params.spec, params.sensor.as_ref(), path)?;
+    refuse_other_sensor(model, &scan, path)?;
     let colours = match (&params.rgb, camera) {
         (Some(rgb), Some((dp, frame))) => {
             let ((cam, img), _) =
@@ -103,6 +104,30 @@ pub fn predict_file(model: &Model, path: &Path, method: &Method) -> Result<ScanR
     let mut r = predict(model, &p, method)?;
     r.times.read_project = read_project;
     Ok(r)
+}
+
+/// Refuses a scan of another sensor than a KITTI model's: the model's map takes its rows from
+/// the HDL-64E's scan order ([`LASERS`] rings), and a scan whose ring field counts another
+/// number of beams would be binned into rows it was never trained on.
+fn refuse_other_sensor(model: &Model, scan: &Scan, path: &Path) -> Result<()> {
+    let params = &model.spec.map;
+    let Some(rings) = scan.ring.as_ref().filter(|_| params.sensor.is_none()) else {
+        return Ok(());
+    };
+    let beams = rings.iter().max().map_or(0, |&r| r as usize + 1);
+    if beams == 0 || beams == LASERS {
+        return Ok(());
+    }
+    Err(crate::error::Error::Config(format!(
+        "{}: a {beams}-beam scan (its ring field), and {} was trained on KITTI's 64-beam maps \
+         ({} x {} over {} degrees, rows from the HDL-64E's scan order): run a model trained on \
+         this sensor's maps (kitti2pgm convert --sensor ...)",
+        path.display(),
+        model.path.display(),
+        params.spec.rows,
+        params.spec.cols,
+        params.spec.fov.0
+    )))
 }
 
 /// Runs `model` on a projected scan and carries its classes back to the points.

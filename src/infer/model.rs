@@ -72,11 +72,11 @@ fn resolve_names(path: &Path, session: &Session, mut spec: ModelSpec) -> Result<
         match session.inputs() {
             [one] => spec.input = one.name().to_string(),
             more => {
-                return Err(Error::Config(format!(
-                    "{}: {} inputs; kitti2pgm feeds a model one map",
-                    path.display(),
-                    more.len()
-                )))
+                return Err(Error::Format {
+                    path: path.into(),
+                    line: None,
+                    message: format!("{} inputs; kitti2pgm feeds a model one map", more.len()),
+                })
             }
         }
     }
@@ -207,7 +207,11 @@ impl Model {
     pub fn run(&self, input: &[f32]) -> Result<Vec<ClassId>> {
         let spec = &self.spec.map.spec;
         let shape = [1, spec.rows, spec.cols, self.channels.len()];
-        let fail = |e: ort::Error| Error::Config(format!("{}: {e}", self.path.display()));
+        let fail = |e: ort::Error| Error::Format {
+            path: self.path.clone(),
+            line: None,
+            message: format!("running it: {e}"),
+        };
         let tensor = TensorRef::from_array_view((shape, input)).map_err(fail)?;
         let mut session = self.session.lock().unwrap_or_else(|p| p.into_inner());
         let inputs = ort::inputs![self.spec.input.as_str() => tensor];
@@ -233,19 +237,21 @@ impl Model {
     /// `labels` as class ids, each checked to be one of the map's classes.
     fn checked(&self, labels: Vec<i64>, cells: usize, classes: usize) -> Result<Vec<ClassId>> {
         if labels.len() != cells {
-            return Err(Error::Config(format!(
-                "{}: {} labels out, the map has {cells} cells",
-                self.path.display(),
-                labels.len()
-            )));
+            return Err(Error::Format {
+                path: self.path.clone(),
+                line: None,
+                message: format!("{} labels out, the map has {cells} cells", labels.len()),
+            });
         }
         if let Some(i) = labels.iter().position(|&l| l < 0 || l as usize >= classes) {
-            return Err(Error::Config(format!(
-                "{}: cell {i} is given class {}, the class map {:?} has {classes}",
-                self.path.display(),
-                labels[i],
-                self.spec.map.class_map.name
-            )));
+            return Err(Error::Format {
+                path: self.path.clone(),
+                line: None,
+                message: format!(
+                    "cell {i} is given class {}, the class map {:?} has {classes}",
+                    labels[i], self.spec.map.class_map.name
+                ),
+            });
         }
         Ok(labels.into_iter().map(|l| l as ClassId).collect())
     }
@@ -273,11 +279,17 @@ fn argmax(logits: &[f32], classes: usize, cells: usize) -> Vec<ClassId> {
 fn check_graph(path: &Path, session: &Session, spec: &ModelSpec, ch: &Channels) -> Result<()> {
     let (rows, cols) = (spec.map.spec.rows, spec.map.spec.cols);
     let k = spec.map.class_map.len();
+    let bad = |message: String| Error::Format {
+        path: path.into(),
+        line: None,
+        message,
+    };
     let shape_err = |what: String, found: &[i64], expected: String| {
-        Error::Config(format!(
-        "{}: {what} is {found:?}, but its recorded map wants {expected} ({} x {} map, channels {}, {k} classes)",
-        path.display(), rows, cols, ch.names().join(" ")
-    ))
+        bad(format!(
+            "{what} is {found:?}, but its recorded map wants {expected} ({rows} x {cols} map, \
+             channels {}, {k} classes)",
+            ch.names().join(" ")
+        ))
     };
     let names = |input: bool| {
         let l = if input {
@@ -288,9 +300,8 @@ fn check_graph(path: &Path, session: &Session, spec: &ModelSpec, ch: &Channels) 
         l.iter().map(|o| o.name().to_string()).collect::<Vec<_>>()
     };
     let Some((dims, ty)) = outlet(session, &spec.input, true) else {
-        return Err(Error::Config(format!(
-            "{}: the graph has no tensor input {:?} (its inputs: {:?})",
-            path.display(),
+        return Err(bad(format!(
+            "the graph has no tensor input {:?} (its inputs: {:?})",
             spec.input,
             names(true)
         )));
@@ -308,9 +319,8 @@ fn check_graph(path: &Path, session: &Session, spec: &ModelSpec, ch: &Channels) 
     ] {
         let Some(name) = name else { continue };
         let Some((dims, ty)) = outlet(session, name, false) else {
-            return Err(Error::Config(format!(
-                "{}: the graph has no tensor output {name:?} (its outputs: {:?})",
-                path.display(),
+            return Err(bad(format!(
+                "the graph has no tensor output {name:?} (its outputs: {:?})",
                 names(false)
             )));
         };
