@@ -124,6 +124,31 @@ def read_tracklets(path: _Path) -> Any: ...
 def read_object_labels(path: _Path) -> List[Dict[str, Any]]: ...
 def class_map(name: str = "kitti-paper-4") -> Dict[str, Any]: ...
 
+MODEL_METADATA_KEY: str
+"""The ONNX metadata key of the map record a model carries (``kitti2pgm infer`` reads it)."""
+
+def model_metadata(
+    map: str,
+    channels: List[str],
+    producer: str = "",
+    *,
+    input: str = "tensor",
+    labels_output: Optional[str] = "labels",
+    logits_output: Optional[str] = "logits",
+) -> Tuple[str, str]: ...
+
+class Model:
+    """A trained ONNX model opened in ONNX Runtime with the map it records."""
+
+    def __init__(self, path: _Path, *, onnxruntime: Optional[_Path] = None, threads: int = 0) -> None: ...
+    @property
+    def digest(self) -> str: ...
+    @property
+    def spec(self) -> Dict[str, Any]: ...
+    def predict_file(self, path: _Path, *, method: str = "knn") -> Dict[str, Any]:
+        """{"classes": (N,) int16 per point in file order (-1 outside the map), "map": (H, W) uint8}."""
+        ...
+
 class Dataset:
     def __init__(
         self,
