@@ -22,7 +22,7 @@ use crate::source::Scan;
 pub struct StageTimes {
     /// Reading and projecting the scan (and its camera image).
     pub read_project: Duration,
-    /// Running the model.
+    /// Running the model (the engine's time, not the wait for another frame's run).
     pub model: Duration,
     /// Carrying the map's classes back to the points.
     pub unproject: Duration,
@@ -133,10 +133,9 @@ fn refuse_other_sensor(model: &Model, scan: &Scan, path: &Path) -> Result<()> {
 /// Runs `model` on a projected scan and carries its classes back to the points.
 pub fn predict(model: &Model, p: &Projected, method: &Method) -> Result<ScanResult> {
     let mut times = StageTimes::default();
-    let t = Instant::now();
     let input = model.input_of(&p.map)?;
-    let cells = model.run(&input)?;
-    times.model = t.elapsed();
+    let (cells, took) = model.run_timed(&input)?;
+    times.model = took;
     let t = Instant::now();
     let classes = &model.spec.map.class_map;
     let point_range: Vec<f32> = p.scan.points.iter().map(norm).collect();

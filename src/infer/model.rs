@@ -205,6 +205,11 @@ impl Model {
     /// Runs the model on one input ([`Model::input_of`]): the class of every cell, row-major.
     /// Runs are serialised (ONNX Runtime spreads one run over its threads).
     pub fn run(&self, input: &[f32]) -> Result<Vec<ClassId>> {
+        self.run_timed(input).map(|(classes, _)| classes)
+    }
+
+    /// [`Model::run`], and the time the engine took (waiting for another frame's run left out).
+    pub fn run_timed(&self, input: &[f32]) -> Result<(Vec<ClassId>, std::time::Duration)> {
         let spec = &self.spec.map.spec;
         let shape = [1, spec.rows, spec.cols, self.channels.len()];
         let fail = |e: ort::Error| Error::Format {
@@ -214,8 +219,10 @@ impl Model {
         };
         let tensor = TensorRef::from_array_view((shape, input)).map_err(fail)?;
         let mut session = self.session.lock().unwrap_or_else(|p| p.into_inner());
+        let started = std::time::Instant::now();
         let inputs = ort::inputs![self.spec.input.as_str() => tensor];
         let outputs = session.run(inputs).map_err(fail)?;
+        let took = started.elapsed();
         let classes = self.spec.map.class_map.len();
         let cells = spec.rows * spec.cols;
         if let Some(name) = &self.spec.labels_output {
@@ -227,11 +234,11 @@ impl Model {
                     v.iter().map(|&x| x as i64).collect()
                 }
             };
-            return self.checked(labels, cells, classes);
+            return Ok((self.checked(labels, cells, classes)?, took));
         }
         let name = self.spec.logits_output.as_deref().expect("validated");
         let (_, logits) = outputs[name].try_extract_tensor::<f32>().map_err(fail)?;
-        Ok(argmax(logits, classes, cells))
+        Ok((argmax(logits, classes, cells), took))
     }
 
     /// `labels` as class ids, each checked to be one of the map's classes.
