@@ -490,14 +490,9 @@ mod tests {
     fn kinds_are_snake_case_words() {
         let e = Error::Config("x".into());
         assert_eq!(e.kind(), "config");
-        let e = Error::NotAFile {
-            path: "p".into(),
-            found: NotFileKind::Fifo,
-        };
-        assert_eq!(e.kind(), "not_a_file");
-        assert!(e
-            .kind()
-            .bytes()
-            .all(|c| c.is_ascii_lowercase() || c == b'_'));
+        let (path, found) = ("p".into(), NotFileKind::Fifo);
+        let k = Error::NotAFile { path, found }.kind();
+        assert_eq!(k, "not_a_file");
+        assert!(k.bytes().all(|c| c.is_ascii_lowercase() || c == b'_'));
     }
 }

@@ -172,39 +172,7 @@ pub fn infer(
         }
         progress(Progress::Done(1));
     } else {
-        let plan = Plan::build_as(input, FrameSelection::All, opts.dataset)?;
-        written_to = written_dir(&opts.out, plan.layout());
-        for f in &plan.failed {
-            failures.push(InferFailure {
-                frame: f.what.to_string(),
-                error: f.error.clone(),
-            });
-        }
-        progress(Progress::Frames(plan.jobs.len() as u64));
-        let mut failed: Vec<(usize, InferFailure)> = plan
-            .jobs
-            .par_iter()
-            .enumerate()
-            .filter_map(|(i, &(d, f))| {
-                let r = one_frame(model, &plan, (d, f), opts);
-                progress(Progress::Done(1));
-                match r {
-                    Ok((r, missing)) => {
-                        totals.lock().expect("not poisoned").add(&r, missing);
-                        None
-                    }
-                    Err(e) => Some((
-                        i,
-                        InferFailure {
-                            frame: plan.drives[d].drive.frame_id(f).to_string(),
-                            error: e.to_string(),
-                        },
-                    )),
-                }
-            })
-            .collect();
-        failed.sort_by_key(|(i, _)| *i);
-        failures.extend(failed.into_iter().map(|(_, f)| f));
+        written_to = run_root(model, input, opts, &totals, &mut failures, progress)?;
     }
     let t = totals.into_inner().expect("not poisoned");
     let map = &model.spec.map.class_map;
@@ -227,6 +195,51 @@ pub fn infer(
         seconds: t.times.into(),
         wall_seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Every frame of the dataset root `input`: its failures added to `failures`; returns where
+/// the per-point files went.
+fn run_root(
+    model: &Model,
+    input: &Path,
+    opts: &InferOptions,
+    totals: &Mutex<Totals>,
+    failures: &mut Vec<InferFailure>,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<PathBuf> {
+    let plan = Plan::build_as(input, FrameSelection::All, opts.dataset)?;
+    for f in &plan.failed {
+        failures.push(InferFailure {
+            frame: f.what.to_string(),
+            error: f.error.clone(),
+        });
+    }
+    progress(Progress::Frames(plan.jobs.len() as u64));
+    let mut failed: Vec<(usize, InferFailure)> = plan
+        .jobs
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, &(d, f))| {
+            let r = one_frame(model, &plan, (d, f), opts);
+            progress(Progress::Done(1));
+            match r {
+                Ok((r, missing)) => {
+                    totals.lock().expect("not poisoned").add(&r, missing);
+                    None
+                }
+                Err(e) => Some((
+                    i,
+                    InferFailure {
+                        frame: plan.drives[d].drive.frame_id(f).to_string(),
+                        error: e.to_string(),
+                    },
+                )),
+            }
+        })
+        .collect();
+    failed.sort_by_key(|(i, _)| *i);
+    failures.extend(failed.into_iter().map(|(_, f)| f));
+    Ok(written_dir(&opts.out, plan.layout()))
 }
 
 /// How far a run is.

@@ -346,3 +346,22 @@ fn check_graph(path: &Path, session: &Session, spec: &ModelSpec, ch: &Channels) 
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn argmax_takes_the_first_of_equal_scores() {
+        // 2 cells, 3 classes, class-major as the logits output is.
+        let logits = [1.0, 5.0, 3.0, 5.0, 3.0, 2.0];
+        assert_eq!(argmax(&logits, 3, 2), vec![1, 0]);
+    }
+
+    #[test]
+    fn free_dimensions_fit_any_size() {
+        assert!(fits(&[1, -1, 512, 5], &[1, 64, 512, 5]));
+        assert!(!fits(&[1, 64, 512, 5], &[1, 64, 512, 8]));
+        assert!(!fits(&[64, 512, 5], &[1, 64, 512, 5]));
+    }
+}

@@ -157,3 +157,51 @@ impl ModelSpec {
         Ok(spec)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec() -> ModelSpec {
+        ModelSpec {
+            input: "tensor".into(),
+            labels_output: Some("labels".into()),
+            ..ModelSpec::for_map(MapParams::default())
+        }
+    }
+
+    #[test]
+    fn a_record_round_trips_through_its_metadata_entry() {
+        let (key, value) = spec().metadata_entry().unwrap();
+        assert_eq!(key, METADATA_KEY);
+        let back = ModelSpec::from_metadata(&value, "m.onnx".as_ref()).unwrap();
+        assert_eq!(back, spec());
+        assert_eq!(back.channels, ["x", "y", "z", "intensity", "range"]);
+    }
+
+    #[test]
+    fn bad_records_are_refused_naming_what_is_wrong() {
+        let err = |f: fn(&mut ModelSpec)| {
+            let mut s = spec();
+            f(&mut s);
+            s.validate().unwrap_err().to_string()
+        };
+        assert!(err(|s| s.version = 2).contains("version 2"));
+        assert!(err(|s| s.channels.push("label".into())).contains("never the label"));
+        assert!(err(|s| s.channels.push("r".into())).contains("samples no colour"));
+        assert!(err(|s| s.channels.push("depth".into())).contains("\"depth\""));
+        assert!(err(|s| s.channels.retain(|c| c != "range")).contains("lack range"));
+        assert!(err(|s| s.labels_output = None).contains("neither"));
+        assert!(err(|s| s.normalisation = Normalisation::PerChannel {
+            mean: vec![0.0; 5],
+            std: vec![1.0; 4]
+        })
+        .contains("5 means and 4 deviations"));
+        let e = ModelSpec::from_metadata("{\"version\": 1}", "m.onnx".as_ref()).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("m.onnx: its kitti2pgm.model metadata"),
+            "{e}"
+        );
+    }
+}
