@@ -72,11 +72,10 @@ fn resolve_names(path: &Path, session: &Session, mut spec: ModelSpec) -> Result<
         match session.inputs() {
             [one] => spec.input = one.name().to_string(),
             more => {
-                return Err(Error::Format {
-                    path: path.into(),
-                    line: None,
-                    message: format!("{} inputs; kitti2pgm feeds a model one map", more.len()),
-                })
+                return Err(Error::format(
+                    path,
+                    format!("{} inputs; kitti2pgm feeds a model one map", more.len()),
+                ))
             }
         }
     }
@@ -212,11 +211,7 @@ impl Model {
     pub fn run_timed(&self, input: &[f32]) -> Result<(Vec<ClassId>, std::time::Duration)> {
         let spec = &self.spec.map.spec;
         let shape = [1, spec.rows, spec.cols, self.channels.len()];
-        let fail = |e: ort::Error| Error::Format {
-            path: self.path.clone(),
-            line: None,
-            message: format!("running it: {e}"),
-        };
+        let fail = |e: ort::Error| Error::format(&self.path, format!("running it: {e}"));
         let tensor = TensorRef::from_array_view((shape, input)).map_err(fail)?;
         let mut session = self.session.lock().unwrap_or_else(|p| p.into_inner());
         let started = std::time::Instant::now();
@@ -244,21 +239,16 @@ impl Model {
     /// `labels` as class ids, each checked to be one of the map's classes.
     fn checked(&self, labels: Vec<i64>, cells: usize, classes: usize) -> Result<Vec<ClassId>> {
         if labels.len() != cells {
-            return Err(Error::Format {
-                path: self.path.clone(),
-                line: None,
-                message: format!("{} labels out, the map has {cells} cells", labels.len()),
-            });
+            let n = labels.len();
+            let message = format!("{n} labels out, the map has {cells} cells");
+            return Err(Error::format(&self.path, message));
         }
         if let Some(i) = labels.iter().position(|&l| l < 0 || l as usize >= classes) {
-            return Err(Error::Format {
-                path: self.path.clone(),
-                line: None,
-                message: format!(
-                    "cell {i} is given class {}, the class map {:?} has {classes}",
-                    labels[i], self.spec.map.class_map.name
-                ),
-            });
+            let message = format!(
+                "cell {i} is given class {}, the class map {:?} has {classes}",
+                labels[i], self.spec.map.class_map.name
+            );
+            return Err(Error::format(&self.path, message));
         }
         Ok(labels.into_iter().map(|l| l as ClassId).collect())
     }
@@ -286,11 +276,7 @@ fn argmax(logits: &[f32], classes: usize, cells: usize) -> Vec<ClassId> {
 fn check_graph(path: &Path, session: &Session, spec: &ModelSpec, ch: &Channels) -> Result<()> {
     let (rows, cols) = (spec.map.spec.rows, spec.map.spec.cols);
     let k = spec.map.class_map.len();
-    let bad = |message: String| Error::Format {
-        path: path.into(),
-        line: None,
-        message,
-    };
+    let bad = |message: String| Error::format(path, message);
     let shape_err = |what: String, found: &[i64], expected: String| {
         bad(format!(
             "{what} is {found:?}, but its recorded map wants {expected} ({rows} x {cols} map, \

@@ -147,11 +147,7 @@ impl ModelSpec {
 
     /// The spec recorded in a model's metadata value (`source` names the file in errors).
     pub fn from_metadata(value: &str, source: &std::path::Path) -> Result<ModelSpec> {
-        let bad = |e: String| Error::Format {
-            path: source.into(),
-            line: None,
-            message: format!("its {METADATA_KEY} metadata: {e}"),
-        };
+        let bad = |e: String| Error::format(source, format!("its {METADATA_KEY} metadata: {e}"));
         let spec: ModelSpec = serde_json::from_str(value).map_err(|e| bad(e.to_string()))?;
         spec.validate().map_err(|e| bad(e.to_string()))?;
         Ok(spec)
