@@ -12,6 +12,7 @@ mod calibration;
 mod imported;
 mod inventory;
 mod layouts;
+mod model_labels;
 mod names;
 mod picture;
 mod read;
@@ -265,6 +266,7 @@ pub fn check(
         imported::check(&read, &mut c);
         calibration::check_files(&read, &mut c);
         let labelled = semantic::check_labels(&read, &mut c);
+        model_labels::check(&read, &mut c);
         let mut inv = read.inventory.clone();
         if CheckName::ALL
             .iter()

@@ -63,6 +63,7 @@ checks! {
     AnnotationFalloff "annotation-falloff" false "Frames whose annotated-object count falls far below the drive's usual count.";
     LabelIds "label-ids" false "Per-point label ids unknown to the class map's yaml.";
     InstanceClasses "instance-classes" false "One instance id carrying several classes within a sequence.";
+    ModelLabels "model-labels" false "Label files that are a model's output (infer --as-labels) not yet corrected, as its record says.";
     MovingStatic "moving-static" true "Points of a moving class that do not move between scans (needs poses.txt).";
     SplitBalance "split-balance" false "A class whose share in val differs from its share in train beyond a factor.";
     SplitLeak "split-leak" false "Frames of one drive in both train and val, or split lists naming absent frames.";
@@ -92,9 +93,10 @@ impl CheckName {
     pub fn applies_to(self, layout: DatasetKind) -> bool {
         use CheckName::*;
         match layout {
-            DatasetKind::Raw => {
-                !matches!(self, LabelCount | LabelIds | InstanceClasses | MovingStatic)
-            }
+            DatasetKind::Raw => !matches!(
+                self,
+                LabelCount | LabelIds | InstanceClasses | ModelLabels | MovingStatic
+            ),
             // The box checks of a sequence run on the boxes `kitti2pgm label` imported.
             DatasetKind::Sequence => !matches!(self, AnnotationFalloff),
             DatasetKind::Object => !matches!(
@@ -106,6 +108,7 @@ impl CheckName {
                     | LabelCount
                     | LabelIds
                     | InstanceClasses
+                    | ModelLabels
                     | MovingStatic
             ),
         }

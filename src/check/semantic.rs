@@ -97,10 +97,9 @@ pub(crate) fn check_labels(r: &DriveRead, c: &mut Collector) -> Vec<(u32, BTreeM
     // The map asked for, else the one `kitti2pgm label` wrote these labels with, else
     // SemanticKITTI's.
     let recorded = || {
-        crate::format::box_labels::read(&drive.dir)
+        crate::format::box_labels::recorded_map_of(&drive.dir)
             .ok()
             .flatten()
-            .map(|rec| rec.params.class_map)
     };
     let map = (c.opts.class_map.clone())
         .or_else(recorded)

@@ -16,15 +16,32 @@ pub struct InferArgs {
     #[arg(long, value_name = "MODEL.onnx")]
     pub model: PathBuf,
     /// What to run it on: a dataset root (KITTI raw, SemanticKITTI, KITTI object, a sequence
-    /// folder of your own sensor's .pcd/.bin scans, an unpacked bag or nuScenes root) or one
-    /// scan file.
+    /// folder of your own sensor's .pcd/.bin scans, an unpacked bag or nuScenes root), a ROS 2
+    /// bag (a .mcap file or a bag folder, with --topic; streamed) or one scan file.
     #[arg(value_name = "INPUT")]
     pub input: PathBuf,
-    /// Output folder: OUT/sequences/<NN>/predictions/<frame6>.label (sequence roots, raw ids)
-    /// or OUT/labels/<drive>/<frame>.label (KITTI raw and object, class ids); a lone scan file
-    /// gives OUT/<stem>.label.
-    #[arg(long, short, value_name = "DIR")]
-    pub out: PathBuf,
+    /// Output folder: OUT/sequences/<NN>/predictions/<frame6>.label (sequence roots and bags,
+    /// raw ids; a bag is sequence 00, message i frame i) or OUT/labels/<drive>/<frame>.label
+    /// (KITTI raw and object, class ids); a lone scan file gives OUT/<stem>.label.
+    #[arg(long, short, value_name = "DIR", required_unless_present = "as_labels")]
+    pub out: Option<PathBuf>,
+    /// A bag's sensor_msgs/msg/PointCloud2 topic (the error lists them when missing).
+    #[arg(long, value_name = "TOPIC")]
+    pub topic: Option<String>,
+    /// Also write the predictions as label files of a sequence root, to correct by hand:
+    /// ROOT/sequences/<NN>/labels/<frame6>.label (raw ids of the model's class map), with
+    /// model_labels.json naming the model and each file as written (check reports the unedited
+    /// ones). ROOT may be INPUT; labels already there are never replaced (--overwrite: an
+    /// earlier --as-labels run's, when none was edited).
+    #[arg(long, value_name = "ROOT")]
+    pub as_labels: Option<PathBuf>,
+    /// Replace the label files of an earlier --as-labels run (never edited ones).
+    #[arg(long, requires = "as_labels")]
+    pub overwrite: bool,
+    /// Write a Foxglove replay file: each scan's labelled points coloured by class, at the scan's
+    /// own time (a bag's header stamps).
+    #[arg(long, value_name = "OUT.mcap")]
+    pub viz: Option<PathBuf>,
     /// The map a model without kitti2pgm's record was trained on: a conversion's output folder
     /// (convert_summary.json) or shards; its class map too.
     #[arg(long, value_name = "DIR")]

@@ -30,6 +30,10 @@ pub fn run(a: InferArgs, g: &Global) -> anyhow::Result<Outcome> {
         method,
         maps: a.maps,
         dataset: a.dataset,
+        topic: a.topic.clone(),
+        viz: a.viz.clone(),
+        as_labels: a.as_labels.clone(),
+        overwrite: a.overwrite,
         durability: durability(a.sync),
     };
     let pb = progress::bar(0, g.progress, "inferring");
@@ -80,12 +84,16 @@ fn table(s: &InferSummary, model: &Model) -> String {
         }
     );
     let _ = writeln!(t, "method           {:>10}", s.method);
-    let _ = writeln!(
-        t,
-        "frames           {:>10}  (into {})",
-        s.frames,
-        s.written_to.display()
-    );
+    let _ = writeln!(t, "frames           {:>10}", s.frames);
+    for (what, path) in [
+        ("predictions", &s.written_to),
+        ("labels in", &s.labels_in),
+        ("replay", &s.viz),
+    ] {
+        if let Some(p) = path {
+            let _ = writeln!(t, "{what:<16} {}", p.display());
+        }
+    }
     let _ = writeln!(t, "points           {:>10}", s.points);
     let _ = writeln!(
         t,

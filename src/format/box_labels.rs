@@ -175,20 +175,20 @@ pub fn recorded_class_map<'a>(
     let mut found: Option<(PathBuf, ClassMap)> = None;
     let mut unrecorded: Option<PathBuf> = None;
     for seq in seqs {
-        match read(seq)? {
-            Some(r) => {
+        match recorded_map_of(seq)? {
+            Some(recorded) => {
                 if let Some((first, map)) = &found {
-                    if *map != r.params.class_map {
+                    if *map != recorded {
                         return Err(Error::Config(format!(
                             "{} and {} were labelled with different class maps ({} and {}): convert them apart, or name one with --class-map",
                             first.display(),
                             seq.display(),
                             map.name,
-                            r.params.class_map.name
+                            recorded.name
                         )));
                     }
                 } else {
-                    found = Some((seq.to_path_buf(), r.params.class_map));
+                    found = Some((seq.to_path_buf(), recorded));
                 }
             }
             None if has_label_files(seq) => unrecorded = Some(seq.to_path_buf()),
@@ -206,8 +206,17 @@ pub fn recorded_class_map<'a>(
     }
 }
 
+/// The class map of the labels of sequence folder `seq` as recorded beside them: by `kitti2pgm
+/// label` (`box_labels.json`), else by `kitti2pgm infer --as-labels` (`model_labels.json`).
+pub fn recorded_map_of(seq: &Path) -> Result<Option<ClassMap>> {
+    if let Some(r) = read(seq)? {
+        return Ok(Some(r.params.class_map));
+    }
+    Ok(super::model_labels::read(seq)?.map(|r| r.class_map))
+}
+
 /// Whether sequence folder `seq` holds `.label` files.
-fn has_label_files(seq: &Path) -> bool {
+pub fn has_label_files(seq: &Path) -> bool {
     std::fs::read_dir(seq.join(crate::source::kitti::sequence::LABELS)).is_ok_and(|d| {
         d.flatten()
             .any(|e| e.path().extension().is_some_and(|x| x == "label"))

@@ -8,6 +8,7 @@
 //! | [`npy`] | `.npy` arrays (NumPy format 1.0), any numeric dtype in, float32 out |
 //! | [`pgm`] | a converted frame as `.npy` (SqueezeSeg's H x W x 6/9 layout, named channels) |
 //! | [`box_labels`] | `sequences/<NN>/box_labels.json`: what `label` made its label files from |
+//! | [`model_labels`] | `sequences/<NN>/model_labels.json`: the model `infer --as-labels` made its label files with |
 //! | [`label_file`] | per-point `.label` files (u32: class, instance << 16) |
 //! | [`layout`] | the output folder: paths, discovery of converted frames and shards |
 //! | [`summary`] | `convert_summary.json`, with the typed [`ConvertParams`](crate::provenance::ConvertParams) |
@@ -24,6 +25,7 @@ pub mod imageset;
 pub mod journal;
 pub mod label_file;
 pub mod layout;
+pub mod model_labels;
 pub mod npy;
 pub mod pgm;
 pub mod png;

@@ -13,7 +13,7 @@ use crate::label::{ClassCounts, ClassId, PointLabels};
 use crate::plan::DrivePlan;
 use crate::project::frame::{assemble, CellColours, PgmFrame, PointValues};
 use crate::project::unproject::{unproject, Method, PointsInMap};
-use crate::project::{norm, project_scan, Projection, LASERS};
+use crate::project::{norm, project_loaded_scan, project_scan, Projection, LASERS};
 use crate::source::kitti::FrameId;
 use crate::source::Scan;
 
@@ -68,6 +68,26 @@ pub struct Projected {
 pub fn project(model: &Model, path: &Path, camera: Option<(&DrivePlan, u32)>) -> Result<Projected> {
     let params = &model.spec.map;
     let (scan, proj) = project_scan(&params.spec, params.sensor.as_ref(), path)?;
+    assembled(model, scan, proj, path, camera)
+}
+
+/// Projects a scan read elsewhere (a bag's message, named `what`) as [`project`] projects a
+/// file; no camera.
+pub fn project_message(model: &Model, scan: Scan, what: &Path) -> Result<Projected> {
+    let params = &model.spec.map;
+    let (scan, proj) = project_loaded_scan(&params.spec, params.sensor.as_ref(), scan, what)?;
+    assembled(model, scan, proj, what, None)
+}
+
+/// The map of a projected scan, coloured by the camera where the model takes colour.
+fn assembled(
+    model: &Model,
+    scan: Scan,
+    proj: Projection,
+    path: &Path,
+    camera: Option<(&DrivePlan, u32)>,
+) -> Result<Projected> {
+    let params = &model.spec.map;
     refuse_other_sensor(model, &scan, path)?;
     let colours = match (&params.rgb, camera) {
         (Some(rgb), Some((dp, frame))) => {
@@ -79,8 +99,8 @@ pub fn project(model: &Model, path: &Path, camera: Option<(&DrivePlan, u32)>) ->
         }
         (Some(_), None) => {
             return Err(crate::error::Error::Config(format!(
-                "{}: the model takes colour channels (r, g, b), and a lone scan file has no \
-                 camera: run it on its KITTI raw drive",
+                "{}: the model takes colour channels (r, g, b), and this scan has no camera \
+                 image: run it on its KITTI raw drive",
                 path.display()
             )))
         }
@@ -93,6 +113,16 @@ pub fn project(model: &Model, path: &Path, camera: Option<(&DrivePlan, u32)>) ->
     };
     let map = assemble(PointValues::of_scan(&scan, &none), &proj, colours.as_ref());
     Ok(Projected { scan, proj, map })
+}
+
+/// The scan's points with their predicted classes (those with one), for `--viz`.
+pub fn viz_points(
+    scan: &Scan,
+    per_point: &[Option<ClassId>],
+) -> Vec<(crate::geom::Point3, f32, ClassId)> {
+    (scan.file_indices().iter().enumerate())
+        .filter_map(|(i, &f)| per_point[f as usize].map(|c| (scan.points[i], scan.intensity[i], c)))
+        .collect()
 }
 
 /// Reads and projects the scan file at `path` with `model`'s map, runs the model and carries
@@ -154,17 +184,23 @@ pub fn predict(model: &Model, p: &Projected, method: &Method) -> Result<ScanResu
 
 /// Writes a frame's per-point predictions (in the layout `score` reads) and, when asked, its
 /// map prediction (`OUT/maps/<id>.npy`, rows x cols class ids as float32).
-pub fn write(id: &FrameId, r: &ScanResult, model: &Model, opts: &InferOptions) -> Result<u64> {
+pub fn write(
+    out: &Path,
+    id: &FrameId,
+    r: &ScanResult,
+    model: &Model,
+    opts: &InferOptions,
+) -> Result<u64> {
     let classes = &model.spec.map.class_map;
     let (_, missing) = crate::format::label_file::write_predictions(
-        &opts.out,
+        out,
         id,
         &r.per_point,
         classes,
         opts.durability,
     )?;
     if opts.maps {
-        let dir = opts.out.join(super::MAPS_DIR);
+        let dir = out.join(super::MAPS_DIR);
         write_map(
             &crate::format::layout::npy_path_in(&dir, id),
             r,

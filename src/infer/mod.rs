@@ -9,33 +9,46 @@
 //! - the per-point predictions in the layout `score` and `submission` read: SemanticKITTI's
 //!   `OUT/sequences/<NN>/predictions/<frame6>.label` (raw ids) for sequence roots, else
 //!   `OUT/labels/<drive>/<frame>.label` (class ids); a lone scan file gives `OUT/<stem>.label`;
-//! - with `maps`, the map prediction `OUT/maps/<frame id>.npy` (rows x cols class ids).
+//! - with `maps`, the map prediction `OUT/maps/<frame id>.npy` (rows x cols class ids);
+//! - with `as_labels`, a sequence root's label files ([`labels`]), with `viz` a replay file
+//!   ([`viz`]).
 //!
-//! Frames run in parallel (the model's runs one at a time, each on ONNX Runtime's threads); a
-//! frame that fails is recorded and the others go on; files are written atomically.
+//! INPUT is a dataset root, one scan file or a ROS 2 bag's point cloud topic ([`input`]), read
+//! a batch of scans at a time (a bag in flat memory). The scans of a batch run in parallel (the
+//! model's runs one at a time, each on ONNX Runtime's threads) and are recorded in their order;
+//! a scan that fails is recorded and the others go on; files are written atomically.
 
 pub mod engine;
 pub mod frame;
+pub mod input;
+pub mod labels;
 pub mod model;
 pub mod spec;
+pub mod viz;
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::{Error, Result, Role};
+use crate::format::model_labels::{ModelLabelRecord, RecordedMethod};
 use crate::format::Durability;
-use crate::label::ClassCounts;
-use crate::plan::{FrameSelection, Plan};
+use crate::fs::Fingerprint;
+use crate::geom::Point3;
+use crate::label::{ClassCounts, ClassId};
 use crate::project::unproject::{Method, MethodKind};
 use crate::source::kitti::DatasetKind;
 
 pub use frame::StageTimes;
+pub use input::{Input, BAG_SEQUENCE};
 pub use model::{Model, ModelOptions};
 pub use spec::{ModelSpec, Normalisation, METADATA_KEY, SPEC_VERSION};
+
+use input::{Target, Unit};
+use labels::AsLabels;
+use viz::VizWriter;
 
 /// The folder of the map predictions under the output (`--maps`).
 pub const MAPS_DIR: &str = "maps";
@@ -43,14 +56,22 @@ pub const MAPS_DIR: &str = "maps";
 /// Where and how to infer.
 #[derive(Debug, Clone)]
 pub struct InferOptions {
-    /// The output folder.
-    pub out: PathBuf,
+    /// The output folder of the predictions (`score`'s layouts), if any.
+    pub out: Option<PathBuf>,
     /// How the points get their classes from the map.
     pub method: Method,
     /// Also write each map prediction (`OUT/maps`).
     pub maps: bool,
     /// The layout of a dataset root, when it is not the one found.
     pub dataset: Option<DatasetKind>,
+    /// A bag's point cloud topic.
+    pub topic: Option<String>,
+    /// A replay file to write (Foxglove MCAP).
+    pub viz: Option<PathBuf>,
+    /// A sequence root to write the predictions into as label files.
+    pub as_labels: Option<PathBuf>,
+    /// Replace the label files an earlier `as_labels` run wrote (unedited ones only).
+    pub overwrite: bool,
     /// Whether each file is flushed to the device before it is renamed into place.
     pub durability: Durability,
 }
@@ -107,8 +128,12 @@ pub struct InferSummary {
     pub classes: Vec<(String, u64)>,
     /// Frames that failed.
     pub failures: Vec<InferFailure>,
-    /// Where the per-point files are.
-    pub written_to: PathBuf,
+    /// Where the per-point files are (`None`: only label files were written).
+    pub written_to: Option<PathBuf>,
+    /// The sequence root the label files went into (`--as-labels`).
+    pub labels_in: Option<PathBuf>,
+    /// The replay file (`--viz`).
+    pub viz: Option<PathBuf>,
     /// Time per stage.
     pub seconds: StageSeconds,
     /// Wall time, seconds.
@@ -138,13 +163,27 @@ impl Totals {
     }
 }
 
-/// Refuses an output folder that is, lies in or holds the input or the model.
-fn refuse_over_inputs(model: &Model, input: &Path, out: &Path) -> Result<()> {
-    crate::fs::refuse_overlap(out, &[(Role::Dataset, input), (Role::Model, &model.path)])
+/// Refuses outputs that are, lie in or hold the input or the model (the label root may be the
+/// input: that is where pre-labels go), and an output folder over the label root.
+fn refuse_over_inputs(model: &Model, input: &Path, opts: &InferOptions) -> Result<()> {
+    let inputs = [(Role::Dataset, input), (Role::Model, model.path.as_path())];
+    if let Some(out) = &opts.out {
+        crate::fs::refuse_overlap(out, &inputs)?;
+        if let Some(root) = &opts.as_labels {
+            crate::fs::refuse_overlap(out, &[(Role::Dataset, root.as_path())])?;
+        }
+    }
+    if let Some(v) = &opts.viz {
+        crate::fs::refuse_overlap(v, &inputs)?;
+    }
+    if let Some(root) = &opts.as_labels {
+        crate::fs::refuse_overlap(root, &[(Role::Model, model.path.as_path())])?;
+    }
+    Ok(())
 }
 
-/// Runs `model` on `input` (a dataset root, or one scan file) into `opts.out`; `progress` is
-/// called with the number of frames once they are known, then after each frame.
+/// Runs `model` on `input` (a dataset root, one scan file or a bag) as `opts` say; `progress`
+/// is called with the number of scans once known, then as they finish.
 pub fn infer(
     model: &Model,
     input: &Path,
@@ -152,32 +191,108 @@ pub fn infer(
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<InferSummary> {
     let start = Instant::now();
-    refuse_over_inputs(model, input, &opts.out)?;
-    opts.method.validate()?;
-    let totals = Mutex::new(Totals::default());
-    let mut failures = Vec::new();
-    let written_to;
-    if std::fs::metadata(input)
-        .map_err(|e| Error::io(input, e))?
-        .is_file()
-    {
-        written_to = opts.out.clone();
-        progress(Progress::Frames(1));
-        match one_file(model, input, opts) {
-            Ok((r, missing)) => totals.lock().expect("not poisoned").add(&r, missing),
-            Err(e) => failures.push(InferFailure {
-                frame: input.display().to_string(),
-                error: e.to_string(),
-            }),
-        }
-        progress(Progress::Done(1));
-    } else {
-        written_to = run_root(model, input, opts, &totals, &mut failures, progress)?;
+    if opts.out.is_none() && opts.as_labels.is_none() {
+        return Err(Error::Config(
+            "nothing to write: give --out, --as-labels or both".into(),
+        ));
     }
-    let t = totals.into_inner().expect("not poisoned");
+    refuse_over_inputs(model, input, opts)?;
+    opts.method.validate()?;
+    let source = Input::open(input, opts.topic.as_deref(), opts.dataset)?;
+    let mut labels = match &opts.as_labels {
+        Some(root) => Some(begin_labels(model, &source, input, root, opts)?),
+        None => None,
+    };
+    let mut viz = (opts.viz.as_ref())
+        .map(|p| VizWriter::create(p, &model.spec.map.class_map))
+        .transpose()?;
+    progress(Progress::Frames(source.len()));
+    let mut totals = Totals::default();
+    let mut failures = Vec::new();
+    let batch_len = 4 * rayon::current_num_threads().max(1);
+    let mut units = input::units(&source);
+    loop {
+        let mut batch = Vec::with_capacity(batch_len);
+        for u in units.by_ref() {
+            match u {
+                Ok(u) => batch.push(u),
+                Err(s) => {
+                    if matches!(source, Input::Bag(..)) {
+                        progress(Progress::Done(1));
+                    }
+                    failures.push(InferFailure {
+                        frame: s.name,
+                        error: s.error,
+                    });
+                }
+            }
+            if batch.len() == batch_len {
+                break;
+            }
+        }
+        if batch.is_empty() {
+            break;
+        }
+        let run = Run {
+            model,
+            input: &source,
+            opts,
+            labels: labels.as_ref(),
+            viz: viz.is_some(),
+        };
+        let done: Vec<(Unit, Result<Done>)> = batch
+            .into_par_iter()
+            .map(|u| {
+                let r = run.unit(&u);
+                progress(Progress::Done(1));
+                (u, r)
+            })
+            .collect();
+        for (u, r) in done {
+            match r {
+                Ok(d) => {
+                    totals.add(&d.result, d.missing);
+                    if let (Some(l), Some(written)) = (labels.as_mut(), d.label) {
+                        l.record(written);
+                    }
+                    if let (Some(v), Some(points)) = (viz.as_mut(), d.viz) {
+                        v.add(points, d.stamp.or(u.stamp_ns))?;
+                    }
+                }
+                Err(e) => failures.push(InferFailure {
+                    frame: u.name,
+                    error: e.to_string(),
+                }),
+            }
+        }
+    }
+    drop(units);
+    if let Some(l) = labels {
+        l.finish()?;
+    }
+    if let Some(v) = viz {
+        v.finish()?;
+    }
+    Ok(summary(model, &source, opts, totals, failures, start))
+}
+
+/// The summary of a run.
+fn summary(
+    model: &Model,
+    source: &Input,
+    opts: &InferOptions,
+    t: Totals,
+    failures: Vec<InferFailure>,
+    start: Instant,
+) -> InferSummary {
     let map = &model.spec.map.class_map;
     let counts = t.counts.unwrap_or_else(|| ClassCounts::zeros(map.len()));
-    Ok(InferSummary {
+    let written_to = (opts.out.as_ref()).map(|out| match source {
+        Input::File(_) => out.clone(),
+        Input::Root(plan) => written_dir(out, plan.layout()),
+        Input::Bag(..) => written_dir(out, DatasetKind::Sequence),
+    });
+    InferSummary {
         model: model.path.clone(),
         digest: model.digest.clone(),
         method: opts.method.kind(),
@@ -192,62 +307,108 @@ pub fn infer(
             .collect(),
         failures,
         written_to,
+        labels_in: opts.as_labels.clone(),
+        viz: opts.viz.clone(),
         seconds: t.times.into(),
         wall_seconds: start.elapsed().as_secs_f64(),
-    })
+    }
 }
 
-/// Every frame of the dataset root `input`: its failures added to `failures`; returns where
-/// the per-point files went.
-fn run_root(
+/// Starts the label files of `--as-labels root`: the sequences of a sequence root, or a bag's
+/// ([`BAG_SEQUENCE`]); other inputs are refused.
+fn begin_labels(
     model: &Model,
+    source: &Input,
     input: &Path,
+    root: &Path,
     opts: &InferOptions,
-    totals: &Mutex<Totals>,
-    failures: &mut Vec<InferFailure>,
-    progress: &(dyn Fn(Progress) + Sync),
-) -> Result<PathBuf> {
-    let plan = Plan::build_as(input, FrameSelection::All, opts.dataset)?;
-    for f in &plan.failed {
-        failures.push(InferFailure {
-            frame: f.what.to_string(),
-            error: f.error.clone(),
-        });
-    }
-    progress(Progress::Frames(plan.jobs.len() as u64));
-    let mut failed: Vec<(usize, InferFailure)> = plan
-        .jobs
-        .par_iter()
-        .enumerate()
-        .filter_map(|(i, &(d, f))| {
-            let r = one_frame(model, &plan, (d, f), opts);
-            progress(Progress::Done(1));
-            match r {
-                Ok((r, missing)) => {
-                    totals.lock().expect("not poisoned").add(&r, missing);
-                    None
-                }
-                Err(e) => Some((
-                    i,
-                    InferFailure {
-                        frame: plan.drives[d].drive.frame_id(f).to_string(),
-                        error: e.to_string(),
-                    },
-                )),
+) -> Result<AsLabels> {
+    let numbers: Vec<u32> = match source {
+        Input::Root(plan) if plan.layout() == DatasetKind::Sequence => {
+            plan.drives.iter().map(|d| d.drive.number).collect()
+        }
+        Input::Bag(..) => vec![BAG_SEQUENCE],
+        _ => {
+            return Err(Error::Config(format!(
+                "--as-labels: {} is not a sequence root or a bag; label files go beside a \
+                 sequence's scans (sequences/<NN>/labels/)",
+                input.display()
+            )))
+        }
+    };
+    let template = ModelLabelRecord {
+        version: crate::format::model_labels::VERSION,
+        kitti2pgm: env!("CARGO_PKG_VERSION").into(),
+        complete: false,
+        model: model.path.clone(),
+        digest: model.digest.clone(),
+        producer: model.spec.producer.clone(),
+        class_map: model.spec.map.class_map.clone(),
+        method: RecordedMethod::from(&opts.method),
+        input: input.into(),
+        predictions: opts.out.clone(),
+        frames: Default::default(),
+    };
+    AsLabels::begin(root, &numbers, &template, opts.overwrite, opts.durability)
+}
+
+/// What one scan gave.
+struct Done {
+    result: frame::ScanResult,
+    missing: u64,
+    label: Option<(u32, String, Fingerprint)>,
+    viz: Option<Vec<(Point3, f32, ClassId)>>,
+    stamp: Option<i64>,
+}
+
+/// What every scan of a run shares.
+struct Run<'a> {
+    model: &'a Model,
+    input: &'a Input,
+    opts: &'a InferOptions,
+    labels: Option<&'a AsLabels>,
+    viz: bool,
+}
+
+impl Run<'_> {
+    /// One scan: read, projected, predicted, written.
+    fn unit(&self, u: &Unit) -> Result<Done> {
+        let (model, opts) = (self.model, self.opts);
+        let t = Instant::now();
+        let (p, stamp) = input::project(model, self.input, &u.read)?;
+        let read_project = t.elapsed();
+        let mut r = frame::predict(model, &p, &opts.method)?;
+        r.times.read_project = read_project;
+        let t = Instant::now();
+        let missing = match (&opts.out, &u.target) {
+            (Some(out), Target::Frame(id)) => frame::write(out, id, &r, model, opts)?,
+            (Some(out), Target::Stem(stem)) => frame::write_file(out, stem, &r, model, opts)?,
+            (None, _) => r.per_point.iter().filter(|c| c.is_none()).count() as u64,
+        };
+        let label = match (self.labels, &u.target) {
+            (Some(l), Target::Frame(id)) => {
+                Some(l.write(id, &r.per_point, &model.spec.map.class_map)?)
             }
+            _ => None,
+        };
+        r.times.write = t.elapsed();
+        let viz = self.viz.then(|| frame::viz_points(&p.scan, &r.per_point));
+        Ok(Done {
+            result: r,
+            missing,
+            label,
+            viz,
+            stamp,
         })
-        .collect();
-    failed.sort_by_key(|(i, _)| *i);
-    failures.extend(failed.into_iter().map(|(_, f)| f));
-    Ok(written_dir(&opts.out, plan.layout()))
+    }
 }
 
 /// How far a run is.
 #[derive(Debug, Clone, Copy)]
 pub enum Progress {
-    /// The frames it will run.
+    /// The scans it will run.
     Frames(u64),
-    /// Frames finished since the last call.
+    /// Scans finished since the last call.
     Done(u64),
 }
 
@@ -257,39 +418,4 @@ fn written_dir(out: &Path, layout: DatasetKind) -> PathBuf {
         DatasetKind::Sequence => out.join("sequences"),
         _ => out.join("labels"),
     }
-}
-
-/// One frame of a root: projected, predicted, written.
-fn one_frame(
-    model: &Model,
-    plan: &Plan,
-    (d, f): (usize, u32),
-    opts: &InferOptions,
-) -> Result<(frame::ScanResult, u64)> {
-    let dp = &plan.drives[d];
-    let t = Instant::now();
-    let p = frame::project(model, &dp.drive.scan_path(f), Some((dp, f)))?;
-    let read_project = t.elapsed();
-    let mut r = frame::predict(model, &p, &opts.method)?;
-    r.times.read_project = read_project;
-    let t = Instant::now();
-    let missing = frame::write(&dp.drive.frame_id(f), &r, model, opts)?;
-    r.times.write = t.elapsed();
-    Ok((r, missing))
-}
-
-/// A lone scan file: `OUT/<stem>.label` (class ids; [`NOT_PREDICTED`] outside the map) and,
-/// with maps, `OUT/maps/<stem>.npy`.
-///
-/// [`NOT_PREDICTED`]: crate::format::label_file::NOT_PREDICTED
-fn one_file(model: &Model, path: &Path, opts: &InferOptions) -> Result<(frame::ScanResult, u64)> {
-    let mut r = frame::predict_file(model, path, &opts.method)?;
-    let t = Instant::now();
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "scan".into());
-    let missing = frame::write_file(&opts.out, &stem, &r, model, opts)?;
-    r.times.write = t.elapsed();
-    Ok((r, missing))
 }

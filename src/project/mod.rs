@@ -304,6 +304,25 @@ pub fn project_scan(
     path: &std::path::Path,
 ) -> crate::error::Result<(crate::source::Scan, Projection)> {
     let (scan, beams) = crate::sensor::read_scan(sensor, path)?;
+    Ok(project_prepared(spec, scan, beams))
+}
+
+/// [`project_scan`] of a scan read elsewhere (a bag's message, named `what`).
+pub fn project_loaded_scan(
+    spec: &PgmSpec,
+    sensor: Option<&crate::sensor::SensorParams>,
+    scan: crate::source::Scan,
+    what: &std::path::Path,
+) -> crate::error::Result<(crate::source::Scan, Projection)> {
+    let (scan, beams) = crate::sensor::prepare_scan(sensor, scan, what)?;
+    Ok(project_prepared(spec, scan, beams))
+}
+
+fn project_prepared(
+    spec: &PgmSpec,
+    scan: crate::source::Scan,
+    beams: Option<crate::sensor::params::BeamRowsOf>,
+) -> (crate::source::Scan, Projection) {
     let proj = match &beams {
         Some(b) => project_beams_with_point_cells(
             &scan.points,
@@ -314,7 +333,7 @@ pub fn project_scan(
         ),
         None => project_with_point_cells(&scan.points, spec),
     };
-    Ok((scan, proj))
+    (scan, proj)
 }
 
 /// Like [`project`], and also records the cell of every point ([`Projection::point_cell`]),

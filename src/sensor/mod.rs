@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 pub use params::{SensorParams, SensorSource};
 pub use pose::SensorPose;
-pub use read::read_scan;
+pub use read::{prepare_scan, read_scan};
 
 use crate::error::{Error, Result};
 use crate::geom::{na, Degrees, Point3};

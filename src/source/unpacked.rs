@@ -18,6 +18,9 @@ pub const NUSCENES_MARKER: &str = "nuscenes.json";
 /// The record `kitti2pgm label` leaves beside the labels it writes from boxes (its owner:
 /// `format::box_labels`).
 pub const BOX_LABELS_MARKER: &str = "box_labels.json";
+/// The record `kitti2pgm infer --as-labels` leaves beside the label files it writes from a
+/// model's predictions (its owner: `format::model_labels`).
+pub const MODEL_LABELS_MARKER: &str = "model_labels.json";
 
 /// The part of a mark the readers need.
 #[derive(Deserialize)]
@@ -43,6 +46,11 @@ pub fn refuse_unfinished(seq: &Path) -> Result<()> {
             BOX_LABELS_MARKER,
             "label run",
             "run `kitti2pgm label` again",
+        ),
+        (
+            MODEL_LABELS_MARKER,
+            "infer --as-labels run",
+            "run `kitti2pgm infer --as-labels` again with --overwrite",
         ),
     ] {
         let marker = seq.join(name);

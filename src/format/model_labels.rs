@@ -1,0 +1,146 @@
+//! `sequences/<NN>/model_labels.json`: the record `kitti2pgm infer --as-labels` leaves beside
+//! the label files it writes from a model's predictions (pre-labels that a person corrects).
+//! It names the model (its digest), the class map the files' raw ids are of, how the points got
+//! their classes, and every file as written: a file whose content differs was edited since.
+//!
+//! Like `box_labels.json`, it is written with `complete: false` before the first label file and
+//! with `complete: true` after the last, so an interrupted run says so.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::fs::Fingerprint;
+use crate::label::ClassMap;
+use crate::project::unproject::{KnnParams, Method, MethodKind};
+use crate::source::kitti::sequence;
+
+pub use crate::source::unpacked::MODEL_LABELS_MARKER;
+
+/// The record's version.
+pub const VERSION: u32 = 1;
+
+/// How the points got their classes from the map, as recorded.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RecordedMethod {
+    /// `cell` or `knn`.
+    pub kind: MethodKind,
+    /// The kNN's neighbours, window, sigma and cutoff (knn only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub knn: Option<(usize, usize, f32, f32, bool)>,
+}
+
+impl From<&Method> for RecordedMethod {
+    fn from(m: &Method) -> RecordedMethod {
+        RecordedMethod {
+            kind: m.kind(),
+            knn: match m {
+                Method::Cell => None,
+                Method::Knn(KnnParams {
+                    k,
+                    window,
+                    sigma,
+                    cutoff,
+                    wrap_columns,
+                }) => Some((*k, *window, *sigma, *cutoff, *wrap_columns)),
+            },
+        }
+    }
+}
+
+/// `model_labels.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelLabelRecord {
+    /// [`VERSION`].
+    pub version: u32,
+    /// kitti2pgm's version.
+    pub kitti2pgm: String,
+    /// Whether the run finished (`false` while it writes).
+    pub complete: bool,
+    /// The model file, as given.
+    pub model: PathBuf,
+    /// Its content hash (`xxh3-128:...`).
+    pub digest: String,
+    /// What made the model (its record's `producer`).
+    pub producer: String,
+    /// The class map of the label files' raw ids (what `convert`, `check` and `score` read them
+    /// with).
+    pub class_map: ClassMap,
+    /// How the points got their classes.
+    pub method: RecordedMethod,
+    /// What the model ran on (a dataset root or a bag), as given.
+    pub input: PathBuf,
+    /// Where the same predictions went in `score`'s layout (`infer --out`), when they did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predictions: Option<PathBuf>,
+    /// The label files written, by frame name (`000042`), as written.
+    pub frames: BTreeMap<String, Fingerprint>,
+}
+
+/// The record's path in sequence folder `seq`.
+pub fn path(seq: &Path) -> PathBuf {
+    seq.join(MODEL_LABELS_MARKER)
+}
+
+/// The record of sequence folder `seq`, if it has one.
+pub fn read(seq: &Path) -> Result<Option<ModelLabelRecord>> {
+    let p = path(seq);
+    if !crate::fs::present(&p) {
+        return Ok(None);
+    }
+    let text = crate::fs::read_text(&p, crate::fs::Limit::Text)?;
+    let record: ModelLabelRecord = serde_json::from_str(&text).map_err(|e| Error::NotFormat {
+        path: p.clone(),
+        format: "a kitti2pgm model label record",
+        detail: e.to_string(),
+    })?;
+    if record.version != VERSION {
+        return Err(Error::format(
+            &p,
+            format!(
+                "record version {} (this kitti2pgm writes {VERSION})",
+                record.version
+            ),
+        ));
+    }
+    Ok(Some(record))
+}
+
+/// Writes `record` into sequence folder `seq`, atomically.
+pub fn write(seq: &Path, record: &ModelLabelRecord, d: super::Durability) -> Result<()> {
+    let json = serde_json::to_vec_pretty(record).expect("a record serialises");
+    super::atomic_write(&path(seq), &json, d)
+}
+
+/// The label file of frame `name` (`000042`) in sequence folder `seq`.
+pub fn label_path(seq: &Path, name: &str) -> PathBuf {
+    seq.join(sequence::LABELS).join(format!("{name}.label"))
+}
+
+/// What a sequence's model labels are now.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LabelState {
+    /// Frames whose file is as the model wrote it.
+    pub unedited: Vec<String>,
+    /// Frames whose file was changed since.
+    pub edited: Vec<String>,
+    /// Frames whose file is gone.
+    pub missing: Vec<String>,
+}
+
+impl ModelLabelRecord {
+    /// Compares every recorded file of sequence folder `seq` with what was written.
+    pub fn state(&self, seq: &Path) -> Result<LabelState> {
+        let mut s = LabelState::default();
+        for (name, written) in &self.frames {
+            match crate::fs::fingerprint(&label_path(seq, name))? {
+                None => s.missing.push(name.clone()),
+                Some(now) if now.same_content(written) => s.unedited.push(name.clone()),
+                Some(_) => s.edited.push(name.clone()),
+            }
+        }
+        Ok(s)
+    }
+}
