@@ -71,9 +71,9 @@ pub fn project(model: &Model, path: &Path, camera: Option<(&DrivePlan, u32)>) ->
     assembled(model, scan, proj, path, camera)
 }
 
-/// Projects a scan read elsewhere (a bag's message, named `what`) as [`project`] projects a
+/// Projects a scan read elsewhere (a bag's message, a caller's arrays; named `what`) as [`project`] projects a
 /// file; no camera.
-pub fn project_message(model: &Model, scan: Scan, what: &Path) -> Result<Projected> {
+pub fn project_points(model: &Model, scan: Scan, what: &Path) -> Result<Projected> {
     let params = &model.spec.map;
     let (scan, proj) = project_loaded_scan(&params.spec, params.sensor.as_ref(), scan, what)?;
     assembled(model, scan, proj, what, None)
@@ -162,10 +162,22 @@ fn refuse_other_sensor(model: &Model, scan: &Scan, path: &Path) -> Result<()> {
 
 /// Runs `model` on a projected scan and carries its classes back to the points.
 pub fn predict(model: &Model, p: &Projected, method: &Method) -> Result<ScanResult> {
-    let mut times = StageTimes::default();
     let input = model.input_of(&p.map)?;
     let (cells, took) = model.run_timed(&input)?;
-    times.model = took;
+    let mut r = carry(model, p, cells, method)?;
+    r.times.model = took;
+    Ok(r)
+}
+
+/// Carries the class of every cell of a projected scan's map (`cells`, row-major) back to its
+/// points by `method`.
+pub fn carry(
+    model: &Model,
+    p: &Projected,
+    cells: Vec<ClassId>,
+    method: &Method,
+) -> Result<ScanResult> {
+    let mut times = StageTimes::default();
     let t = Instant::now();
     let classes = &model.spec.map.class_map;
     let point_range: Vec<f32> = p.scan.points.iter().map(norm).collect();

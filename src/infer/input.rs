@@ -225,7 +225,7 @@ pub fn project(model: &Model, input: &Input, read: &Read) -> Result<(Projected, 
                 &what,
             )?;
             let stamp = msg.stamp.nanos();
-            Ok((frame::project_message(model, scan, &what)?, Some(stamp)))
+            Ok((frame::project_points(model, scan, &what)?, Some(stamp)))
         }
     }
 }

@@ -36,10 +36,11 @@ pub struct Model {
     pub spec: ModelSpec,
     /// Whether the spec was recorded in the file (else given by the user).
     pub recorded: bool,
-    /// The library ONNX Runtime was loaded from.
-    pub runtime: PathBuf,
+    /// The library ONNX Runtime was loaded from (`None`: a record without a graph, whose maps
+    /// another engine runs: [`Model::of_record`]).
+    pub runtime: Option<PathBuf>,
     channels: Channels,
-    session: Mutex<Session>,
+    session: Option<Mutex<Session>>,
 }
 
 impl std::fmt::Debug for Model {
@@ -163,10 +164,36 @@ impl Model {
             digest,
             spec,
             recorded: is_recorded,
-            runtime: rt.library.clone(),
+            runtime: Some(rt.library.clone()),
             channels,
-            session: Mutex::new(session),
+            session: Some(Mutex::new(session)),
         })
+    }
+
+    /// The record alone (the metadata value an export writes, [`ModelSpec::from_metadata`]):
+    /// maps made and carried back as for its ONNX file, run by another engine (the trainer's
+    /// PyTorch network); `name` names it in errors. [`Model::run`] is an error.
+    pub fn of_record(value: &str, name: &Path) -> Result<Model> {
+        let spec = ModelSpec::from_metadata(value, name)?;
+        let channels = spec.input_channels()?;
+        Ok(Model {
+            path: name.into(),
+            digest: format!(
+                "xxh3-128:{:032x}",
+                xxhash_rust::xxh3::xxh3_128(value.as_bytes())
+            ),
+            spec,
+            recorded: true,
+            runtime: None,
+            channels,
+            session: None,
+        })
+    }
+
+    /// The shape of the model's input: 1 x rows x cols x channels.
+    pub fn input_shape(&self) -> [usize; 4] {
+        let spec = &self.spec.map.spec;
+        [1, spec.rows, spec.cols, self.channels.len()]
     }
 
     /// The model's input for `frame` (a map made with the spec's parameters): its channels in
@@ -210,10 +237,17 @@ impl Model {
     /// [`Model::run`], and the time the engine took (waiting for another frame's run left out).
     pub fn run_timed(&self, input: &[f32]) -> Result<(Vec<ClassId>, std::time::Duration)> {
         let spec = &self.spec.map.spec;
-        let shape = [1, spec.rows, spec.cols, self.channels.len()];
+        let shape = self.input_shape();
         let fail = |e: ort::Error| Error::format(&self.path, format!("running it: {e}"));
+        let Some(session) = &self.session else {
+            return Err(Error::Config(format!(
+                "{}: a model record without its graph: run its maps with the engine it was \
+                 opened for",
+                self.path.display()
+            )));
+        };
         let tensor = TensorRef::from_array_view((shape, input)).map_err(fail)?;
-        let mut session = self.session.lock().unwrap_or_else(|p| p.into_inner());
+        let mut session = session.lock().unwrap_or_else(|p| p.into_inner());
         let started = std::time::Instant::now();
         let inputs = ort::inputs![self.spec.input.as_str() => tensor];
         let outputs = session.run(inputs).map_err(fail)?;
@@ -234,6 +268,13 @@ impl Model {
         let name = self.spec.logits_output.as_deref().expect("validated");
         let (_, logits) = outputs[name].try_extract_tensor::<f32>().map_err(fail)?;
         Ok((argmax(logits, classes, cells), took))
+    }
+
+    /// The class of every cell given by another engine (`labels`, row-major), checked: one a
+    /// cell, each one of the class map's.
+    pub fn classes_of(&self, labels: Vec<i64>) -> Result<Vec<ClassId>> {
+        let spec = &self.spec.map.spec;
+        self.checked(labels, spec.rows * spec.cols, self.spec.map.class_map.len())
     }
 
     /// `labels` as class ids, each checked to be one of the map's classes.

@@ -63,6 +63,23 @@ impl PointLayout {
     }
 }
 
+impl Scan {
+    /// A scan of points held in memory (a caller's arrays), each value as a file would store
+    /// it: the readers' drop rule ([`DropRule::ANY`]) applied, as to a PCD's points.
+    pub fn of_columns(points: Vec<Point3>, intensity: Vec<f32>, ring: Option<Vec<u16>>) -> Scan {
+        debug_assert_eq!(points.len(), intensity.len());
+        let n = points.len();
+        let mut out = Scan::with_capacity(0, true, false);
+        (out.dropped, out.dropped_out_of_range) =
+            dropped(&points, Some(&intensity), &DropRule::ANY);
+        out.points = keep(&out.dropped, points);
+        out.intensity = keep(&out.dropped, intensity);
+        out.ring = ring.map(|r| keep(&out.dropped, r));
+        out.file_len = n;
+        out
+    }
+}
+
 impl PointLayout {
     /// Whether the records are x, y, z, intensity as packed little-endian float32 and nothing
     /// else (KITTI's `.bin`, and any declared layout of the same bytes).

@@ -9,7 +9,7 @@ order. Paths are str or os.PathLike.
 
 from os import PathLike
 from pathlib import Path
-from typing import Any, Dict, Iterator, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -145,8 +145,24 @@ class Model:
     def digest(self) -> str: ...
     @property
     def spec(self) -> Dict[str, Any]: ...
-    def predict_file(self, path: _Path, *, method: str = "knn") -> Dict[str, Any]:
+    @staticmethod
+    def from_record(record: str, *, name: str = "record") -> "Model":
+        """The record alone (model_metadata's value), without a graph: run its maps with runner=."""
+        ...
+    def predict_file(
+        self, path: _Path, *, method: str = "knn", runner: Optional[Callable[[np.ndarray], Any]] = None
+    ) -> Dict[str, Any]:
         """{"classes": (N,) int16 per point in file order (-1 outside the map), "map": (H, W) uint8}."""
+        ...
+    def predict(
+        self,
+        points: np.ndarray,
+        *,
+        ring: Optional[np.ndarray] = None,
+        method: str = "knn",
+        runner: Optional[Callable[[np.ndarray], Any]] = None,
+    ) -> Dict[str, Any]:
+        """points (N, 4) float32 x y z intensity, ring (N,) uint16: as predict_file, in the points' order."""
         ...
 
 class Dataset:

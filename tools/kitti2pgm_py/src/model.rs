@@ -1,18 +1,20 @@
 //! `Model` and `model_metadata`: trained ONNX models from Python, run by the library's
 //! `kitti2pgm::infer` (the same projection, engine and kNN as `kitti2pgm infer`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use kitti2pgm::infer::frame::ScanResult;
+use kitti2pgm::infer::frame::{self, ScanResult};
 use kitti2pgm::infer::{Model as RustModel, ModelOptions, ModelSpec, Normalisation, SPEC_VERSION};
-use kitti2pgm::project::unproject::{KnnParams, MethodKind};
+use kitti2pgm::project::unproject::{KnnParams, Method, MethodKind};
 use kitti2pgm::provenance::MapParams;
+use kitti2pgm::source::Scan;
 
+use crate::arrays::{points_arg, vec_arg};
 use crate::{named, py_err};
 
 /// The metadata entry that records a model's map in its ONNX file, as (key, value): what the
@@ -112,23 +114,121 @@ impl Model {
         py.import("json")?.call_method1("loads", (json,))
     }
 
+    /// A model record alone (the metadata value the export writes: model_metadata's second
+    /// item), without a graph: its maps are made and carried back as for the ONNX file, and
+    /// another engine runs them (predict's runner=: the trainer's PyTorch network).
+    #[staticmethod]
+    #[pyo3(signature = (record, *, name="record"))]
+    fn from_record(record: &str, name: &str) -> PyResult<Model> {
+        let inner = RustModel::of_record(record, Path::new(name)).map_err(py_err)?;
+        Ok(Model { inner })
+    }
+
     /// Runs the model on the scan file at `path`, read and projected as `kitti2pgm infer` does:
     /// {"classes": (N,) int16, each point's class in file order (-1: outside the map),
-    /// "map": (H, W) uint8, each cell's class}. method: "knn" (default) or "cell".
-    #[pyo3(signature = (path, *, method="knn"))]
+    /// "map": (H, W) uint8, each cell's class}. method: "knn" (default) or "cell"; runner: a
+    /// callable run instead of ONNX Runtime, given the (1, H, W, C) float32 input and returning
+    /// each cell's class as integers of H x W values.
+    #[pyo3(signature = (path, *, method="knn", runner=None))]
     fn predict_file<'py>(
         &self,
         py: Python<'py>,
         path: PathBuf,
         method: &str,
+        runner: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let method = named::<MethodKind>("method", method)?.with(KnnParams::default());
-        let r = py
-            .detach(|| kitti2pgm::infer::frame::predict_file(&self.inner, &path, &method))
+        let p = py
+            .detach(|| frame::project(&self.inner, &path, None))
             .map_err(py_err)?;
-        let s = &self.inner.spec.map.spec;
+        self.finish(py, &p, &method, runner)
+    }
+
+    /// Runs the model on points held in memory, projected as `kitti2pgm infer` projects a scan
+    /// file of them (the model's sensor, pose, rows and columns): points (N, 4) float32 x, y, z,
+    /// intensity in the scan's frame (as a file stores them; non-finite points get no class);
+    /// ring (N,) uint16, the sensor's beam ids where the cloud has them. Returns what
+    /// predict_file returns, classes in the order of the points.
+    #[pyo3(signature = (points, *, ring=None, method="knn", runner=None))]
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        ring: Option<&Bound<'py, PyAny>>,
+        method: &str,
+        runner: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let method = named::<MethodKind>("method", method)?.with(KnnParams::default());
+        let (pts, intensity) = points_arg(points, "points", true)?;
+        let ring = ring
+            .map(|a| vec_arg::<u16>(a, "ring", pts.len()))
+            .transpose()?;
+        let intensity = intensity.expect("asked for");
+        let p = py
+            .detach(|| {
+                let scan = Scan::of_columns(pts, intensity, ring);
+                frame::project_points(&self.inner, scan, Path::new("points"))
+            })
+            .map_err(py_err)?;
+        self.finish(py, &p, &method, runner)
+    }
+}
+
+impl Model {
+    /// Runs a projected scan (on ONNX Runtime, or `runner`) and carries its classes back.
+    fn finish<'py>(
+        &self,
+        py: Python<'py>,
+        p: &frame::Projected,
+        method: &Method,
+        runner: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.inner;
+        let input = m.input_of(&p.map).map_err(py_err)?;
+        let cells = match runner {
+            None => py.detach(|| m.run(&input)).map_err(py_err)?,
+            Some(f) => {
+                let labels = run_runner(py, f, input, m.input_shape())?;
+                m.classes_of(labels).map_err(py_err)?
+            }
+        };
+        let r = py
+            .detach(|| frame::carry(m, p, cells, method))
+            .map_err(py_err)?;
+        let s = &m.spec.map.spec;
         result_dict(py, r, s.rows, s.cols)
     }
+}
+
+/// Calls `runner` on the input (1 x H x W x C float32) and takes its result: integers, H x W of
+/// them (any shape of that size: (H, W), (1, H, W)); anything else is a ValueError.
+fn run_runner<'py>(
+    py: Python<'py>,
+    runner: &Bound<'py, PyAny>,
+    input: Vec<f32>,
+    shape: [usize; 4],
+) -> PyResult<Vec<i64>> {
+    let x = PyArray1::from_vec(py, input).reshape(shape)?;
+    let out = runner.call1((x,))?;
+    let np = py.import("numpy")?;
+    let a = np.call_method1("asarray", (out,))?;
+    let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+    let cells = shape[1] * shape[2];
+    let size: usize = a.getattr("size")?.extract()?;
+    if !(kind == "i" || kind == "u") || size != cells {
+        return Err(PyValueError::new_err(format!(
+            "runner must return the class of each of the {} x {} cells as integers, got an \
+             array of dtype {} and shape {}",
+            shape[1],
+            shape[2],
+            a.getattr("dtype")?.str()?,
+            a.getattr("shape")?.str()?
+        )));
+    }
+    let flat = np
+        .call_method1("ascontiguousarray", (a.call_method1("reshape", (-1,))?,))?
+        .call_method1("astype", ("int64",))?;
+    vec_arg::<i64>(&flat, "runner's result", cells)
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

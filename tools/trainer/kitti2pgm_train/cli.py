@@ -119,6 +119,17 @@ def parser() -> argparse.ArgumentParser:
     x.add_argument("--run", required=True, help="the run directory (train --out)")
     x.add_argument("--out", help="the .onnx file to write")
     x.add_argument("--torchscript", help="the TorchScript .pt file to write")
+    r = sub.add_parser("predict", help="run a run's network (PyTorch, GPU when present) on scan files or folders, "
+                                       "projected and carried back as kitti2pgm infer does",
+                       formatter_class=_Help)
+    r.add_argument("--run", required=True, help="the run directory (train --out)")
+    r.add_argument("inputs", nargs="+", metavar="INPUT", help="scan files (.bin, .pcd, .pcd.bin) or folders of them")
+    r.add_argument("--out", required=True, help="OUT/<stem>.label per scan (uint32 class ids, 0xffff: outside "
+                                                "the map), as kitti2pgm infer writes a scan file's")
+    r.add_argument("--device", default="auto", help="auto, cpu or cuda")
+    r.add_argument("--method", choices=["knn", "cell"], default="knn",
+                   help="a point's class: RangeNet++'s kNN, or its cell's")
+    r.add_argument("--json", action="store_true", help="print the summary as JSON")
     return p
 
 
@@ -139,6 +150,17 @@ def main(argv=None) -> int:
             from .export import export
             for kind, path in export(args.run, args.out, args.torchscript).items():
                 print(f"{kind}: {path}")
+        elif args.command == "predict":
+            from .predict import predict
+            r = predict(args.run, args.inputs, args.out, args.device, args.method)
+            if args.json:
+                print(json.dumps(r, indent=2))
+            else:
+                total = max(1, sum(r["classes"].values()))
+                print(f"{r['scans']} scans, {r['points']} points ({r['not_predicted']} outside the map) on "
+                      f"{r['device']}; labels in {r['out']}")
+                for name, n in r["classes"].items():
+                    print(f"  {name:<16} {n:>10} {100 * n / total:7.3f}%")
         else:
             from .evaluate import evaluate
             r = evaluate(EvalConfig.from_args(args))

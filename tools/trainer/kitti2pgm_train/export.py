@@ -68,18 +68,27 @@ def deployable(run: str) -> tuple:
     return net, example, config
 
 
-def record_map(path: str, config: dict) -> None:
-    """Adds the metadata entry that tells kitti2pgm how to feed the model at ``path`` (an ONNX
-    file, rewritten in place)."""
+def model_record(config: dict) -> str:
+    """The record of a run (its shards' map, its channels, what made it): the metadata value
+    that tells kitti2pgm how to feed the run's network, built and checked by the native module."""
     import json
 
     import kitti2pgm  # the native module (tools/install.sh)
-    import onnx
 
     args = TrainConfig.from_saved(config["args"])
-    key, value = kitti2pgm.model_metadata(
+    _, value = kitti2pgm.model_metadata(
         json.dumps(config["shard_params"]["map"]), list(config["channels"]),
         f"kitti2pgm_train {config.get('trainer_version', '?')}: {args.model} {args.input}")
+    return value
+
+
+def record_map(path: str, config: dict) -> None:
+    """Adds the metadata entry that tells kitti2pgm how to feed the model at ``path`` (an ONNX
+    file, rewritten in place)."""
+    import kitti2pgm
+    import onnx
+
+    key, value = kitti2pgm.MODEL_METADATA_KEY, model_record(config)
     m = onnx.load(path)
     for old in [p for p in m.metadata_props if p.key == key]:
         m.metadata_props.remove(old)
