@@ -144,3 +144,54 @@ impl ModelLabelRecord {
         Ok(s)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(frames: BTreeMap<String, Fingerprint>) -> ModelLabelRecord {
+        ModelLabelRecord {
+            version: VERSION,
+            kitti2pgm: "test".into(),
+            complete: true,
+            model: "m.onnx".into(),
+            digest: "xxh3-128:0".into(),
+            producer: String::new(),
+            class_map: ClassMap::semantic_kitti(),
+            method: RecordedMethod::from(&Method::Knn(KnnParams::default())),
+            input: "root".into(),
+            predictions: None,
+            frames,
+        }
+    }
+
+    #[test]
+    fn a_record_reads_back_and_tells_edited_missing_and_unedited_files() {
+        let d = tempfile::tempdir().unwrap();
+        let seq = d.path();
+        std::fs::create_dir_all(seq.join(sequence::LABELS)).unwrap();
+        let mut frames = BTreeMap::new();
+        for name in ["000000", "000001", "000002"] {
+            let p = label_path(seq, name);
+            std::fs::write(&p, name.as_bytes()).unwrap();
+            frames.insert(
+                name.to_string(),
+                crate::fs::fingerprint(&p).unwrap().unwrap(),
+            );
+        }
+        let r = record(frames);
+        write(seq, &r, super::super::Durability::Renamed).unwrap();
+        assert_eq!(read(seq).unwrap(), Some(r.clone()));
+        std::fs::write(label_path(seq, "000001"), b"corrected").unwrap();
+        std::fs::remove_file(label_path(seq, "000002")).unwrap();
+        let s = r.state(seq).unwrap();
+        assert_eq!(s.unedited, ["000000"]);
+        assert_eq!(s.edited, ["000001"]);
+        assert_eq!(s.missing, ["000002"]);
+        // Another version, or not a record: errors naming the file.
+        std::fs::write(path(seq), b"{\"version\": 2}").unwrap();
+        let e = read(seq).unwrap_err().to_string();
+        assert!(e.contains(MODEL_LABELS_MARKER), "{e}");
+        assert!(read(&seq.join("absent")).unwrap().is_none());
+    }
+}

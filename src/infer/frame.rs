@@ -89,6 +89,7 @@ fn assembled(
 ) -> Result<Projected> {
     let params = &model.spec.map;
     refuse_other_sensor(model, &scan, path)?;
+    refuse_off_model(model, &scan, &proj, path)?;
     let colours = match (&params.rgb, camera) {
         (Some(rgb), Some((dp, frame))) => {
             let ((cam, img), _) =
@@ -148,16 +149,48 @@ fn refuse_other_sensor(model: &Model, scan: &Scan, path: &Path) -> Result<()> {
     if beams == 0 || beams == LASERS {
         return Ok(());
     }
-    Err(crate::error::Error::Config(format!(
-        "{}: a {beams}-beam scan (its ring field), and {} was trained on KITTI's 64-beam maps \
-         ({} x {} over {} degrees, rows from the HDL-64E's scan order): run a model trained on \
-         this sensor's maps (kitti2pgm convert --sensor ...)",
-        path.display(),
-        model.path.display(),
-        params.spec.rows,
-        params.spec.cols,
-        params.spec.fov.0
-    )))
+    Err(crate::error::Error::Input {
+        path: path.into(),
+        message: format!(
+            "a {beams}-beam scan (its ring field), and {} was trained on KITTI's 64-beam maps \
+             ({} x {} over {} degrees, rows from the HDL-64E's scan order): run a model trained \
+             on this sensor's maps (kitti2pgm convert --sensor ...)",
+            model.path.display(),
+            params.spec.rows,
+            params.spec.cols,
+            params.spec.fov.0
+        ),
+    })
+}
+
+/// The share of a scan's points that fit no beam of the model's sensor beyond which the scan is
+/// refused (the points are another sensor's, or not in the sensor's frame): ten times `check`'s
+/// `beam-model.warn-share` and a fifth of its error share, since a model given rows it never saw
+/// gives no warning of its own (a KITTI HDL-64E scan read as a VLP-16's: 21% of its points).
+pub const OFF_MODEL_REFUSED: f64 = 0.1;
+
+/// Refuses a scan most of whose points fit no beam of the sensor the model was trained on.
+fn refuse_off_model(model: &Model, scan: &Scan, proj: &Projection, path: &Path) -> Result<()> {
+    let (off, n) = (proj.stats.off_model, scan.len());
+    let Some(sensor) = model.spec.map.sensor.as_ref() else {
+        return Ok(());
+    };
+    if n == 0 || (off as f64) <= OFF_MODEL_REFUSED * n as f64 {
+        return Ok(());
+    }
+    let spec = &model.spec.map.spec;
+    Err(crate::error::Error::Input {
+        path: path.into(),
+        message: format!(
+            "{off} of {n} points fit no beam of {} ({} beams), the sensor {} was trained on \
+         ({} x {} map): the scan is another sensor's, or not in the sensor's frame",
+            sensor.name,
+            sensor.beams,
+            model.path.display(),
+            spec.rows,
+            spec.cols
+        ),
+    })
 }
 
 /// Runs `model` on a projected scan and carries its classes back to the points.

@@ -211,25 +211,9 @@ pub fn infer(
     let mut failures = Vec::new();
     let batch_len = 4 * rayon::current_num_threads().max(1);
     let mut units = input::units(&source);
+    let is_bag = matches!(source, Input::Bag(..));
     loop {
-        let mut batch = Vec::with_capacity(batch_len);
-        for u in units.by_ref() {
-            match u {
-                Ok(u) => batch.push(u),
-                Err(s) => {
-                    if matches!(source, Input::Bag(..)) {
-                        progress(Progress::Done(1));
-                    }
-                    failures.push(InferFailure {
-                        frame: s.name,
-                        error: s.error,
-                    });
-                }
-            }
-            if batch.len() == batch_len {
-                break;
-            }
-        }
+        let batch = next_batch(&mut units, batch_len, is_bag, &mut failures, progress);
         if batch.is_empty() {
             break;
         }
@@ -274,6 +258,36 @@ pub fn infer(
         v.finish()?;
     }
     Ok(summary(model, &source, opts, totals, failures, start))
+}
+
+/// The next (up to) `len` units; those that cannot run are added to `failures` (a bag's count
+/// towards the progress: its message count includes them).
+fn next_batch(
+    units: &mut dyn Iterator<Item = std::result::Result<Unit, input::Skipped>>,
+    len: usize,
+    is_bag: bool,
+    failures: &mut Vec<InferFailure>,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Vec<Unit> {
+    let mut batch = Vec::with_capacity(len);
+    for u in units {
+        match u {
+            Ok(u) => batch.push(u),
+            Err(s) => {
+                if is_bag {
+                    progress(Progress::Done(1));
+                }
+                failures.push(InferFailure {
+                    frame: s.name,
+                    error: s.error,
+                });
+            }
+        }
+        if batch.len() == len {
+            break;
+        }
+    }
+    batch
 }
 
 /// The summary of a run.

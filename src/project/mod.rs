@@ -324,13 +324,17 @@ fn project_prepared(
     beams: Option<crate::sensor::params::BeamRowsOf>,
 ) -> (crate::source::Scan, Projection) {
     let proj = match &beams {
-        Some(b) => project_beams_with_point_cells(
-            &scan.points,
-            spec,
-            &b.rows,
-            b.beams,
-            b.columns.as_deref(),
-        ),
+        Some(b) => {
+            let mut p = project_beams_with_point_cells(
+                &scan.points,
+                spec,
+                &b.rows,
+                b.beams,
+                b.columns.as_deref(),
+            );
+            p.stats.off_model = b.off_model;
+            p
+        }
         None => project_with_point_cells(&scan.points, spec),
     };
     (scan, proj)

@@ -335,6 +335,26 @@ fn kept_index(dropped: &[u32], k: usize) -> usize {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn points_in_memory_are_dropped_as_a_file_s_are() {
+        let pts = vec![
+            Point3::new(1.0, 0.0, 0.0),
+            Point3::new(f32::NAN, 0.0, 0.0),
+            Point3::new(MAX_RANGE_M * 2.0, 0.0, 0.0),
+            Point3::new(0.0, 2.0, 0.0),
+        ];
+        let s = Scan::of_columns(
+            pts,
+            vec![0.5, 0.5, 0.5, f32::INFINITY],
+            Some(vec![3, 4, 5, 6]),
+        );
+        assert_eq!(s.points, [Point3::new(1.0, 0.0, 0.0)]);
+        assert_eq!(s.intensity, [0.5]);
+        assert_eq!(s.ring.as_deref(), Some(&[3u16][..]));
+        assert_eq!((s.file_len, s.dropped.as_slice()), (4, &[1u32, 2, 3][..]));
+        assert_eq!(s.dropped_out_of_range, 1);
+    }
+
     use super::*;
 
     fn records(points: &[[f32; 4]]) -> Vec<u8> {
