@@ -7,8 +7,8 @@
 #
 # The model: SqueezeSeg at the paper's size (xyzdi, about 0.9 M parameters) trained one step on
 # the 30 real scans of ../shared/kitti/raw and exported (the weights do not change the time).
-# The scans: those 30, COPIES times (default 4: 120 scans). Three runs each, alternating; the
-# best counts. The per-point outputs of infer and the peer are compared at the end.
+# The scans: those 30, COPIES times (default 4: 120 scans). RUNS (5) runs each, alternating; the
+# best counts, and each run's ratios (their median). The per-point outputs of infer and the peer are compared at the end.
 set -euo pipefail
 . "$(dirname "$0")/common.sh"
 copies=${1:-4}
@@ -30,7 +30,8 @@ min() { echo "if ($1 < $2) $1 else $2" | bc; }
 eng() { python3 "$here/benches/infer_python_peer.py" "$work/model.onnx" - - --threads "$threads" \
   --engine-only "$work/maps" | python3 -c 'import json,sys; print(json.load(sys.stdin)["seconds"])'; }
 eb=999999; pb=999999; ob=999999
-for rep in 1 2 3; do
+ratios=()
+for rep in $(seq 1 "${RUNS:-5}"); do
   rm -rf "$work/peer" "$work/ours"
   e=$(eng)
   p=$(t python3 "$here/benches/infer_python_peer.py" "$work/model.onnx" "$work/raw" "$work/peer" --threads "$threads")
@@ -38,7 +39,11 @@ for rep in 1 2 3; do
     --model-threads "$threads")
   eb=$(min "$e" "$eb"); pb=$(min "$p" "$pb"); ob=$(min "$o" "$ob")
   echo "run $rep: engine alone ${e}s  python peer ${p}s  kitti2pgm infer ${o}s"
+  ratios+=("$(echo "scale=3; $o / $e" | bc) $(echo "scale=3; $p / $o" | bc)")
 done
+# The machine is shared: each run's own ratios (the three timed back to back), their median.
+printf '%s\n' "${ratios[@]}" | python3 -c 'import statistics,sys; r=[tuple(map(float,l.split())) for l in sys.stdin]; print("per run, median: %.2fx the engine'"'"'s time, %.2fx the peer'"'"'s speed (runs: %s)" % (statistics.median(a for a,_ in r), statistics.median(b for _,b in r), ", ".join("%.2f/%.2f" % x for x in r)))'
+
 sps() { echo "scale=1; $scans / $1" | bc; }
 echo "engine alone (onnxruntime, maps in memory): $(sps "$eb") scans/s"
 echo "python peer (numpy + kitti2pgm + onnxruntime): $(sps "$pb") scans/s (wall, process start included)"

@@ -209,7 +209,7 @@ pub fn infer(
     progress(Progress::Frames(source.len()));
     let mut totals = Totals::default();
     let mut failures = Vec::new();
-    let batch_len = 4 * rayon::current_num_threads().max(1);
+    let batch_len = 8 * rayon::current_num_threads().max(1);
     let mut units = input::units(&source);
     let is_bag = matches!(source, Input::Bag(..));
     loop {

@@ -193,3 +193,46 @@ def test_python_arrays_and_the_pytorch_run_give_the_cli_classes(vlp16, tmp_path,
     assert main(["predict", "--run", str(run), str(SCAN), "--out", str(tmp_path / "torch"), "--device", "cpu"]) == 0
     torch_labels = np.fromfile(tmp_path / "torch" / "000000.label", dtype="<u4")
     assert (torch_labels == cli).mean() >= 0.9999
+
+
+# Peak memory is measured from a small Python process: Linux keeps a process's peak across
+# exec, so a child of the test process (torch loaded) would start at the test's own size.
+PEAK = ("import os, sys; out = os.open(sys.argv[1], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644); "
+        "pid = os.fork()\nif pid == 0: os.dup2(out, 1); os.execv(sys.argv[2], sys.argv[2:])\n"
+        "_, status, usage = os.wait4(pid, 0); print(os.waitstatus_to_exitcode(status), usage.ru_maxrss)")
+
+
+def _peak_mib(args, out: pathlib.Path):
+    """Runs the CLI (its stdout to `out`) and returns its peak resident memory, MiB."""
+    r = subprocess.run(["python3", "-c", PEAK, str(out), *args], capture_output=True, text=True)
+    code, kib = r.stdout.split()
+    assert code == "0", r.stderr
+    return int(kib) / 1024
+
+
+def test_a_bag_runs_in_flat_memory(vlp16, tmp_path, kitti2pgm_path):
+    """infer streams a bag: 96 scans (about 44 MiB) cost no more memory than 24 (both more than
+    the 16 scans it holds at a time on two threads), within a few scans' worth."""
+    import importlib.util
+
+    pytest.importorskip("rosbags")
+    from rosbags.typesys import Stores, get_typestore
+
+    spec = importlib.util.spec_from_file_location("make_bag", FIX / "make_bag.py")
+    assert spec and spec.loader
+    mb = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mb)
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    pts = mb.read_pcd(FIX / "lidars" / "velodyne" / "vlp16_1673400472138016708.pcd")
+    _, onnx = vlp16
+    peaks = []
+    for n in (24, 96):
+        bag = tmp_path / f"bag{n}"
+        msgs = [("/v", "sensor_msgs/msg/PointCloud2", mb.pointcloud2(ts, pts, i, "v"), i, True) for i in range(n)]
+        mb.write_bag(bag, msgs, ts)
+        peaks.append(_peak_mib([kitti2pgm_path, "--no-progress", "--threads", "2", "infer", "--model", str(onnx),
+                                str(bag), "--topic", "/v", "--out", str(tmp_path / f"o{n}"), "--json"],
+                               tmp_path / f"s{n}.json"))
+        assert json.loads((tmp_path / f"s{n}.json").read_text())["frames"] == n
+    assert sum(f.stat().st_size for f in (tmp_path / "bag96").iterdir()) > 40 * 2**20
+    assert peaks[1] < peaks[0] + 12, peaks
