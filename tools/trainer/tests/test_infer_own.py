@@ -211,8 +211,9 @@ def _peak_mib(args, out: pathlib.Path):
 
 
 def test_a_bag_runs_in_flat_memory(vlp16, tmp_path, kitti2pgm_path):
-    """infer streams a bag: 96 scans (about 44 MiB) cost no more memory than 24 (both more than
-    the 16 scans it holds at a time on two threads), within a few scans' worth."""
+    """infer streams a bag: 192 scans (about 88 MiB) cost no more memory than 48 (both three or
+    more times the 16 scans it holds at a time on two threads), within the run-to-run spread
+    (about 6 MiB here)."""
     import importlib.util
 
     pytest.importorskip("rosbags")
@@ -226,7 +227,7 @@ def test_a_bag_runs_in_flat_memory(vlp16, tmp_path, kitti2pgm_path):
     pts = mb.read_pcd(FIX / "lidars" / "velodyne" / "vlp16_1673400472138016708.pcd")
     _, onnx = vlp16
     peaks = []
-    for n in (24, 96):
+    for n in (48, 192):
         bag = tmp_path / f"bag{n}"
         msgs = [("/v", "sensor_msgs/msg/PointCloud2", mb.pointcloud2(ts, pts, i, "v"), i, True) for i in range(n)]
         mb.write_bag(bag, msgs, ts)
@@ -234,5 +235,5 @@ def test_a_bag_runs_in_flat_memory(vlp16, tmp_path, kitti2pgm_path):
                                 str(bag), "--topic", "/v", "--out", str(tmp_path / f"o{n}"), "--json"],
                                tmp_path / f"s{n}.json"))
         assert json.loads((tmp_path / f"s{n}.json").read_text())["frames"] == n
-    assert sum(f.stat().st_size for f in (tmp_path / "bag96").iterdir()) > 40 * 2**20
-    assert peaks[1] < peaks[0] + 12, peaks
+    assert sum(f.stat().st_size for f in (tmp_path / "bag192").iterdir()) > 80 * 2**20
+    assert peaks[1] < peaks[0] + 16, peaks
