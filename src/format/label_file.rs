@@ -138,9 +138,38 @@ pub fn read_classes(path: &Path, map: &ClassMap) -> Result<Vec<ClassId>> {
         .collect()
 }
 
+/// The class of every point of a per-point prediction file (class ids): `None` where it says
+/// none was predicted ([`NOT_PREDICTED`], what `infer` and `unproject` write outside the map);
+/// any other value must be a class of `map`.
+pub fn read_predicted_classes(path: &Path, map: &ClassMap) -> Result<Vec<Option<ClassId>>> {
+    read_raw(path)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, v)| match v & 0xffff {
+            NOT_PREDICTED => Ok(None),
+            c => map.check(c as u64, path, || format!("point {i}")).map(Some),
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn not_predicted_points_read_as_none_and_other_ids_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.label");
+        let map = ClassMap::kitti_paper();
+        std::fs::write(&p, encode_raw(&[1, NOT_PREDICTED, 3])).unwrap();
+        assert_eq!(
+            read_predicted_classes(&p, &map).unwrap(),
+            [Some(1), None, Some(3)]
+        );
+        std::fs::write(&p, encode_raw(&[1, 9])).unwrap();
+        let e = read_predicted_classes(&p, &map).unwrap_err().to_string();
+        assert!(e.contains("point 1 has label 9"), "{e}");
+    }
 
     #[test]
     fn round_trip() {

@@ -93,7 +93,7 @@ fn predicted_cells(
             },
             (Some(p), false) => read_cell_prediction(p, shape, map)?.labels,
             (Some(p), true) => {
-                let pl = label_file::read_classes(p, map)?;
+                let pl = label_file::read_predicted_classes(p, map)?;
                 let winners = scan.cell_winner_file.iter().filter(|&&f| f != u32::MAX);
                 let n = winners.map(|&f| f as usize + 1).max().unwrap_or(0);
                 if pl.len() < n {
@@ -107,7 +107,10 @@ fn predicted_cells(
                 }
                 scan.cell_winner_file
                     .iter()
-                    .map(|&f| if f == u32::MAX { 0 } else { pl[f as usize] })
+                    .map(|&f| match f {
+                        u32::MAX => 0,
+                        f => pl[f as usize].unwrap_or(map.background),
+                    })
                     .collect()
             }
         },
@@ -191,7 +194,7 @@ fn count_points(
         .get(id)
         .filter(|_| preds.kind == PredictionKind::Points);
     let pred_points = pred_file
-        .map(|p| label_file::read_classes(p, map))
+        .map(|p| label_file::read_predicted_classes(p, map))
         .transpose()?;
     // Map predictions reach the points by the chosen method (kept points, in the order of
     // point_cells).
@@ -211,9 +214,11 @@ fn count_points(
             .get(fi as usize)
             .ok_or_else(|| short(&lp, gt_points.len(), fi))?;
         let p = match (&pred_points, pred_file, &carried) {
-            (Some(pp), Some(file), _) => *pp
+            // A point the file says was not predicted counts as background.
+            (Some(pp), Some(file), _) => pp
                 .get(fi as usize)
-                .ok_or_else(|| short(file, pp.len(), fi))?,
+                .ok_or_else(|| short(file, pp.len(), fi))?
+                .unwrap_or(map.background),
             (_, _, Some(c)) => c[k],
             _ => pred_cells[cell as usize],
         };

@@ -68,6 +68,11 @@ def test_infer_labels_like_onnxruntime_and_unproject(rgb_model, converted, tmp_p
     assert len(labels) == 3
     for f in labels:
         assert f.read_bytes() == (ref / f.relative_to(out)).read_bytes(), f
+    # score reads them per point (0xffff outside the map: not predicted).
+    rep = json.loads(subprocess.run([kitti2pgm_path, "--no-progress", "score", "--gt", str(converted), "--pred",
+                                     str(out / "labels"), "--points", "--raw", str(RAW), "--json"],
+                                    check=True, capture_output=True, text=True).stdout)
+    assert rep["frames"] == 3 and rep["elements"] > 50_000, (rep["frames"], rep["elements"])
 
 
 def test_python_model_predicts_like_the_cli(converted, lidar_only, tmp_path, kitti2pgm_path):
