@@ -138,32 +138,17 @@ pub fn path(seq: &Path) -> PathBuf {
 
 /// The record of sequence folder `seq`, if it has one.
 pub fn read(seq: &Path) -> Result<Option<BoxLabelRecord>> {
-    let p = path(seq);
-    if !crate::fs::present(&p) {
-        return Ok(None);
-    }
-    let text = crate::fs::read_text(&p, crate::fs::Limit::Text)?;
-    let record: BoxLabelRecord = serde_json::from_str(&text).map_err(|e| Error::NotFormat {
-        path: p.clone(),
-        format: "a kitti2pgm box label record",
-        detail: e.to_string(),
-    })?;
-    if record.version != VERSION {
-        return Err(Error::format(
-            &p,
-            format!(
-                "record version {} (this kitti2pgm writes {VERSION})",
-                record.version
-            ),
-        ));
-    }
-    Ok(Some(record))
+    super::read_versioned(
+        &path(seq),
+        "a kitti2pgm box label record",
+        VERSION,
+        |r: &BoxLabelRecord| r.version,
+    )
 }
 
 /// Writes `record` into sequence folder `seq`, atomically.
 pub fn write(seq: &Path, record: &BoxLabelRecord, d: super::Durability) -> Result<()> {
-    let json = serde_json::to_vec_pretty(record).expect("a record serialises");
-    super::atomic_write(&path(seq), &json, d)
+    super::write_json(&path(seq), record, d)
 }
 
 /// The class map the box labels of `seqs` were written with: `None` when none of them was

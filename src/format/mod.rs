@@ -113,3 +113,40 @@ pub fn create_dir(path: &Path) -> Result<()> {
         source,
     })
 }
+
+/// The JSON record at `path` (`None` when there is none), parsed as `format` and of `version`
+/// (`version_of` reads it): the one reader of the records kept beside a sequence's labels.
+pub(crate) fn read_versioned<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    format: &'static str,
+    version: u32,
+    version_of: impl Fn(&T) -> u32,
+) -> Result<Option<T>> {
+    if !crate::fs::present(path) {
+        return Ok(None);
+    }
+    let text = crate::fs::read_text(path, crate::fs::Limit::Text)?;
+    let record: T = serde_json::from_str(&text).map_err(|e| Error::NotFormat {
+        path: path.into(),
+        format,
+        detail: e.to_string(),
+    })?;
+    let found = version_of(&record);
+    if found != version {
+        return Err(Error::format(
+            path,
+            format!("record version {found} (this kitti2pgm writes {version})"),
+        ));
+    }
+    Ok(Some(record))
+}
+
+/// Writes a JSON record to `path`, pretty-printed, atomically.
+pub(crate) fn write_json<T: serde::Serialize>(
+    path: &Path,
+    record: &T,
+    d: Durability,
+) -> Result<()> {
+    let json = serde_json::to_vec_pretty(record).expect("a record serialises");
+    atomic_write(path, &json, d)
+}

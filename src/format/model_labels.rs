@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::fs::Fingerprint;
 use crate::label::ClassMap;
 use crate::project::unproject::{KnnParams, Method, MethodKind};
@@ -86,32 +86,17 @@ pub fn path(seq: &Path) -> PathBuf {
 
 /// The record of sequence folder `seq`, if it has one.
 pub fn read(seq: &Path) -> Result<Option<ModelLabelRecord>> {
-    let p = path(seq);
-    if !crate::fs::present(&p) {
-        return Ok(None);
-    }
-    let text = crate::fs::read_text(&p, crate::fs::Limit::Text)?;
-    let record: ModelLabelRecord = serde_json::from_str(&text).map_err(|e| Error::NotFormat {
-        path: p.clone(),
-        format: "a kitti2pgm model label record",
-        detail: e.to_string(),
-    })?;
-    if record.version != VERSION {
-        return Err(Error::format(
-            &p,
-            format!(
-                "record version {} (this kitti2pgm writes {VERSION})",
-                record.version
-            ),
-        ));
-    }
-    Ok(Some(record))
+    super::read_versioned(
+        &path(seq),
+        "a kitti2pgm model label record",
+        VERSION,
+        |r: &ModelLabelRecord| r.version,
+    )
 }
 
 /// Writes `record` into sequence folder `seq`, atomically.
 pub fn write(seq: &Path, record: &ModelLabelRecord, d: super::Durability) -> Result<()> {
-    let json = serde_json::to_vec_pretty(record).expect("a record serialises");
-    super::atomic_write(&path(seq), &json, d)
+    super::write_json(&path(seq), record, d)
 }
 
 /// The label file of frame `name` (`000042`) in sequence folder `seq`.

@@ -86,6 +86,81 @@ fn identity() -> Option<Pose> {
     })
 }
 
+/// A visualisation file being written: its MCAP writer over a temporary file beside `path`,
+/// renamed into place by [`VizFile::finish`] (dropped unfinished, the temporary file goes).
+pub struct VizFile {
+    /// Where it goes.
+    pub path: std::path::PathBuf,
+    /// The writer.
+    pub writer: mcap::Writer<std::io::BufWriter<std::fs::File>>,
+    /// Its channels.
+    pub channels: VizChannels,
+    tmp: tempfile::TempPath,
+}
+
+impl VizFile {
+    /// Starts the file `path` (its folder made) with the three channels.
+    pub fn create(path: &std::path::Path) -> crate::error::Result<VizFile> {
+        use crate::error::Error;
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(std::path::Path::new("."));
+        crate::format::create_dir(dir)?;
+        let werr = |source| Error::Write {
+            path: path.into(),
+            source,
+        };
+        let merr = |e: mcap::McapError| Error::mcap(path, "MCAP writer", e);
+        let (file, tmp) = crate::format::temp_builder()
+            .suffix(".mcap")
+            .tempfile_in(dir)
+            .map_err(werr)?
+            .into_parts();
+        let mut writer = mcap::WriteOptions::new()
+            .profile("kitti2pgm")
+            .library(format!("kitti2pgm {}", env!("CARGO_PKG_VERSION")))
+            .create(std::io::BufWriter::new(file))
+            .map_err(merr)?;
+        let channels = VizChannels::add(&mut writer).map_err(merr)?;
+        Ok(VizFile {
+            path: path.into(),
+            writer,
+            channels,
+            tmp,
+        })
+    }
+
+    /// Writes one frame ([`VizChannels::write`]).
+    pub fn write(
+        &mut self,
+        v: &VizFrame,
+        sequence: u32,
+        log_time: u64,
+    ) -> crate::error::Result<()> {
+        (self.channels)
+            .write(&mut self.writer, v, sequence, log_time)
+            .map_err(|e| crate::error::Error::mcap(&self.path, "MCAP writer", e))
+    }
+
+    /// Finishes the file, flushes it and renames it into place.
+    pub fn finish(mut self) -> crate::error::Result<()> {
+        use crate::error::Error;
+        let path = self.path.clone();
+        let werr = |source| Error::Write {
+            path: path.clone(),
+            source,
+        };
+        (self.writer)
+            .finish()
+            .map_err(|e| Error::mcap(&path, "MCAP writer", e))?;
+        let file = (self.writer.into_inner().into_inner()).map_err(|e| werr(e.into_error()))?;
+        file.sync_data().map_err(werr)?;
+        self.tmp.persist(&path).map_err(|e| werr(e.error))?;
+        Ok(())
+    }
+}
+
 impl VizChannels {
     /// Adds the schemas and channels.
     pub fn add<W: std::io::Write + std::io::Seek>(

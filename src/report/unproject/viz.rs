@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use super::{load_point_frame, UnprojectOptions};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::format::layout::point_prediction_path;
 use crate::fs::Role;
 use crate::label::ClassId;
@@ -43,33 +43,13 @@ pub fn write_viz(
     frames: &[FrameId],
     path: &Path,
 ) -> Result<()> {
-    use crate::format::shard::viz::{VizChannels, VizFrame};
+    use crate::format::shard::viz::{VizFile, VizFrame};
     refuse_viz_over_inputs(path, gt, preds, opts)?;
     let map = &gt.params.class_map;
     let wrong = map.len() as ClassId;
     let mut colours: Vec<[u8; 3]> = (0..map.len()).map(|c| map.colour(c as ClassId)).collect();
     colours.push([255, 0, 0]);
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    crate::format::create_dir(dir)?;
-    let werr = |source| Error::Write {
-        path: path.into(),
-        source,
-    };
-    let merr = |e: mcap::McapError| Error::mcap(path, "MCAP writer", e);
-    let tmp = crate::format::temp_builder()
-        .suffix(".mcap")
-        .tempfile_in(dir)
-        .map_err(werr)?;
-    let (file, tmp) = tmp.into_parts();
-    let mut w = mcap::WriteOptions::new()
-        .profile("kitti2pgm")
-        .library(format!("kitti2pgm {}", env!("CARGO_PKG_VERSION")))
-        .create(std::io::BufWriter::new(file))
-        .map_err(merr)?;
-    let channels = VizChannels::add(&mut w).map_err(merr)?;
+    let mut file = VizFile::create(path)?;
     for (k, id) in frames.iter().enumerate() {
         let f = load_point_frame(
             &opts.raw,
@@ -95,14 +75,7 @@ pub fn write_viz(
             v.points.push((f.scan.points[i], f.scan.intensity[i], c));
         }
         let time = k as u64 * 100_000_000;
-        channels.write(&mut w, &v, k as u32, time).map_err(merr)?;
+        file.write(&v, k as u32, time)?;
     }
-    w.finish().map_err(merr)?;
-    let file = w
-        .into_inner()
-        .into_inner()
-        .map_err(|e| werr(e.into_error()))?;
-    file.sync_data().map_err(werr)?;
-    tmp.persist(path).map_err(|e| werr(e.error))?;
-    Ok(())
+    file.finish()
 }
