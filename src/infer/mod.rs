@@ -14,9 +14,10 @@
 //!   ([`viz`]).
 //!
 //! INPUT is a dataset root, one scan file or a ROS 2 bag's point cloud topic ([`input`]), read
-//! a batch of scans at a time (a bag in flat memory). The scans of a batch run in parallel (the
-//! model's runs one at a time, each on ONNX Runtime's threads) and are recorded in their order;
-//! a scan that fails is recorded and the others go on; files are written atomically.
+//! a batch of scans at a time (a bag in flat memory) and recorded in their order. When ONNX
+//! Runtime runs a map on every core (the default), the scans run one at a time; with fewer model
+//! threads than workers, the scans of a batch run in parallel (the model's runs one at a time).
+//! A scan that fails is recorded and the others go on; files are written atomically.
 
 pub mod engine;
 pub mod frame;
@@ -210,6 +211,7 @@ pub fn infer(
     let mut totals = Totals::default();
     let mut failures = Vec::new();
     let batch_len = 8 * rayon::current_num_threads().max(1);
+    let one_at_a_time = model_takes_every_core(model);
     let mut units = input::units(&source);
     let is_bag = matches!(source, Input::Bag(..));
     loop {
@@ -224,14 +226,16 @@ pub fn infer(
             labels: labels.as_ref(),
             viz: viz.is_some(),
         };
-        let done: Vec<(Unit, Result<Done>)> = batch
-            .into_par_iter()
-            .map(|u| {
-                let r = run.unit(&u);
-                progress(Progress::Done(1));
-                (u, r)
-            })
-            .collect();
+        let one = |u: Unit| {
+            let r = run.unit(&u);
+            progress(Progress::Done(1));
+            (u, r)
+        };
+        let done: Vec<(Unit, Result<Done>)> = if one_at_a_time {
+            batch.into_iter().map(one).collect()
+        } else {
+            batch.into_par_iter().map(one).collect()
+        };
         for (u, r) in done {
             match r {
                 Ok(d) => {
@@ -364,6 +368,18 @@ fn begin_labels(
         frames: Default::default(),
     };
     AsLabels::begin(root, &numbers, &template, opts.overwrite, opts.durability)
+}
+
+/// Whether ONNX Runtime runs a map on as many threads as there are workers: then the scans run
+/// one at a time (each scan's stages on one worker, the model on every core). Its threads wait
+/// for their slowest, and scans read, projected and carried back beside them slowed the model
+/// more than the overlap won: 30 raw scans took 1.32-1.67 s one at a time against 1.38-2.14 s
+/// two at a time (lidar-only model; 2.42-3.60 against 2.45-3.63 s with colour), and a gate
+/// that kept the model alone while the other stages ran in parallel, 1.52-1.88 s
+/// (docs/performance.md).
+fn model_takes_every_core(model: &Model) -> bool {
+    let workers = rayon::current_num_threads();
+    model.threads == 0 || model.threads >= workers
 }
 
 /// What one scan gave.

@@ -36,6 +36,8 @@ pub struct Model {
     pub spec: ModelSpec,
     /// Whether the spec was recorded in the file (else given by the user).
     pub recorded: bool,
+    /// The threads ONNX Runtime runs one map on (0: one per core).
+    pub threads: usize,
     /// The library ONNX Runtime was loaded from (`None`: a record without a graph, whose maps
     /// another engine runs: [`Model::of_record`]).
     pub runtime: Option<PathBuf>,
@@ -164,6 +166,7 @@ impl Model {
             digest,
             spec,
             recorded: is_recorded,
+            threads: opts.threads,
             runtime: Some(rt.library.clone()),
             channels,
             session: Some(Mutex::new(session)),
@@ -184,6 +187,7 @@ impl Model {
             ),
             spec,
             recorded: true,
+            threads: 0,
             runtime: None,
             channels,
             session: None,
