@@ -119,10 +119,13 @@ pub enum Command {
     /// The model exported by `python -m kitti2pgm_train export` records its map (rows, columns,
     /// field of view, row source, sensor model and pose, colour, class map) and its input's
     /// channels; a scan of a sensor whose beam model does not fit that map is refused, with the
-    /// numbers. Outputs per-point predictions in the layout `score` and `submission` read
-    /// (SemanticKITTI's predictions/ for sequence roots), --maps the map predictions. ONNX
-    /// Runtime is loaded from the onnxruntime Python package (tools/install.sh). Exit status: 0
-    /// all predicted, 1 fatal error or every scan failed, 3 some scans failed.
+    /// numbers. INPUT is a dataset root, a scan file or a ROS 2 bag (--topic; streamed).
+    /// Outputs per-point predictions in the layout `score` and `submission` read
+    /// (SemanticKITTI's predictions/ for sequence roots and bags), --maps the map predictions,
+    /// --viz a Foxglove replay, --as-labels label files to correct by hand (`check` reports the
+    /// unedited ones, `score` compares the corrections with the model). ONNX Runtime is loaded
+    /// from the onnxruntime Python package (tools/install.sh). Exit status: 0 all predicted, 1
+    /// fatal error or every scan failed, 2 usage error, 3 some scans failed.
     Infer(InferArgs),
     /// Check a SemanticKITTI prediction folder before submitting it, as the benchmark's
     /// validate_submission.py does: every scan of the sequences has
