@@ -93,6 +93,38 @@ impl AsLabels {
     }
 }
 
+/// With `--overwrite`: removes what interrupted `--as-labels` runs left in the sequences of
+/// `root` (their label files and records: such a record is written before its first file, over a
+/// folder that held no labels of another kind), so that the readers, which refuse an unfinished
+/// run, read the root again. Returns the sequence folders cleared.
+pub fn clear_unfinished(root: &Path) -> Result<Vec<PathBuf>> {
+    let seqs = root.join(sequence::SEQUENCES);
+    if !seqs.is_dir() {
+        return Ok(Vec::new());
+    }
+    let mut cleared = Vec::new();
+    for seq in crate::fs::sorted_dir(&seqs)? {
+        let Some(rec) = (record::read(&seq).ok()).flatten() else {
+            continue;
+        };
+        if rec.complete {
+            continue;
+        }
+        let labels = seq.join(sequence::LABELS);
+        if labels.is_dir() {
+            for f in crate::fs::sorted_dir(&labels)? {
+                if f.extension().is_some_and(|e| e == "label") {
+                    std::fs::remove_file(&f).map_err(|e| Error::io(&f, e))?;
+                }
+            }
+        }
+        let marker = record::path(&seq);
+        std::fs::remove_file(&marker).map_err(|e| Error::io(&marker, e))?;
+        cleared.push(seq);
+    }
+    Ok(cleared)
+}
+
 /// Refuses a sequence folder whose labels are not an earlier run's, or are and `overwrite` is
 /// not given, or were edited; with `overwrite`, removes the earlier run's files.
 fn refuse_or_clear(seq: &Path, overwrite: bool) -> Result<()> {

@@ -199,6 +199,9 @@ pub fn infer(
     }
     refuse_over_inputs(model, input, opts)?;
     opts.method.validate()?;
+    if let (Some(root), true) = (&opts.as_labels, opts.overwrite) {
+        labels::clear_unfinished(root)?;
+    }
     let source = Input::open(input, opts.topic.as_deref(), opts.dataset)?;
     let mut labels = match &opts.as_labels {
         Some(root) => Some(begin_labels(model, &source, input, root, opts)?),

@@ -160,6 +160,18 @@ def test_as_labels_check_convert_score(vlp16, tmp_path, kitti2pgm_path):
     _bin(kitti2pgm_path, "infer", "--model", onnx, root, "--as-labels", root, "--overwrite")
     [(sev, _)] = findings()
     assert sev == "warning"
+    # An interrupted run (its record says so): every reader refuses the sequence, and --overwrite
+    # starts it again.
+    marker = root / "sequences" / "00" / "model_labels.json"
+    marker.write_text(marker.read_text().replace('"complete": true', '"complete": false'))
+    for args in (["check", root], ["convert", root, "--out", tmp_path / "maps2", "--sensor", "vlp16"],
+                 ["infer", "--model", onnx, root, "--as-labels", root]):
+        r = _bin(kitti2pgm_path, *args, check=False)
+        assert r.returncode != 0 and "unfinished infer --as-labels run" in r.stderr, (args, r.stderr)
+    _bin(kitti2pgm_path, "infer", "--model", onnx, root, "--as-labels", root, "--overwrite")
+    assert json.loads(marker.read_text())["complete"]
+    [(sev, _)] = findings()
+    assert sev == "warning"
 
 
 def kitti2pgm_model_digest(path):
