@@ -199,10 +199,7 @@ pub fn infer(
     }
     refuse_over_inputs(model, input, opts)?;
     opts.method.validate()?;
-    if let (Some(root), true) = (&opts.as_labels, opts.overwrite) {
-        labels::clear_unfinished(root)?;
-    }
-    let source = Input::open(input, opts.topic.as_deref(), opts.dataset)?;
+    let source = open_input(input, opts)?;
     let mut labels = match &opts.as_labels {
         Some(root) => Some(begin_labels(model, &source, input, root, opts)?),
         None => None,
@@ -265,6 +262,15 @@ pub fn infer(
         v.finish()?;
     }
     Ok(summary(model, &source, opts, totals, failures, start))
+}
+
+/// Opens the input; with `--as-labels ROOT --overwrite`, first clears what an interrupted run
+/// left in ROOT (which the readers would refuse).
+fn open_input(input: &Path, opts: &InferOptions) -> Result<Input> {
+    if let (Some(root), true) = (&opts.as_labels, opts.overwrite) {
+        labels::clear_unfinished(root)?;
+    }
+    Input::open(input, opts.topic.as_deref(), opts.dataset)
 }
 
 /// The next (up to) `len` units; those that cannot run are added to `failures` (a bag's count
