@@ -7,7 +7,8 @@ use crate::format::model_labels;
 use crate::source::kitti::sequence;
 
 /// The model labels of a sequence: a warning for the files still as the model wrote them, a
-/// note for the edited and the missing ones.
+/// note for the edited and the missing ones. (An unfinished run's sequence is refused before,
+/// as every reader refuses it.)
 pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
     let seq = &r.drive.dir;
     let labels = seq.join(sequence::LABELS);
@@ -23,16 +24,6 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
     };
     let of = record.frames.len();
     let model = format!("the model {} ({})", record.model.display(), record.digest);
-    if !record.complete {
-        c.add(
-            C::ModelLabels,
-            S::Error,
-            &marker,
-            None,
-            None,
-            format!("the infer --as-labels run of {model} did not finish: run it again with --overwrite"),
-        );
-    }
     for (names, severity, what) in [
         (
             &state.unedited,
@@ -58,17 +49,8 @@ pub(crate) fn check(r: &DriveRead, c: &mut Collector) {
             format!(
                 "{} of {of} label files {what} ({model}, infer --as-labels): frames {}",
                 names.len(),
-                list(names)
+                model_labels::frame_list(names, 8)
             ),
         );
     }
-}
-
-/// The first few frame names.
-fn list(names: &[String]) -> String {
-    let mut s = names.iter().take(8).cloned().collect::<Vec<_>>().join(", ");
-    if names.len() > 8 {
-        s.push_str(&format!(" and {} more", names.len() - 8));
-    }
-    s
 }

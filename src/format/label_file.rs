@@ -27,24 +27,23 @@ pub fn encode_predictions(
     per_point: &[Option<ClassId>],
     map: &ClassMap,
 ) -> (Vec<u32>, u64) {
-    let raw_ids = id.dataset == DatasetKind::Sequence;
-    let mut missing = 0u64;
-    let entries = per_point
-        .iter()
-        .map(|c| match (c, raw_ids) {
-            (Some(c), true) => map.raw_of_class(*c).unwrap_or(0),
-            (Some(c), false) => *c as u32,
-            (None, raw) => {
-                missing += 1;
-                if raw {
-                    0
-                } else {
-                    NOT_PREDICTED
-                }
-            }
-        })
-        .collect();
+    let missing = per_point.iter().filter(|c| c.is_none()).count() as u64;
+    let entries = if id.dataset == DatasetKind::Sequence {
+        (per_point.iter())
+            .map(|c| c.map_or(0, |c| map.raw_of_class(c).unwrap_or(0)))
+            .collect()
+    } else {
+        encode_class_predictions(per_point)
+    };
     (entries, missing)
+}
+
+/// The entries of a per-point prediction file of class ids: [`NOT_PREDICTED`] for a point
+/// without a prediction.
+pub fn encode_class_predictions(per_point: &[Option<ClassId>]) -> Vec<u32> {
+    (per_point.iter())
+        .map(|c| c.map_or(NOT_PREDICTED, u32::from))
+        .collect()
 }
 
 /// Writes frame `id`'s per-point predictions under `out` ([`point_prediction_path`], atomically,

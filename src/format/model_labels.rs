@@ -27,9 +27,9 @@ pub const VERSION: u32 = 1;
 pub struct RecordedMethod {
     /// `cell` or `knn`.
     pub kind: MethodKind,
-    /// The kNN's neighbours, window, sigma and cutoff (knn only).
+    /// The kNN's parameters (knn only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub knn: Option<(usize, usize, f32, f32, bool)>,
+    pub knn: Option<KnnParams>,
 }
 
 impl From<&Method> for RecordedMethod {
@@ -38,13 +38,7 @@ impl From<&Method> for RecordedMethod {
             kind: m.kind(),
             knn: match m {
                 Method::Cell => None,
-                Method::Knn(KnnParams {
-                    k,
-                    window,
-                    sigma,
-                    cutoff,
-                    wrap_columns,
-                }) => Some((*k, *window, *sigma, *cutoff, *wrap_columns)),
+                Method::Knn(p) => Some(*p),
             },
         }
     }
@@ -113,6 +107,20 @@ pub struct LabelState {
     pub edited: Vec<String>,
     /// Frames whose file is gone.
     pub missing: Vec<String>,
+}
+
+/// The first `shown` of `names` (frame names), and how many more, for a message.
+pub fn frame_list(names: &[String], shown: usize) -> String {
+    let mut s = names
+        .iter()
+        .take(shown)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    if names.len() > shown {
+        s.push_str(&format!(" and {} more", names.len() - shown));
+    }
+    s
 }
 
 impl ModelLabelRecord {

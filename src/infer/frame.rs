@@ -7,7 +7,6 @@ use std::time::{Duration, Instant};
 use super::model::Model;
 use super::InferOptions;
 use crate::error::Result;
-use crate::format::label_file::NOT_PREDICTED;
 use crate::format::npy;
 use crate::label::{ClassCounts, ClassId, PointLabels};
 use crate::plan::DrivePlan;
@@ -126,17 +125,6 @@ pub fn viz_points(
         .collect()
 }
 
-/// Reads and projects the scan file at `path` with `model`'s map, runs the model and carries
-/// its classes back to the points (no camera: a model that takes colour is refused).
-pub fn predict_file(model: &Model, path: &Path, method: &Method) -> Result<ScanResult> {
-    let t = Instant::now();
-    let p = project(model, path, None)?;
-    let read_project = t.elapsed();
-    let mut r = predict(model, &p, method)?;
-    r.times.read_project = read_project;
-    Ok(r)
-}
-
 /// Refuses a scan of another sensor than a KITTI model's: the model's map takes its rows from
 /// the HDL-64E's scan order ([`LASERS`] rings), and a scan whose ring field counts another
 /// number of beams would be binned into rows it was never trained on.
@@ -183,7 +171,7 @@ fn refuse_off_model(model: &Model, scan: &Scan, proj: &Projection, path: &Path) 
         path: path.into(),
         message: format!(
             "{off} of {n} points fit no beam of {} ({} beams), the sensor {} was trained on \
-         ({} x {} map): the scan is another sensor's, or not in the sensor's frame",
+             ({} x {} map): the scan is another sensor's, or not in the sensor's frame",
             sensor.name,
             sensor.beams,
             model.path.display(),
@@ -235,15 +223,9 @@ pub fn write(
     r: &ScanResult,
     model: &Model,
     opts: &InferOptions,
-) -> Result<u64> {
+) -> Result<()> {
     let classes = &model.spec.map.class_map;
-    let (_, missing) = crate::format::label_file::write_predictions(
-        out,
-        id,
-        &r.per_point,
-        classes,
-        opts.durability,
-    )?;
+    crate::format::label_file::write_predictions(out, id, &r.per_point, classes, opts.durability)?;
     if opts.maps {
         let dir = out.join(super::MAPS_DIR);
         write_map(
@@ -253,24 +235,20 @@ pub fn write(
             opts,
         )?;
     }
-    Ok(missing)
+    Ok(())
 }
 
 /// Writes a lone scan's per-point predictions, `out/<stem>.label` (class ids,
-/// [`NOT_PREDICTED`] outside the map), and with maps `out/maps/<stem>.npy`.
+/// [`NOT_PREDICTED`](crate::format::label_file::NOT_PREDICTED) outside the map), and with maps
+/// `out/maps/<stem>.npy`.
 pub fn write_file(
     out: &Path,
     stem: &str,
     r: &ScanResult,
     model: &Model,
     opts: &InferOptions,
-) -> Result<u64> {
-    let entries: Vec<u32> = r
-        .per_point
-        .iter()
-        .map(|c| c.map_or(NOT_PREDICTED, u32::from))
-        .collect();
-    let missing = r.per_point.iter().filter(|c| c.is_none()).count() as u64;
+) -> Result<()> {
+    let entries = crate::format::label_file::encode_class_predictions(&r.per_point);
     crate::format::create_dir(out)?;
     let bytes = crate::format::label_file::encode_raw(&entries);
     crate::format::atomic_write(&out.join(format!("{stem}.label")), &bytes, opts.durability)?;
@@ -278,7 +256,7 @@ pub fn write_file(
         let path = out.join(super::MAPS_DIR).join(format!("{stem}.npy"));
         write_map(&path, r, model, opts)?;
     }
-    Ok(missing)
+    Ok(())
 }
 
 /// Writes a map prediction: rows x cols class ids as float32 `.npy` (what `score` reads).

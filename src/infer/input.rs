@@ -9,7 +9,6 @@ use crate::error::{Error, Result};
 use crate::plan::{FrameSelection, Plan};
 use crate::source::bag::{Bag, BagMessage, Lost, Next, Topic};
 use crate::source::kitti::{DatasetKind, FrameId};
-use crate::source::pcd;
 use crate::source::pointcloud2::{self, PointCloud2};
 
 /// The sequence number a bag's frames are given (`OUT/sequences/00/...`), as `unpack`'s default.
@@ -218,14 +217,12 @@ pub fn project(model: &Model, input: &Input, read: &Read) -> Result<(Projected, 
         Read::Message(m) => {
             let what = m.file.join(format!("message {}", m.index));
             let msg = PointCloud2::decode(&m.data, &what)?;
-            // Through the PCD that `unpack` would write: the scan is the unpacked folder's.
-            let (layout, records) = msg.packed();
-            let scan = pcd::decode(
-                &pcd::encode(&layout, msg.width, msg.height, &records),
-                &what,
-            )?;
-            let stamp = msg.stamp.nanos();
-            Ok((frame::project_points(model, scan, &what)?, Some(stamp)))
+            // The bag reader's cloud: the points of the PCD `unpack` writes of it (tested).
+            let scan = msg.cloud(&what)?;
+            Ok((
+                frame::project_points(model, scan, &what)?,
+                Some(msg.stamp.nanos()),
+            ))
         }
     }
 }

@@ -110,19 +110,24 @@ pub fn clear_unfinished(root: &Path) -> Result<Vec<PathBuf>> {
         if rec.complete {
             continue;
         }
-        let labels = seq.join(sequence::LABELS);
-        if labels.is_dir() {
-            for f in crate::fs::sorted_dir(&labels)? {
-                if f.extension().is_some_and(|e| e == "label") {
-                    std::fs::remove_file(&f).map_err(|e| Error::io(&f, e))?;
-                }
-            }
-        }
-        let marker = record::path(&seq);
-        std::fs::remove_file(&marker).map_err(|e| Error::io(&marker, e))?;
+        clear_sequence(&seq)?;
         cleared.push(seq);
     }
     Ok(cleared)
+}
+
+/// Removes an interrupted run's label files (every one in the folder) and its record.
+fn clear_sequence(seq: &Path) -> Result<()> {
+    let labels = seq.join(sequence::LABELS);
+    if labels.is_dir() {
+        for f in crate::fs::sorted_dir(&labels)? {
+            if f.extension().is_some_and(|e| e == "label") {
+                std::fs::remove_file(&f).map_err(|e| Error::io(&f, e))?;
+            }
+        }
+    }
+    let marker = record::path(seq);
+    std::fs::remove_file(&marker).map_err(|e| Error::io(&marker, e))
 }
 
 /// Refuses a sequence folder whose labels are not an earlier run's, or are and `overwrite` is
@@ -159,32 +164,15 @@ fn refuse_or_clear(seq: &Path, overwrite: bool) -> Result<()> {
              replaces no edited label; move them away first",
             labels.display(),
             state.edited.len(),
-            first_names(&state.edited)
+            record::frame_list(&state.edited, 5)
         )));
     }
-    // Every label file goes: the record's (unedited), and those of an interrupted run (its
-    // record is incomplete; the folder held no labels of another kind when it began).
-    let files: Vec<PathBuf> = if earlier.complete {
-        (state.unedited.iter())
-            .map(|n| record::label_path(seq, n))
-            .collect()
-    } else {
-        crate::fs::sorted_dir(&labels)?
-            .into_iter()
-            .filter(|p| p.extension().is_some_and(|e| e == "label"))
-            .collect()
-    };
-    for f in files {
+    if !earlier.complete {
+        return clear_sequence(seq);
+    }
+    for name in &state.unedited {
+        let f = record::label_path(seq, name);
         std::fs::remove_file(&f).map_err(|e| Error::io(&f, e))?;
     }
     Ok(())
-}
-
-/// The first few of `names`, for a message.
-fn first_names(names: &[String]) -> String {
-    let mut s = names.iter().take(5).cloned().collect::<Vec<_>>().join(", ");
-    if names.len() > 5 {
-        s.push_str(&format!(" and {} more", names.len() - 5));
-    }
-    s
 }

@@ -142,24 +142,30 @@ pub struct InferSummary {
 }
 
 /// The totals of the frames run so far.
-#[derive(Default)]
 struct Totals {
     frames: u64,
     points: u64,
     missing: u64,
-    counts: Option<ClassCounts>,
+    counts: ClassCounts,
     times: StageTimes,
 }
 
 impl Totals {
-    fn add(&mut self, r: &frame::ScanResult, missing: u64) {
+    fn new(classes: usize) -> Totals {
+        Totals {
+            frames: 0,
+            points: 0,
+            missing: 0,
+            counts: ClassCounts::zeros(classes),
+            times: StageTimes::default(),
+        }
+    }
+
+    fn add(&mut self, r: &frame::ScanResult) {
         self.frames += 1;
         self.points += r.per_point.len() as u64;
-        self.missing += missing;
-        match &mut self.counts {
-            Some(c) => *c += &r.counts,
-            None => self.counts = Some(r.counts.clone()),
-        }
+        self.missing += r.per_point.iter().filter(|c| c.is_none()).count() as u64;
+        self.counts += &r.counts;
         self.times += r.times;
     }
 }
@@ -208,7 +214,7 @@ pub fn infer(
         .map(|p| VizWriter::create(p, &model.spec.map.class_map))
         .transpose()?;
     progress(Progress::Frames(source.len()));
-    let mut totals = Totals::default();
+    let mut totals = Totals::new(model.spec.map.class_map.len());
     let mut failures = Vec::new();
     let batch_len = 8 * rayon::current_num_threads().max(1);
     let one_at_a_time = model_takes_every_core(model);
@@ -239,7 +245,7 @@ pub fn infer(
         for (u, r) in done {
             match r {
                 Ok(d) => {
-                    totals.add(&d.result, d.missing);
+                    totals.add(&d.result);
                     if let (Some(l), Some(written)) = (labels.as_mut(), d.label) {
                         l.record(written);
                     }
@@ -254,7 +260,6 @@ pub fn infer(
             }
         }
     }
-    drop(units);
     if let Some(l) = labels {
         l.finish()?;
     }
@@ -313,7 +318,6 @@ fn summary(
     start: Instant,
 ) -> InferSummary {
     let map = &model.spec.map.class_map;
-    let counts = t.counts.unwrap_or_else(|| ClassCounts::zeros(map.len()));
     let written_to = (opts.out.as_ref()).map(|out| match source {
         Input::File(_) => out.clone(),
         Input::Root(plan) => written_dir(out, plan.layout()),
@@ -329,7 +333,7 @@ fn summary(
         classes: map
             .classes
             .iter()
-            .zip(&counts.0)
+            .zip(&t.counts.0)
             .map(|(c, &n)| (c.name.clone(), n))
             .collect(),
         failures,
@@ -394,7 +398,6 @@ fn model_takes_every_core(model: &Model) -> bool {
 /// What one scan gave.
 struct Done {
     result: frame::ScanResult,
-    missing: u64,
     label: Option<(u32, String, Fingerprint)>,
     viz: Option<Vec<(Point3, f32, ClassId)>>,
     stamp: Option<i64>,
@@ -419,11 +422,11 @@ impl Run<'_> {
         let mut r = frame::predict(model, &p, &opts.method)?;
         r.times.read_project = read_project;
         let t = Instant::now();
-        let missing = match (&opts.out, &u.target) {
+        match (&opts.out, &u.target) {
             (Some(out), Target::Frame(id)) => frame::write(out, id, &r, model, opts)?,
             (Some(out), Target::Stem(stem)) => frame::write_file(out, stem, &r, model, opts)?,
-            (None, _) => r.per_point.iter().filter(|c| c.is_none()).count() as u64,
-        };
+            (None, _) => {}
+        }
         let label = match (self.labels, &u.target) {
             (Some(l), Target::Frame(id)) => {
                 Some(l.write(id, &r.per_point, &model.spec.map.class_map)?)
@@ -434,7 +437,6 @@ impl Run<'_> {
         let viz = self.viz.then(|| frame::viz_points(&p.scan, &r.per_point));
         Ok(Done {
             result: r,
-            missing,
             label,
             viz,
             stamp,

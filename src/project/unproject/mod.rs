@@ -43,7 +43,7 @@ use crate::simd::first_where;
 use super::EMPTY;
 
 /// RangeNet++'s kNN parameters (its defaults: k 5, window 5, sigma 1.0, cutoff 1.0).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct KnnParams {
     /// Neighbours that vote.
     pub k: usize,
