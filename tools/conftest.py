@@ -34,6 +34,22 @@ def convert(out: pathlib.Path, *extra: str) -> pathlib.Path:
     return out
 
 
+def pytest_configure(config):
+    """Torch's threads in the tests and OpenMP's in the processes they start (torch reads
+    OMP_NUM_THREADS when imported, after this hook): at most two, the cores shared among
+    pytest-xdist's workers (tools/run-tests.sh starts two). Threads that outnumber the cores
+    spin-wait on each other: two workers of two threads each on 2 cores made the overfitting test
+    take 104 s instead of 27 s. A value the user set is kept; xdist's controller runs no test and
+    sets none (its workers would inherit it)."""
+    if "OMP_NUM_THREADS" in os.environ:
+        return
+    workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT")
+    if workers is None and config.getoption("numprocesses", default=None) not in (None, 0):
+        return
+    share = (os.cpu_count() or 1) // int(workers or 1)
+    os.environ["OMP_NUM_THREADS"] = str(max(1, min(2, share)))
+
+
 @pytest.fixture(scope="session")
 def rgb_lz4(tmp_path_factory):
     """Colour, lz4, drive 0052 in val; .npy and shards."""

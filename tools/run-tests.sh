@@ -26,11 +26,12 @@ who=run-tests.sh
 # shellcheck source=tools/stamps.sh
 . tools/stamps.sh
 # The test dependencies: once for a given list (and interpreter), then skipped.
-python3 -c 'import pytest, ruff, mypy' 2>/dev/null || fresh test-deps
+python3 -c 'import pytest, ruff, mypy, xdist' 2>/dev/null || fresh test-deps
 step test-deps "Python test dependencies" \
   "$(digest tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml tools/run-tests.sh)" \
   python3 -m pip install --quiet --disable-pip-version-check \
-  -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1"
+  -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1" \
+  "pytest-xdist==3.8.0"
 # ouster-sdk, the Ouster tests' reference decoder, in an environment of its own (it pins
 # rosbags, flask and click to versions the test environment does not share), made once per
 # version and Python and kept in the user's cache, so that every checkout reuses it.
@@ -52,7 +53,10 @@ lap "test dependencies"
 cargo fmt --all --check
 cargo clippy --release --workspace --all-targets --locked --quiet -- -D warnings
 python3 -m ruff check tools
-python3 -m mypy
+# mypy's cache in the user's cache, shared by every checkout: what it holds of torch and numpy
+# (22 s of a cold run, 1 s warm) is checked again only when they change; mypy takes a module's
+# cached analysis only while its source's digest matches.
+python3 -m mypy --cache-dir "${XDG_CACHE_HOME:-$HOME/.cache}/kitti2pgm/mypy"
 lap "formatting, lints and types clean"
 # In the release profile: `cargo install` (tools/install.sh) has just built every dependency
 # there, so the tests compile only the crate's own test targets and the dev-dependencies, and
@@ -65,8 +69,12 @@ else
   cargo test --release --locked
 fi
 lap "Rust tests"
-# The binary the Python tests drive: the one the Rust tests ran. One process: two workers
-# (pytest-xdist) took 251 s instead of 170 s on 2 cores, torch's threads of both fighting.
-KITTI2PGM_BIN="$PWD/target/release/kitti2pgm" python3 -m pytest -q tools
+# The binary the Python tests drive: the one the Rust tests ran. Two workers (pytest-xdist; one
+# on a single core), each test to the first free one and the rest taken over by an idle one
+# (`worksteal`): the docs' chain of blocks (about 70 s) on one, the other tests beside it;
+# tools/conftest.py gives each worker's torch its share of the cores (threads of both workers
+# that outnumber the cores spin-wait on each other).
+workers=$(($(nproc) < 2 ? 1 : 2))
+KITTI2PGM_BIN="$PWD/target/release/kitti2pgm" python3 -m pytest -q -n "$workers" --dist worksteal tools
 lap "Python tests"
 echo "run-tests.sh: done in $((SECONDS - t0)) s"

@@ -9,13 +9,18 @@ never land in the repository.
   environment of a smoke run (two steps a model, on the CPU).
 - A block marked ``sh setup`` is the installation itself, run by tools/run-tests.sh (checked
   here); a block marked ``sh norun`` must say why in an HTML comment just above it.
+- A block marked ``sh alone`` needs nothing the blocks before it made: it runs in a folder of its
+  own, as a test of its own, so that pytest's workers (tools/run-tests.sh) run it beside the rest.
 """
 
+import json
 import os
 import pathlib
 import re
 import subprocess
 import sys
+
+import pytest
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 DOCS = ["README.md", "tools/trainer/README.md", "docs/python.md"]
@@ -63,7 +68,9 @@ def _binary():
     return str(p)
 
 
-def test_the_docs_run_as_written(tmp_path):
+def _workspace(tmp_path):
+    """A folder holding the repository's fixtures and tools (links), and the environment the
+    blocks run in."""
     work = tmp_path / "work"
     work.mkdir()
     for name in ("fixtures", "tools"):
@@ -76,15 +83,29 @@ def test_the_docs_run_as_written(tmp_path):
                KITTI_RAW="fixtures/raw", KITTI2PGM=str(bin_dir / "kitti2pgm"),
                STEPS="2", BATCH="3", WIDTH="0.25", GPUS="1", EXTRA="--device cpu --workers 0",
                CONVERT="--cols 64", EVAL="--device cpu --timing-frames 0", PYTHONUNBUFFERED="1")
+    return work, env
+
+
+def _run(block, work, env):
+    doc, lang, _marks, code, line, _ = block
+    cmd = ["bash", "-euo", "pipefail", "-c", code] if lang == "sh" else [sys.executable, "-c", code]
+    r = subprocess.run(cmd, cwd=work, env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, (f"{doc}:{line} ({lang}) failed with {r.returncode}:\n{code}\n"
+                               f"{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
+
+
+def _alone():
+    return [b for b in runnable() if "alone" in b[2]]
+
+
+def test_the_docs_run_as_written(tmp_path):
+    work, env = _workspace(tmp_path)
     untracked_before = _untracked()
     ran = 0
-    for doc, lang, marks, code, line, _ in runnable():
-        if "setup" in marks or "norun" in marks:
+    for block in runnable():
+        if {"setup", "norun", "alone"} & set(block[2]):
             continue
-        cmd = ["bash", "-euo", "pipefail", "-c", code] if lang == "sh" else [sys.executable, "-c", code]
-        r = subprocess.run(cmd, cwd=work, env=env, capture_output=True, text=True, timeout=900)
-        assert r.returncode == 0, (f"{doc}:{line} ({lang}) failed with {r.returncode}:\n{code}\n"
-                                   f"{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
+        _run(block, work, env)
         ran += 1
     assert ran >= 10
     # What the commands promise is there.
@@ -93,16 +114,36 @@ def test_the_docs_run_as_written(tmp_path):
     assert (out / "balance.png").stat().st_size > 0 and (out / "frame.png").stat().st_size > 0
     assert (out / "model.onnx").stat().st_size > 0
     assert sorted(p.name for p in (out / "runs/mid/predictions").iterdir()) == ["2011_09_26_0052_0000000000.npy"]
-    # reproduce.sh, without VAL_DRIVES on the fixtures: six rows, IoUs in range.
-    table = (out / "repro/table.md").read_text().splitlines()
-    assert len(table) == 2 + 6 and all(r.startswith("|") for r in table), table
-    assert "| squeezeseg | xyzdi+dirgb |" in "\n".join(table)
-    import json
-    rows = json.loads((out / "repro/table.json").read_text())
-    assert len(rows) == 6 and all(0.0 <= row["miou"] <= 1.0 for row in rows)
     # Nothing was written into the repository through the linked folders.
     new = _untracked() - untracked_before
     assert not new, new
+
+
+class TestAlone:
+    """The blocks that run alone: a class of their own, so that pytest-xdist's ``--dist
+    loadscope`` gives them to another worker than the module's chain of blocks."""
+
+    @pytest.mark.parametrize("block", _alone(), ids=lambda b: f"{b[0]}:{b[4]}")
+    def test_runs_alone(self, block, tmp_path):
+        work, env = _workspace(tmp_path)
+        untracked_before = _untracked()
+        _run(block, work, env)
+        if "reproduce.sh" in block[3]:
+            _check_reproduced(work / "out")
+        new = _untracked() - untracked_before
+        assert not new, new
+
+    def test_the_reproduction_runs_alone(self):
+        assert any("reproduce.sh" in b[3] for b in _alone()), "the trainer README's reproduce.sh block is marked alone"
+
+
+def _check_reproduced(out):
+    """reproduce.sh, without VAL_DRIVES on the fixtures: six rows, IoUs in range."""
+    table = (out / "repro/table.md").read_text().splitlines()
+    assert len(table) == 2 + 6 and all(r.startswith("|") for r in table), table
+    assert "| squeezeseg | xyzdi+dirgb |" in "\n".join(table)
+    rows = json.loads((out / "repro/table.json").read_text())
+    assert len(rows) == 6 and all(0.0 <= row["miou"] <= 1.0 for row in rows)
 
 
 def _untracked():

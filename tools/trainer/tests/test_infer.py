@@ -2,16 +2,12 @@
 unproject's per-point classes, the map recorded in the file, and bad models refused."""
 
 import json
-import os
 import pathlib
 import subprocess
 
 import numpy as np
 import pytest
-import torch
 from kitti2pgm_train.cli import main
-
-torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 RAW = REPO / "fixtures" / "raw"

@@ -4,17 +4,13 @@ pre-labels that check, convert and score read, and the same classes from Python 
 trainer's PyTorch network)."""
 
 import json
-import os
 import pathlib
 import shutil
 import subprocess
 
 import numpy as np
 import pytest
-import torch
 from kitti2pgm_train.cli import main
-
-torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 FIX = REPO / "fixtures"

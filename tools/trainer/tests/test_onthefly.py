@@ -1,7 +1,5 @@
 """Training on point shards: projection on the fly through the native module, 3D augmentation."""
 
-import os
-
 import numpy as np
 import pytest
 import torch
@@ -9,7 +7,6 @@ from kitti2pgm_train.cli import main
 from kitti2pgm_train.data import FrameSet, Normaliser, StepBatches, TorchFrames, collate
 from kitti2pgm_train.onthefly import Augmentation, PointFrameSet, open_frames
 
-torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
 NORM = Normaliser.from_stats(None)
 
 

@@ -11,8 +11,6 @@ from kitti2pgm_train.cli import main
 from kitti2pgm_train.data import FrameSet, Normaliser
 from kitti2pgm_train.models import INPUTS, MODELS, SegNet
 
-torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
-
 RAW = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "fixtures", "raw")
 
 
