@@ -3,9 +3,8 @@
 # side, so that CI installs exactly what a user does), the test dependencies, the code's own
 # checks (cargo fmt --check, clippy -D warnings, ruff, mypy: ruff.toml and mypy.ini), then the
 # Rust suite (unit, integration on fixtures/, doc tests) and the Python packages' tests (native
-# module, shard reader, trainer, and the README and docs run as written), the last beside the
-# Rust steps. Each step prints its time and the time so far (docs/performance.md, "The test
-# suite").
+# module, shard reader, trainer, and the README and docs run as written). Each step prints its
+# time and the time so far (docs/performance.md, "The test suite").
 #
 # One build serves all: `cargo install` (tools/install.sh) compiles every dependency in the
 # release profile with the one feature set of Cargo.toml; the Python module, clippy (release
@@ -49,24 +48,6 @@ else
 fi
 export OUSTER_PYTHON="$venv/bin/python"
 lap "test dependencies"
-# The Python tests beside the Rust side: they drive the installed CLI and module, which nothing
-# below rebuilds, and neither side keeps both cores busy alone (pytest about 1.6 of them, cargo's
-# lints and the tests' build less at their ends). Two pytest workers (pytest-xdist; one on a
-# single core), each test to the first free one and the rest taken over by an idle one
-# (`worksteal`): the docs' chain of blocks (about 70 s) on one, the other tests beside it;
-# tools/conftest.py gives each worker's torch its share of the cores (threads that outnumber the
-# cores spin-wait on each other: two workers of two threads each made the overfitting test take
-# 104 s instead of 27 s). Their output is kept and printed after the Rust side's.
-bin_dir="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin"
-workers=$(($(nproc) < 2 ? 1 : 2))
-py_log=target/python-tests.log
-py_t0=$SECONDS
-KITTI2PGM_BIN="$bin_dir/kitti2pgm" python3 -m pytest -q -n "$workers" --dist worksteal tools \
-  >"$py_log" 2>&1 &
-py_pid=$!
-# A failing Rust step ends the script: the Python tests with it.
-trap 'kill "$py_pid" 2>/dev/null || true' EXIT
-echo "run-tests.sh: the Python tests run beside the Rust side (their output follows it)"
 # The code's own checks, Rust and Python: formatting, lints (warnings are errors), types.
 # clippy in the release profile: the build scripts and proc macros are then the install's.
 cargo fmt --all --check
@@ -88,10 +69,12 @@ else
   cargo test --release --locked
 fi
 lap "Rust tests"
-py_rc=0
-wait "$py_pid" || py_rc=$?
-trap - EXIT
-cat "$py_log"
-echo "run-tests.sh: Python tests: $((SECONDS - py_t0)) s, beside the Rust side (at $((SECONDS - t0)) s)"
-[ "$py_rc" = 0 ] || { echo "run-tests.sh: the Python tests failed" >&2; exit "$py_rc"; }
+# The binary the Python tests drive: the one the Rust tests ran. Two workers (pytest-xdist; one
+# on a single core), each test to the first free one and the rest taken over by an idle one
+# (`worksteal`): the docs' chain of blocks (about 70 s) on one, the other tests beside it;
+# tools/conftest.py gives each worker's torch its share of the cores (threads of both workers
+# that outnumber the cores spin-wait on each other).
+workers=$(($(nproc) < 2 ? 1 : 2))
+KITTI2PGM_BIN="$PWD/target/release/kitti2pgm" python3 -m pytest -q -n "$workers" --dist worksteal tools
+lap "Python tests"
 echo "run-tests.sh: done in $((SECONDS - t0)) s"
