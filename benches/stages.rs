@@ -29,12 +29,17 @@ use kitti2pgm::source::Scan;
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
+/// The repository's root (this package is its `benches/` folder).
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap()
+}
+
 fn raw_root() -> PathBuf {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/raw");
+    let shared = repo().join("../shared/kitti/raw");
     if shared.is_dir() {
         shared
     } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/raw")
+        repo().join("fixtures/raw")
     }
 }
 
@@ -175,8 +180,7 @@ fn knn(c: &mut Criterion) {
     kitti2pgm::alloc::tune_mimalloc();
     use kitti2pgm::project::unproject::{knn_with, KnnKernel, KnnParams, PointsInMap};
     use kitti2pgm::project::{norm, project_with_point_cells, MapPreset};
-    let bin = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
+    let bin = repo().join("fixtures/semantickitti/sequences/00/velodyne/000000.bin");
     let scan = Scan::read(&bin).unwrap();
     let spec = MapPreset::Full.spec();
     let proj = project_with_point_cells(&scan.points, &spec);
@@ -203,7 +207,7 @@ fn knn(c: &mut Criterion) {
 /// PCD binary at least 0.8x the `.bin` path).
 fn read(c: &mut Criterion) {
     kitti2pgm::alloc::tune_mimalloc();
-    let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let here = repo();
     let bin = drive_0052().0.drive.scan_path(0);
     let pcd = here.join("fixtures/lidars/hesai/Pandar40P_1673400149711850138.pcd");
     let nus = std::fs::read_dir(here.join("fixtures/lidars/nuscenes"))

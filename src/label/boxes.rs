@@ -268,7 +268,7 @@ const BLOCK: usize = 1024;
 
 /// The most boxes labelled box by box ([`Labeller::label_by_box`]): its cost grows with the
 /// boxes near each run of points, the grid's more slowly. Measured on a real scan among cars
-/// scattered over 60 x 60 m (`cargo bench --bench stages -- '^label/'`): box by box 3.0x the
+/// scattered over 60 x 60 m (`cargo bench -p kitti2pgm-bench -- '^label/'`): box by box 3.0x the
 /// grid's speed with 4 boxes, 2.8x with 64, 1.34x with 256; 0.97x with 512.
 pub const BY_BOX_MAX: usize = 256;
 
