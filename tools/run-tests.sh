@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Every test: the README's install command first (tools/install.sh: the CLI and the Python
-# side, so that CI installs exactly what a user does), the test dependencies, the code's own
-# checks (cargo fmt --check, clippy -D warnings, ruff, mypy: ruff.toml and mypy.ini), then the
-# Rust suite (unit, integration on fixtures/, doc tests) and the Python packages' tests (native
-# module, shard reader, trainer, and the README and docs run as written). Each step prints its
-# time and the time so far (docs/performance.md, "The test suite").
+# side, so that CI installs exactly what a user does, with the packages' test extras), the
+# other test dependencies, the code's own checks (cargo fmt --check, clippy -D warnings, ruff,
+# mypy: ruff.toml and mypy.ini), then the Rust suite (unit, integration on fixtures/, doc
+# tests) and the Python packages' tests (native module, shard reader, trainer, and the README
+# and docs run as written). Each step prints its time and the time so far
+# (docs/performance.md, "The test suite").
 #
 # One build serves all: `cargo install` (tools/install.sh) compiles every dependency in the
 # release profile with the one feature set of Cargo.toml; the Python module, clippy (release
@@ -19,18 +20,17 @@ lap() {
   echo "run-tests.sh: $1: $((SECONDS - t)) s (at $((SECONDS - t0)) s)"
   t=$SECONDS
 }
-tools/install.sh
+tools/install.sh --with-tests
 lap "install"
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 who=run-tests.sh
 # shellcheck source=tools/stamps.sh
 . tools/stamps.sh
-# The test dependencies: once for a given list (and interpreter), then skipped.
+# The test dependencies: the packages' `test` extras came with the install (--with-tests); the
+# tools here once for a given list (and interpreter), then skipped.
 python3 -c 'import pytest, ruff, mypy, xdist' 2>/dev/null || fresh test-deps
-step test-deps "Python test dependencies" \
-  "$(digest tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml tools/run-tests.sh)" \
-  python3 -m pip install --quiet --disable-pip-version-check \
-  -e "tools/kitti2pgm_data[test]" -e "tools/trainer[test]" "ruff==0.17.6" "mypy==2.4.1" \
+step test-deps "Python test dependencies" "$(digest tools/run-tests.sh)" \
+  python3 -m pip install --quiet --disable-pip-version-check "ruff==0.17.6" "mypy==2.4.1" \
   "pytest-xdist==3.8.0"
 # ouster-sdk, the Ouster tests' reference decoder, in an environment of its own (it pins
 # rosbags, flask and click to versions the test environment does not share), made once per
