@@ -119,22 +119,21 @@ def test_the_docs_run_as_written(tmp_path):
     assert not new, new
 
 
-class TestAlone:
-    """The blocks that run alone: a class of their own, so that pytest-xdist's ``--dist
-    loadscope`` gives them to another worker than the module's chain of blocks."""
+@pytest.mark.parametrize("block", _alone(), ids=lambda b: f"{b[0]}:{b[4]}")
+def test_a_block_runs_alone(block, tmp_path):
+    """A block marked ``alone``, in a folder of its own: a test of its own, which pytest's
+    other worker takes while one runs the chain above."""
+    work, env = _workspace(tmp_path)
+    untracked_before = _untracked()
+    _run(block, work, env)
+    if "reproduce.sh" in block[3]:
+        _check_reproduced(work / "out")
+    new = _untracked() - untracked_before
+    assert not new, new
 
-    @pytest.mark.parametrize("block", _alone(), ids=lambda b: f"{b[0]}:{b[4]}")
-    def test_runs_alone(self, block, tmp_path):
-        work, env = _workspace(tmp_path)
-        untracked_before = _untracked()
-        _run(block, work, env)
-        if "reproduce.sh" in block[3]:
-            _check_reproduced(work / "out")
-        new = _untracked() - untracked_before
-        assert not new, new
 
-    def test_the_reproduction_runs_alone(self):
-        assert any("reproduce.sh" in b[3] for b in _alone()), "the trainer README's reproduce.sh block is marked alone"
+def test_the_reproduction_runs_alone():
+    assert any("reproduce.sh" in b[3] for b in _alone()), "the trainer README's reproduce.sh block is marked alone"
 
 
 def _check_reproduced(out):
