@@ -74,11 +74,16 @@ print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 
   module >"$stamps/module-file"
   # With the tests' extras, in the same pip run: a second run of pip for them built both
   # editable packages again (8.6 s against 1.5 s for the rest of the tests' dependencies).
+  # A plain install after one with the extras has nothing to do (the extras stay).
   data=tools/kitti2pgm_data trainer="tools/trainer[export]"
-  [ "$tests" = 0 ] || { data="$data[test]"; trainer="tools/trainer[export,test]"; }
+  want=$(digest tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml)
+  if [ "$tests" = 1 ]; then
+    data="$data[test]" trainer="tools/trainer[export,test]" want="$want with-tests"
+  elif [ "$(cat "$stamps/packages" 2>/dev/null)" = "$want with-tests" ]; then
+    want="$want with-tests"
+  fi
   python3 -c 'import kitti2pgm_data, kitti2pgm_train' 2>/dev/null || fresh packages
-  step packages "kitti2pgm_data and kitti2pgm_train (editable)" \
-    "$(digest tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml) $data $trainer" \
+  step packages "kitti2pgm_data and kitti2pgm_train (editable)" "$want" \
     "${pip[@]}" -e "$data" -e "$trainer"
   echo "install.sh: Python packages kitti2pgm, kitti2pgm_data, kitti2pgm_train installed"
 fi
