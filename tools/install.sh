@@ -82,7 +82,12 @@ print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 
   elif [ "$(cat "$stamps/packages" 2>/dev/null)" = "$want with-tests" ]; then
     want="$want with-tests"
   fi
-  python3 -c 'import kitti2pgm_data, kitti2pgm_train' 2>/dev/null || fresh packages
+  # The stamp holds only while the packages import from this checkout (another checkout's
+  # editable install replaces them).
+  python3 -c 'import os, kitti2pgm_data as d, kitti2pgm_train as t
+here = lambda m, p: os.path.realpath(m.__file__).startswith(os.path.realpath(p) + os.sep)
+raise SystemExit(not (here(d, "tools/kitti2pgm_data") and here(t, "tools/trainer")))' \
+    2>/dev/null || fresh packages
   step packages "kitti2pgm_data and kitti2pgm_train (editable)" "$want" \
     "${pip[@]}" -e "$data" -e "$trainer"
   echo "install.sh: Python packages kitti2pgm, kitti2pgm_data, kitti2pgm_train installed"
