@@ -72,9 +72,16 @@ print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 
       tools/kitti2pgm_py/pyproject.toml)" \
     "${pip[@]}" ./tools/kitti2pgm_py
   module >"$stamps/module-file"
+  # The stamp holds only while the packages import from this checkout (another checkout's
+  # editable install replaces them).
+  python3 -c 'import os, kitti2pgm_data as d, kitti2pgm_train as t
+here = lambda m, p: os.path.realpath(m.__file__).startswith(os.path.realpath(p) + os.sep)
+raise SystemExit(not (here(d, "tools/kitti2pgm_data") and here(t, "tools/trainer")))' \
+    2>/dev/null || fresh packages
   # With the tests' extras, in the same pip run: a second run of pip for them built both
   # editable packages again (8.6 s against 1.5 s for the rest of the tests' dependencies).
-  # A plain install after one with the extras has nothing to do (the extras stay).
+  # A plain install after one with the extras has nothing to do (the extras stay); read after
+  # the check above, so that a stamp it forgot is not taken for one.
   data=tools/kitti2pgm_data trainer="tools/trainer[export]"
   want=$(digest tools/kitti2pgm_data/pyproject.toml tools/trainer/pyproject.toml)
   if [ "$tests" = 1 ]; then
@@ -82,12 +89,6 @@ print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 
   elif [ "$(cat "$stamps/packages" 2>/dev/null)" = "$want with-tests" ]; then
     want="$want with-tests"
   fi
-  # The stamp holds only while the packages import from this checkout (another checkout's
-  # editable install replaces them).
-  python3 -c 'import os, kitti2pgm_data as d, kitti2pgm_train as t
-here = lambda m, p: os.path.realpath(m.__file__).startswith(os.path.realpath(p) + os.sep)
-raise SystemExit(not (here(d, "tools/kitti2pgm_data") and here(t, "tools/trainer")))' \
-    2>/dev/null || fresh packages
   step packages "kitti2pgm_data and kitti2pgm_train (editable)" "$want" \
     "${pip[@]}" -e "$data" -e "$trainer"
   echo "install.sh: Python packages kitti2pgm, kitti2pgm_data, kitti2pgm_train installed"
