@@ -1,17 +1,17 @@
 #!/usr/bin/env bash
-# Every test: the README's install command first (tools/install.sh: the CLI and the Python
-# side, so that CI installs exactly what a user does, with the packages' test extras), the
-# other test dependencies, the code's own checks (cargo fmt --check, clippy -D warnings, ruff,
-# mypy: ruff.toml and mypy.ini), then the Rust suite (unit, integration on fixtures/, doc
-# tests) and the Python packages' tests (native module, shard reader, trainer, and the README
-# and docs run as written). Each step prints its time and the time so far
-# (docs/performance.md, "The test suite").
+# Every test: the README's install command (tools/install.sh: the CLI and the Python side, so
+# that CI installs exactly what a user does, with the packages' test extras), the other test
+# dependencies, the code's own checks (cargo fmt --check, clippy -D warnings, ruff, mypy: ruff.toml
+# and mypy.ini), then the Rust suite (unit, integration on fixtures/, doc tests) and the Python
+# packages' tests (native module, shard reader, trainer, and the README and docs run as written).
+# Each step prints its time and the time so far (docs/performance.md, "A fresh clone, installed
+# and tested").
 #
-# One build serves all: `cargo install` (tools/install.sh) compiles every dependency in the
-# release profile with the one feature set of Cargo.toml; the Python module, clippy (release
-# profile: the build scripts and macros are the install's) and the tests (release profile) then
-# compile only their own crates. The test dependencies installed by pip are installed again only
-# when their list changes (a stamp in target/install-stamps/).
+# One build serves all: the tests' build (release profile) compiles every dependency once, with
+# the one feature set of Cargo.toml, and the CLI with them; `cargo install` (tools/install.sh)
+# then finds the CLI built, the Python module compiles only its own crates, and clippy (release
+# profile: the build scripts and macros are the build's) checks. The test dependencies installed
+# by pip are installed again only when their list changes (a stamp in target/install-stamps/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 t0=$SECONDS
@@ -20,9 +20,17 @@ lap() {
   echo "run-tests.sh: $1: $((SECONDS - t)) s (at $((SECONDS - t0)) s)"
   t=$SECONDS
 }
+# The Rust test targets first, with the CLI in the same build graph: the crate's library compiles
+# mostly on one core (its front end), and its unit tests' build (the library again, cfg(test))
+# and then the integration tests take the other; one after the other (the install's build, then
+# the tests') they took about 20 s longer. The install then finds the CLI built and installs it.
+export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
+if command -v cargo >/dev/null 2>&1; then # else tools/install.sh says what is missing
+  cargo test --release --locked --no-run --quiet
+fi
+lap "the Rust build, the CLI's and the tests'"
 tools/install.sh --with-tests
 lap "install"
-export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 who=run-tests.sh
 # shellcheck source=tools/stamps.sh
 . tools/stamps.sh
@@ -49,7 +57,7 @@ fi
 export OUSTER_PYTHON="$venv/bin/python"
 lap "test dependencies"
 # The code's own checks, Rust and Python: formatting, lints (warnings are errors), types.
-# clippy in the release profile: the build scripts and proc macros are then the install's.
+# clippy in the release profile: the build scripts and proc macros are then the build's.
 cargo fmt --all --check
 cargo clippy --release --workspace --all-targets --locked --quiet -- -D warnings
 python3 -m ruff check tools
@@ -58,10 +66,8 @@ python3 -m ruff check tools
 # cached analysis only while its source's digest matches.
 python3 -m mypy --cache-dir "${XDG_CACHE_HOME:-$HOME/.cache}/kitti2pgm/mypy"
 lap "formatting, lints and types clean"
-# In the release profile: `cargo install` (tools/install.sh) has just built every dependency
-# there, so the tests compile only the crate's own test targets and the dev-dependencies, and
-# run optimised. The tests that need ../shared are #[ignore = "needs ../shared"]: run them
-# where it is.
+# Built above (release profile, the dependencies optimised): this runs them. The tests that need
+# ../shared are #[ignore = "needs ../shared"]: run them where it is.
 if [ -d ../shared/kitti ]; then
   cargo test --release --locked -- --include-ignored
 else

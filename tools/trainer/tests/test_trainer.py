@@ -68,6 +68,7 @@ def _train(out, shards, steps, extra=()):
     assert main(args) == 0
 
 
+@pytest.mark.long(27)
 def test_overfits_real_frames_and_agrees_with_kitti2pgm_score(converted, tmp_path, kitti2pgm):
     """A real learning check: on the three real fixture frames, 300 steps take the car IoU from
     near zero to high (measured 0.74 on the development machine; the threshold leaves room for
@@ -211,6 +212,7 @@ def test_stats_drive_normalisation_and_weights(converted, tmp_path, kitti2pgm):
     assert config["class_weights"] == [w[0], w[1], 10.0, w[3]]
 
 
+@pytest.mark.long(8)
 def test_torchrun_two_processes(converted, tmp_path):
     """DistributedDataParallel through torchrun (two CPU processes, gloo)."""
     import subprocess
