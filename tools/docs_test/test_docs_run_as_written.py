@@ -98,7 +98,7 @@ def _alone():
     return [b for b in runnable() if "alone" in b[2]]
 
 
-@pytest.mark.long(80)
+@pytest.mark.long(65)
 def test_the_docs_run_as_written(tmp_path):
     work, env = _workspace(tmp_path)
     untracked_before = _untracked()
@@ -120,7 +120,7 @@ def test_the_docs_run_as_written(tmp_path):
     assert not new, new
 
 
-@pytest.mark.long(35)
+@pytest.mark.long(25)
 @pytest.mark.parametrize("block", _alone(), ids=lambda b: f"{b[0]}:{b[4]}")
 def test_a_block_runs_alone(block, tmp_path):
     """A block marked ``alone``, in a folder of its own: a test of its own, which pytest's

@@ -47,20 +47,29 @@ per_gpu=$((batch / gpus))
 # and a rendezvous, for nothing); several: torchrun, one process a GPU.
 launch=(python3)
 [ "$gpus" -gt 1 ] && launch=(torchrun --standalone --nproc_per_node "$gpus")
+runs=()
+todo=()
 for m in squeezeseg pointseg; do
   for i in xyzdi xyzdirgb xyzdi+dirgb; do
     run=$out/runs/$m-$i
+    runs+=("$run")
     if [ ! -f "$run/eval.json" ]; then
       resume=()
-      [ -f "$run/checkpoint.pt" ] && resume=(--resume)
+      [ -f "$run/checkpoint.pt" ] && resume=(--resume) # a finished run: nothing left to train
       "${launch[@]}" -m kitti2pgm_train train --shards "$out/data/shards" \
         --model "$m" --input "$i" --stats "$out/stats.json" --class-weights reference --batch "$per_gpu" \
         --steps "$steps" --width-mult "$width" --out "$run" "${resume[@]}" ${EXTRA:-}
-      python3 -m kitti2pgm_train evaluate --run "$run" --shards "$out/data/shards" --json ${EVAL:-} > /dev/null
+      todo+=(--run "$run")
     fi
-    "$KITTI2PGM" --no-progress score --gt "$out/data" --pred "$run/predictions" \
-      --imageset "$out/data/ImageSet/val.txt" --json > "$run/score.json"
   done
+done
+# The new runs evaluated in one process: one start of Python and torch instead of one a run.
+if [ ${#todo[@]} -gt 0 ]; then
+  python3 -m kitti2pgm_train evaluate "${todo[@]}" --shards "$out/data/shards" --json ${EVAL:-} > /dev/null
+fi
+for run in "${runs[@]}"; do
+  "$KITTI2PGM" --no-progress score --gt "$out/data" --pred "$run/predictions" \
+    --imageset "$out/data/ImageSet/val.txt" --json > "$run/score.json"
 done
 python3 - "$out" <<'PY'
 import json, pathlib, sys

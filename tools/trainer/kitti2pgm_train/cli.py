@@ -89,7 +89,9 @@ def parser() -> argparse.ArgumentParser:
     t.set_defaults(**TrainConfig.defaults())
     e = sub.add_parser("evaluate", help="predict the val shards, write predictions/<id>.npy, print IoUs",
                        formatter_class=_Help)
-    e.add_argument("--run", required=True, help="the run directory (train --out)")
+    e.add_argument("--run", required=True, action="append",
+                   help="the run directory (train --out); repeated, each run in turn on the same shards, in one "
+                        "process (--json then prints a list, each result with its run)")
     e.add_argument("--shards", required=True, help="shards folder (val-*.mcap is used)")
     e.add_argument("--val-shards", help="explicit shards (glob) instead of <shards>/val-*.mcap")
     e.add_argument("--predictions", help="where to write the .npy maps (default <run>/predictions)")
@@ -162,26 +164,7 @@ def main(argv=None) -> int:
                 for name, n in r["classes"].items():
                     print(f"  {name:<16} {n:>10} {100 * n / total:7.3f}%")
         else:
-            from .evaluate import evaluate
-            r = evaluate(EvalConfig.from_args(args))
-            if args.json:
-                print(json.dumps(r, indent=2))
-            else:
-                import torch
-
-                from .metrics import Confusion
-                c = Confusion(r["class_map"])
-                c.m = torch.tensor(r["confusion"])
-                print(f"{r['frames']} frames; predictions in {r['predictions'] or r['prediction_shard']}")
-                print(c.table())
-                if "points" in r:
-                    p = Confusion(r["class_map"])
-                    p.m = torch.tensor(r["points"]["confusion"])
-                    print(f"per point ({r['points']['unproject']}, {r['points']['points']} points, "
-                          f"{r['points']['not_predicted']} outside the map): mIoU {p.miou():.4f} "
-                          f"(per cell {c.miou():.4f}); predictions in {r['points']['predictions']}")
-                times = r["inference_ms_per_frame"].items()
-                print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in times if v))
+            _evaluate(args)
     except (FileExistsError, FileNotFoundError, ValueError, ShardError, MissingExtra) as e:
         print(f"kitti2pgm_train: error: {e}", file=sys.stderr)
         return 1
@@ -189,6 +172,47 @@ def main(argv=None) -> int:
         print(f"kitti2pgm_train: error: {missing_extra(e)}", file=sys.stderr)
         return 1
     return 0
+
+
+def _evaluate(args: argparse.Namespace) -> None:
+    """``evaluate``: each ``--run`` in turn (one Python and torch start for all of them)."""
+    from .evaluate import evaluate
+    configs = EvalConfig.each_from_args(args)
+    several = len(configs) > 1
+    if several:
+        named = [f"--{o.replace('_', '-')}" for o in ("predictions", "point_predictions", "onnx") if getattr(args, o)]
+        if named:
+            raise ValueError(f"evaluate: {', '.join(named)} name one run's files: give one --run")
+    results = []
+    for config in configs:
+        r = evaluate(config)
+        if args.json:
+            results.append({"run": config.run, **r} if several else r)
+            continue
+        if several:
+            print(f"run {config.run}:")
+        _print_eval(r)
+    if args.json:
+        print(json.dumps(results if several else results[0], indent=2))
+
+
+def _print_eval(r: dict) -> None:
+    """An evaluation's table, per cell and (with --points) per point, and its timing."""
+    import torch
+
+    from .metrics import Confusion
+    c = Confusion(r["class_map"])
+    c.m = torch.tensor(r["confusion"])
+    print(f"{r['frames']} frames; predictions in {r['predictions'] or r['prediction_shard']}")
+    print(c.table())
+    if "points" in r:
+        p = Confusion(r["class_map"])
+        p.m = torch.tensor(r["points"]["confusion"])
+        print(f"per point ({r['points']['unproject']}, {r['points']['points']} points, "
+              f"{r['points']['not_predicted']} outside the map): mIoU {p.miou():.4f} "
+              f"(per cell {c.miou():.4f}); predictions in {r['points']['predictions']}")
+    times = r["inference_ms_per_frame"].items()
+    print("inference ms/frame: " + ", ".join(f"{k} {v:.1f}" for k, v in times if v))
 
 
 class MissingExtra(Exception):

@@ -127,9 +127,19 @@ class EvalConfig:
             raise ValueError(f"--batch must be at least 1, not {self.batch}")
 
     @classmethod
+    def each_from_args(cls, ns: argparse.Namespace) -> List["EvalConfig"]:
+        """From the parsed ``evaluate`` options: one configuration a ``--run`` (repeatable)."""
+        runs = ns.run if isinstance(ns.run, list) else [ns.run]
+        return [cls(**{f.name: run if f.name == "run" else getattr(ns, f.name) for f in fields(cls)})
+                for run in runs]
+
+    @classmethod
     def from_args(cls, ns: argparse.Namespace) -> "EvalConfig":
-        """From the parsed ``evaluate`` options."""
-        return cls(**{f.name: getattr(ns, f.name) for f in fields(cls)})
+        """From the parsed ``evaluate`` options of one run."""
+        configs = cls.each_from_args(ns)
+        if len(configs) != 1:
+            raise ValueError(f"{len(configs)} runs given where one is evaluated")
+        return configs[0]
 
     @staticmethod
     def defaults() -> dict:

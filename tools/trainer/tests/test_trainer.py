@@ -68,14 +68,14 @@ def _train(out, shards, steps, extra=()):
     assert main(args) == 0
 
 
-@pytest.mark.long(27)
+@pytest.mark.long(17)
 def test_overfits_real_frames_and_agrees_with_kitti2pgm_score(converted, tmp_path, kitti2pgm):
-    """A real learning check: on the three real fixture frames, 300 steps take the car IoU from
-    near zero to high (measured 0.74 on the development machine; the threshold leaves room for
-    other CPUs' arithmetic)."""
+    """A real learning check: on the three real fixture frames, 150 steps take the car IoU from
+    near zero to high (measured 0.71 on the development machine, 0.74 after 300 steps; the
+    threshold leaves room for other CPUs' arithmetic)."""
     run = tmp_path / "run"
     shards = converted / "shards"
-    _train(run, shards, 300)
+    _train(run, shards, 150)
     assert main(["evaluate", "--run", str(run), "--shards", str(shards), "--val-shards", str(shards / "train-*.mcap"),
                  "--device", "cpu", "--timing-frames", "1", "--format", "both"]) == 0
     ev = json.loads((run / "eval.json").read_text())
@@ -103,7 +103,7 @@ def test_overfits_real_frames_and_agrees_with_kitti2pgm_score(converted, tmp_pat
     assert config["git_commit"] is None or len(config["git_commit"]) == 40
     assert config["kitti2pgm_version"] and config["class_weights"] == [1.0, 1.0, 1.0, 1.0]
     log = (run / "log.csv").read_text().splitlines()
-    assert log[0] == "step,loss,lr,frames_per_s,data_wait_share" and len(log) == 7
+    assert log[0] == "step,loss,lr,frames_per_s,data_wait_share" and len(log) == 4
     first, last = float(log[1].split(",")[1]), float(log[-1].split(",")[1])
     assert last < first
 
@@ -142,6 +142,29 @@ def test_evaluate_refuses_shards_of_another_map(lidar_only, tmp_path, kitti2pgm,
     err = capsys.readouterr().err
     assert "its map is 64 x 1024 over 120 deg" in err and "trained on 64 x 256 over 90 deg" in err, err
     assert not (run / "eval.json").exists()
+
+
+def test_several_runs_evaluate_in_one_process(lidar_only, tmp_path, capsys):
+    """evaluate --run A --run B: each run as if alone (its own predictions and eval.json), --json a
+    list of the results with their runs; a file option that names one run's files is refused."""
+    one, two = tmp_path / "one", tmp_path / "two"
+    _train(one, lidar_only / "shards", 1)
+    _train(two, lidar_only / "shards", 2)
+    capsys.readouterr()
+    common = ["--shards", str(lidar_only / "shards"), "--val-shards", str(lidar_only / "shards" / "train-*.mcap"),
+              "--device", "cpu", "--timing-frames", "0", "--json"]
+    assert main(["evaluate", "--run", str(two), *common]) == 0
+    alone = json.loads(capsys.readouterr().out)
+    assert main(["evaluate", "--run", str(one), "--run", str(two), *common]) == 0
+    both = json.loads(capsys.readouterr().out)
+    assert [r["run"] for r in both] == [str(one), str(two)]
+    assert both[1]["confusion"] == alone["confusion"] and both[1]["frames"] == alone["frames"] == 3
+    for run, r in zip((one, two), both):
+        assert json.loads((run / "eval.json").read_text())["confusion"] == r["confusion"]
+        assert sorted(p.name for p in (run / "predictions").iterdir()) == sorted(
+            p.name for p in (two / "predictions").iterdir())
+    assert main(["evaluate", "--run", str(one), "--run", str(two), *common, "--predictions", str(tmp_path / "p")]) == 1
+    assert "--predictions name one run's files: give one --run" in capsys.readouterr().err
 
 
 def test_errors_are_clear(converted, tmp_path, capsys):
@@ -381,6 +404,10 @@ def test_the_configuration_is_typed_and_has_one_set_of_defaults(tmp_path):
     from kitti2pgm_train.config import EvalConfig
     ev = EvalConfig.from_args(parser().parse_args(["evaluate", "--run", "r", "--shards", "s"]))
     assert ev == EvalConfig(run="r", shards="s") and ev.knn_k == 5 and ev.format == "npy"
+    two = parser().parse_args(["evaluate", "--run", "a", "--run", "b", "--shards", "s"])
+    assert EvalConfig.each_from_args(two) == [EvalConfig(run="a", shards="s"), EvalConfig(run="b", shards="s")]
+    with pytest.raises(ValueError, match="2 runs given where one is evaluated"):
+        EvalConfig.from_args(two)
     with pytest.raises(ValueError, match="--points needs --raw"):
         EvalConfig(run="r", shards="s", points=True)
 
