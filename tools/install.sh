@@ -12,7 +12,8 @@
 #                                 # tools/run-tests.sh runs: one pip run for both)
 #
 # The CLI, the module and the tests share one build (the workspace's target/, one feature set:
-# Cargo.toml), so the module compiles only its own crates after the CLI. What was installed from
+# Cargo.toml, one PyO3 configuration: tools/pyo3-config.sh), so the module compiles only its own
+# crates after the CLI, and nothing after tools/run-tests.sh's build. What was installed from
 # these very sources is not installed again: each step records a digest of its inputs in
 # target/install-stamps/ (tools/stamps.sh) and says when it skips (a second run takes seconds).
 # Every step prints its time. PyPI's torch brings its CUDA libraries (about 4 GB) even for CPU use.
@@ -67,9 +68,11 @@ print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 
   }
   have=$(module)
   [ -n "$have" ] && [ "$(cat "$stamps/module-file" 2>/dev/null)" = "$have" ] || fresh module
+  # shellcheck source=tools/pyo3-config.sh
+  . tools/pyo3-config.sh
   step module "the Python module (maturin)" \
     "$(digest "${rust_sources[@]}" tools/kitti2pgm_py/src tools/kitti2pgm_py/Cargo.toml \
-      tools/kitti2pgm_py/pyproject.toml)" \
+      tools/kitti2pgm_py/pyproject.toml tools/kitti2pgm_py/pyo3-build.txt) ${PYO3_CONFIG_FILE:-maturin's}" \
     "${pip[@]}" ./tools/kitti2pgm_py
   module >"$stamps/module-file"
   # The stamp holds only while the packages import from this checkout (another checkout's

@@ -7,9 +7,9 @@
 # Each step prints its time and the time so far (docs/performance.md, "A fresh clone, installed
 # and tested").
 #
-# One build serves all: the tests' build (release profile) compiles every dependency once, with
-# the one feature set of Cargo.toml, and the CLI with them; `cargo install` (tools/install.sh)
-# then finds the CLI built, the Python module compiles only its own crates, and clippy (release
+# One build serves all: the first step (release profile) compiles every dependency once, with
+# the one feature set of Cargo.toml, and the CLI, the tests and the native module with them;
+# `cargo install` and maturin (tools/install.sh) then find them built, and clippy (release
 # profile: the build scripts and macros are the build's) checks. The test dependencies installed
 # by pip are installed again only when their list changes (a stamp in target/install-stamps/).
 set -euo pipefail
@@ -20,15 +20,20 @@ lap() {
   echo "run-tests.sh: $1: $((SECONDS - t)) s (at $((SECONDS - t0)) s)"
   t=$SECONDS
 }
-# The Rust test targets first, with the CLI in the same build graph: the crate's library compiles
-# mostly on one core (its front end), and its unit tests' build (the library again, cfg(test))
-# and then the integration tests take the other; one after the other (the install's build, then
-# the tests') they took about 20 s longer. The install then finds the CLI built and installs it.
+# Everything Rust in one build graph first: the CLI, the tests and the native module (with the
+# PyO3 configuration maturin then uses: tools/pyo3-config.sh). The crate's library compiles
+# mostly on one core (its front end) while its unit tests' build (the library again, cfg(test))
+# and PyO3's chain take the other; built one after the other (the install's CLI, the module, the
+# tests) they took about 35 s longer. The install then finds the CLI and the module built.
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 if command -v cargo >/dev/null 2>&1; then # else tools/install.sh says what is missing
-  cargo test --release --locked --no-run --quiet
+  # shellcheck source=tools/pyo3-config.sh
+  . tools/pyo3-config.sh
+  module=()
+  [ -n "${PYO3_CONFIG_FILE:-}" ] && module=(-p kitti2pgm-py)
+  cargo build --release --locked --all-targets --quiet -p kitti2pgm "${module[@]}"
 fi
-lap "the Rust build, the CLI's and the tests'"
+lap "the Rust build (the CLI, the tests, the module)"
 tools/install.sh --with-tests
 lap "install"
 who=run-tests.sh
