@@ -72,7 +72,7 @@ print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 
   . tools/pyo3-config.sh
   step module "the Python module (maturin)" \
     "$(digest "${rust_sources[@]}" tools/kitti2pgm_py/src tools/kitti2pgm_py/Cargo.toml \
-      tools/kitti2pgm_py/pyproject.toml tools/kitti2pgm_py/pyo3-build.txt) ${PYO3_CONFIG_FILE:-maturin's}" \
+      tools/kitti2pgm_py/pyproject.toml tools/kitti2pgm_py/pyo3-build.txt) pyo3:${PYO3_CONFIG_FILE:-maturin}" \
     "${pip[@]}" ./tools/kitti2pgm_py
   module >"$stamps/module-file"
   # The stamp holds only while the packages import from this checkout (another checkout's
