@@ -92,7 +92,12 @@ raise SystemExit(not (here(d, "tools/kitti2pgm_data") and here(t, "tools/trainer
   elif [ "$(cat "$stamps/packages" 2>/dev/null)" = "$want with-tests" ]; then
     want="$want with-tests"
   fi
+  # setuptools builds the two editable packages: the installed one where it can (pip's isolated
+  # build installed it twice again, 7.4 s instead of 3.6 s), else pip's isolation installs it.
+  iso=()
+  python3 -c 'import setuptools as s; raise SystemExit(tuple(map(int, s.__version__.split(".")[:2])) < (70, 1))' \
+    2>/dev/null && iso=(--no-build-isolation)
   step packages "kitti2pgm_data and kitti2pgm_train (editable)" "$want" \
-    "${pip[@]}" -e "$data" -e "$trainer"
+    "${pip[@]}" "${iso[@]}" -e "$data" -e "$trainer"
   echo "install.sh: Python packages kitti2pgm, kitti2pgm_data, kitti2pgm_train installed"
 fi
