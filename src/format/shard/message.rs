@@ -1,5 +1,7 @@
-//! The frame message of a shard: `kitti2pgm.Frame`, generated at build time from
-//! `proto/kitti2pgm/frame.proto`, and its conversions from and to converted frames.
+//! The frame message of a shard: `kitti2pgm.Frame`, generated from `proto/kitti2pgm/frame.proto`
+//! (`generated/`, written by `cargo run --manifest-path tools/protogen/Cargo.toml`; a test checks
+//! that it was made from the `.proto` in the tree), and its conversions from and to converted
+//! frames.
 
 use std::path::Path;
 
@@ -8,7 +10,7 @@ use crate::project::{Channels, PgmFrame};
 
 #[allow(missing_docs, clippy::all)]
 mod generated {
-    include!(concat!(env!("OUT_DIR"), "/kitti2pgm.rs"));
+    include!("generated/kitti2pgm.rs");
 }
 
 /// One converted frame, as stored (protobuf `kitti2pgm.Frame`; fields documented in the
@@ -22,7 +24,7 @@ pub use generated::Points as PointsMsg;
 /// The compiled `FileDescriptorSet` of `kitti2pgm/frame.proto`, stored as the schema of the
 /// frame topic.
 pub fn descriptor_set() -> &'static [u8] {
-    include_bytes!(concat!(env!("OUT_DIR"), "/frame_descriptor_set.bin"))
+    include_bytes!("generated/frame_descriptor_set.bin")
 }
 
 impl FrameMsg {
@@ -142,6 +144,24 @@ mod tests {
     use crate::format::shard::FRAME_SCHEMA;
     use prost::Message as _;
     use prost_types::field_descriptor_proto::Type;
+
+    /// The generated code and schema were made from the `.proto` in the tree: after changing it,
+    /// `cargo run --manifest-path tools/protogen/Cargo.toml` regenerates them.
+    #[test]
+    fn generated_from_this_proto() {
+        use sha2::Digest;
+        let proto = include_bytes!("../../../proto/kitti2pgm/frame.proto");
+        let hex: String = sha2::Sha256::digest(proto)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        assert_eq!(
+            include_str!("generated/frame.proto.sha256").trim(),
+            hex,
+            "src/format/shard/generated/ is not proto/kitti2pgm/frame.proto's: run \
+             cargo run --manifest-path tools/protogen/Cargo.toml"
+        );
+    }
 
     /// The schema stored in every shard describes exactly the message the writer encodes.
     #[test]
