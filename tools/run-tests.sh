@@ -31,7 +31,9 @@ if command -v cargo >/dev/null 2>&1; then # else tools/install.sh says what is m
   . tools/pyo3-config.sh
   module=()
   [ -n "${PYO3_CONFIG_FILE:-}" ] && module=(-p kitti2pgm-py)
-  cargo build --release --locked --all-targets --quiet -p kitti2pgm "${module[@]}"
+  # What `cargo test` builds (not --all-targets: it built the module's library as a test
+  # harness too, 8 s, which it has none of: test = false).
+  cargo build --release --locked --lib --bins --tests --examples --quiet -p kitti2pgm "${module[@]}"
 fi
 lap "the Rust build (the CLI, the tests, the module)"
 tools/install.sh --with-tests
