@@ -24,7 +24,7 @@ lap() {
 # PyO3 configuration maturin then uses: tools/pyo3-config.sh). The crate's library compiles
 # mostly on one core (its front end) while its unit tests' build (the library again, cfg(test))
 # and PyO3's chain take the other; built one after the other (the install's CLI, the module, the
-# tests) they took about 35 s longer. The install then finds the CLI and the module built.
+# tests) they took 15-35 s longer (docs/performance.md). The install then finds them built.
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 if command -v cargo >/dev/null 2>&1; then # else tools/install.sh says what is missing
   # shellcheck source=tools/pyo3-config.sh

@@ -55,7 +55,7 @@ for m in squeezeseg pointseg; do
     runs+=("$run")
     if [ ! -f "$run/eval.json" ]; then
       resume=()
-      [ -f "$run/checkpoint.pt" ] && resume=(--resume) # a finished run: nothing left to train
+      [ -f "$run/checkpoint.pt" ] && resume=(--resume) # interrupted, or trained but not evaluated
       "${launch[@]}" -m kitti2pgm_train train --shards "$out/data/shards" \
         --model "$m" --input "$i" --stats "$out/stats.json" --class-weights reference --batch "$per_gpu" \
         --steps "$steps" --width-mult "$width" --out "$run" "${resume[@]}" ${EXTRA:-}

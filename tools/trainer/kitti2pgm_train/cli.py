@@ -145,7 +145,8 @@ def main(argv=None) -> int:
         if args.command == "train":
             from .train import train
             r = train(TrainConfig.from_args(args))
-            print(f"trained to step {r['step']}, last loss {r['loss']:.4f}; run in {args.out}")
+            last = f"last loss {r['loss']:.4f}" if r["loss"] == r["loss"] else "no step left to train"  # NaN: none
+            print(f"trained to step {r['step']}, {last}; run in {args.out}")
         elif args.command == "export":
             if not args.out and not args.torchscript:
                 raise ValueError("export: give --out model.onnx and/or --torchscript model.pt")

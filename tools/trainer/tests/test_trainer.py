@@ -150,7 +150,10 @@ def test_several_runs_evaluate_in_one_process(lidar_only, tmp_path, capsys):
     one, two = tmp_path / "one", tmp_path / "two"
     _train(one, lidar_only / "shards", 1)
     _train(two, lidar_only / "shards", 2)
+    # A finished run resumed (reproduce.sh after an interruption before its evaluation).
     capsys.readouterr()
+    _train(two, lidar_only / "shards", 2, ["--resume"])
+    assert "trained to step 2, no step left to train" in capsys.readouterr().out
     common = ["--shards", str(lidar_only / "shards"), "--val-shards", str(lidar_only / "shards" / "train-*.mcap"),
               "--device", "cpu", "--timing-frames", "0", "--json"]
     assert main(["evaluate", "--run", str(two), *common]) == 0
