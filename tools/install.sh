@@ -45,7 +45,8 @@ rust_sources=(src build.rs proto Cargo.toml Cargo.lock)
 if [ "$cli" = 1 ]; then
   bin="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin"
   # The stamp holds only while the installed binary is the one this script installed.
-  installed() { sha256sum "$bin/kitti2pgm" 2>/dev/null | cut -c1-16; }
+  # (Nothing, and no failure, where none is installed yet: a fresh machine.)
+  installed() { { sha256sum "$bin/kitti2pgm" 2>/dev/null || true; } | cut -c1-16; }
   have=$(installed)
   [ -n "$have" ] && [ "$(cat "$stamps/cli-binary" 2>/dev/null)" = "$have" ] || fresh cli
   step cli "the CLI (cargo install)" "$(digest "${rust_sources[@]}")" \
@@ -64,7 +65,8 @@ if [ "$py" = 1 ]; then
   module() {
     python3 -c 'import glob, hashlib, kitti2pgm, os
 so = glob.glob(os.path.join(os.path.dirname(kitti2pgm.__file__), "*.so"))
-print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 2>/dev/null
+print(hashlib.sha256(open(so[0], "rb").read()).hexdigest()[:16] if so else "")' 2>/dev/null ||
+      true # none installed yet
   }
   have=$(module)
   [ -n "$have" ] && [ "$(cat "$stamps/module-file" 2>/dev/null)" = "$have" ] || fresh module
