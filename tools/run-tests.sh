@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
 # Every test: the README's install command (tools/install.sh: the CLI and the Python side, so
 # that CI installs exactly what a user does, with the packages' test extras), the other test
-# dependencies, the code's own checks (cargo fmt --check, clippy -D warnings, ruff, mypy: ruff.toml
-# and mypy.ini), then the Rust suite (unit, integration on fixtures/, doc tests) and the Python
+# dependencies, the code's own checks (cargo fmt --check, clippy -D warnings in the build, ruff,
+# mypy: ruff.toml and mypy.ini), then the Rust suite (unit, integration on fixtures/, doc tests) and the Python
 # packages' tests (native module, shard reader, trainer, and the README and docs run as written).
 # Each step prints its time and the time so far (docs/performance.md, "A fresh clone, installed
 # and tested").
 #
 # One build serves all: the first step (release profile) compiles every dependency once, with
-# the one feature set of Cargo.toml, and the CLI, the tests and the native module with them;
-# `cargo install` and maturin (tools/install.sh) then find them built, and clippy (release
-# profile: the build scripts and macros are the build's) checks. The test dependencies installed
-# by pip are installed again only when their list changes (a stamp in target/install-stamps/).
+# the one feature set of Cargo.toml, and the CLI, the tests, the benchmarks and the native module
+# with them, the workspace's own crates through clippy's driver, so that the lints come from this
+# very compile; `cargo install` and maturin (tools/install.sh) and `cargo test` then find them
+# built. The test dependencies installed by pip are installed again only when their list changes
+# (a stamp in target/install-stamps/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 t0=$SECONDS
@@ -27,15 +28,48 @@ lap() {
 # tests) they took 15-35 s longer (docs/performance.md). The install then finds them built.
 export PATH="${CARGO_INSTALL_ROOT:-${CARGO_HOME:-$HOME/.cargo}}/bin:$PATH"
 if command -v cargo >/dev/null 2>&1; then # else tools/install.sh says what is missing
+  # clippy's lints (warnings are errors) in the build itself: its driver compiles the workspace's
+  # crates in place of rustc, as `cargo clippy -- -D warnings` has it do (these two variables are
+  # what that command sets), but to the end instead of stopping at the analysis. A separate
+  # `cargo clippy` analysed every crate of the workspace a second time and checked every
+  # dependency again in check mode (45-65 s; docs/performance.md). The dependencies are
+  # compiled by rustc, as always; the workspace's crates are compiled by the driver in every step
+  # below (install, maturin, cargo test inherit these), and cargo keeps them apart from a plain
+  # build's (the wrapper is part of their file names).
+  driver=$(command -v clippy-driver || true)
+  if [ -z "$driver" ]; then
+    echo "run-tests.sh: clippy is missing: rustup component add clippy" >&2
+    exit 1
+  fi
+  export RUSTC_WORKSPACE_WRAPPER="$driver"
+  export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
+  # The driver must compile, and lint and deny: a canary that only a lint of clippy's own (not
+  # rustc's) rejects must fail, and the same without it pass.
+  canary=$(mktemp -d)
+  lint() {
+    echo "pub fn one() -> u8 { $1 }" >"$canary/canary.rs"
+    "$driver" rustc --edition 2021 --crate-type lib --emit metadata --out-dir "$canary" \
+      "$canary/canary.rs" >/dev/null 2>&1
+  }
+  if ! lint "1"; then
+    echo "run-tests.sh: clippy's driver ($driver) compiles no canary: is the toolchain whole?" >&2
+    exit 1
+  elif lint "return 1;"; then
+    echo "run-tests.sh: clippy's driver passed a needless return: its lints would not run" >&2
+    exit 1
+  fi
+  rm -rf "$canary"
   # shellcheck source=tools/pyo3-config.sh
   . tools/pyo3-config.sh
   module=()
   [ -n "${PYO3_CONFIG_FILE:-}" ] && module=(-p kitti2pgm-py)
-  # What `cargo test` builds (not --all-targets: it built the module's library as a test
-  # harness too, 8 s, which it has none of: test = false).
-  cargo build --release --locked --lib --bins --tests --examples --quiet -p kitti2pgm "${module[@]}"
+  # What `cargo test` builds, the benchmarks' package (linted, as every crate of the workspace)
+  # and the module's library (not --all-targets: it built the module's library as a test harness
+  # too, 8 s, which it has none of: test = false).
+  cargo build --release --locked --lib --bins --tests --examples --bench stages --quiet \
+    -p kitti2pgm -p kitti2pgm-bench "${module[@]}"
 fi
-lap "the Rust build (the CLI, the tests, the module)"
+lap "the Rust build, linted (the CLI, the tests, the benchmarks, the module)"
 tools/install.sh --with-tests
 lap "install"
 who=run-tests.sh
@@ -63,10 +97,9 @@ else
 fi
 export OUSTER_PYTHON="$venv/bin/python"
 lap "test dependencies"
-# The code's own checks, Rust and Python: formatting, lints (warnings are errors), types.
-# clippy in the release profile: the build scripts and proc macros are then the build's.
+# The code's own checks, Rust and Python: formatting, lints (warnings are errors), types. The
+# Rust lints ran in the build above.
 cargo fmt --all --check
-cargo clippy --release --workspace --all-targets --locked --quiet -- -D warnings
 python3 -m ruff check tools
 # mypy's cache in the user's cache, shared by every checkout: what it holds of torch and numpy
 # (22 s of a cold run, 1 s warm) is checked again only when they change; mypy takes a module's
