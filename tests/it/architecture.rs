@@ -393,18 +393,38 @@ fn resolved_features(args: &[&str]) -> BTreeMap<String, BTreeSet<String>> {
 /// resolved with the same features by the Python module's build and by the tests, so that they
 /// reuse it instead of compiling it again (Cargo.toml's unification list; `either` without
 /// `use_std` recompiled rayon and parry3d for the tests). A crate the CLI builds with features
-/// the other build does not ask for fails here, naming the crate and its feature sets.
+/// the other build does not ask for fails here, naming the crate and its feature sets. And each
+/// of them finds its crates in tools/run-tests.sh's one build of all the workspace's packages
+/// together (features resolved over them all: the benchmarks' criterion asking a shared crate for
+/// more would make the install, maturin and `cargo test` compile it again).
 #[test]
 fn the_cli_the_module_and_the_tests_share_one_feature_set() {
     let install = resolved_features(&["-p", "kitti2pgm", "-e", "normal,build"]);
     let module = resolved_features(&["-p", "kitti2pgm-py", "-e", "normal,build"]);
     let tests = resolved_features(&["-p", "kitti2pgm", "-e", "normal,build,dev"]);
+    let all = [
+        "-p",
+        "kitti2pgm",
+        "-p",
+        "kitti2pgm-py",
+        "-p",
+        "kitti2pgm-bench",
+        "-e",
+        "normal,build,dev",
+    ];
+    let one_build = resolved_features(&all);
     assert!(install.len() > 100, "{install:?}");
-    for (what, other) in [("the Python module", &module), ("the tests", &tests)] {
-        let differ: Vec<String> = (install.iter())
+    for (what, build, other) in [
+        ("the Python module", &install, &module),
+        ("the tests", &install, &tests),
+        ("the one build", &install, &one_build),
+        ("the one build", &module, &one_build),
+        ("the one build", &tests, &one_build),
+    ] {
+        let differ: Vec<String> = (build.iter())
             .filter_map(|(k, f)| {
                 let o = other.get(k)?;
-                (!f.is_subset(o)).then(|| format!("{k}: CLI {f:?}, {what} {o:?}"))
+                (!f.is_subset(o)).then(|| format!("{k}: {f:?}, {what} {o:?}"))
             })
             .collect();
         assert!(differ.is_empty(), "features differ: {differ:#?}");
