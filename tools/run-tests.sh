@@ -2,8 +2,9 @@
 # Every test: the README's install command (tools/install.sh: the CLI and the Python side, so
 # that CI installs exactly what a user does, with the packages' test extras), the other test
 # dependencies, the code's own checks (cargo fmt --check, clippy -D warnings in the build, ruff,
-# mypy: ruff.toml and mypy.ini), then the Rust suite (unit, integration on fixtures/, doc tests) and the Python
-# packages' tests (native module, shard reader, trainer, and the README and docs run as written).
+# mypy: ruff.toml and mypy.ini), then the Rust suite (unit, integration on fixtures/, doc tests)
+# and the Python packages' tests (native module, shard reader, trainer, and the README and docs
+# run as written).
 # Each step prints its time and the time so far (docs/performance.md, "A fresh clone, installed
 # and tested").
 #
@@ -51,14 +52,17 @@ if command -v cargo >/dev/null 2>&1; then # else tools/install.sh says what is m
     "$driver" rustc --edition 2021 --crate-type lib --emit metadata --out-dir "$canary" \
       "$canary/canary.rs" >/dev/null 2>&1
   }
-  if ! lint "1"; then
+  clean=0 denied=0
+  lint "1" && clean=1
+  lint "return 1;" || denied=1
+  rm -rf "$canary"
+  if [ "$clean" = 0 ]; then
     echo "run-tests.sh: clippy's driver ($driver) compiles no canary: is the toolchain whole?" >&2
     exit 1
-  elif lint "return 1;"; then
+  elif [ "$denied" = 0 ]; then
     echo "run-tests.sh: clippy's driver passed a needless return: its lints would not run" >&2
     exit 1
   fi
-  rm -rf "$canary"
   # shellcheck source=tools/pyo3-config.sh
   . tools/pyo3-config.sh
   module=()

@@ -414,17 +414,17 @@ fn the_cli_the_module_and_the_tests_share_one_feature_set() {
     ];
     let one_build = resolved_features(&all);
     assert!(install.len() > 100, "{install:?}");
-    for (what, build, other) in [
-        ("the Python module", &install, &module),
-        ("the tests", &install, &tests),
-        ("the one build", &install, &one_build),
-        ("the one build", &module, &one_build),
-        ("the one build", &tests, &one_build),
+    for ((name, build), (what, other)) in [
+        (("CLI", &install), ("the Python module", &module)),
+        (("CLI", &install), ("the tests", &tests)),
+        (("CLI", &install), ("the one build", &one_build)),
+        (("module", &module), ("the one build", &one_build)),
+        (("tests", &tests), ("the one build", &one_build)),
     ] {
         let differ: Vec<String> = (build.iter())
             .filter_map(|(k, f)| {
                 let o = other.get(k)?;
-                (!f.is_subset(o)).then(|| format!("{k}: {f:?}, {what} {o:?}"))
+                (!f.is_subset(o)).then(|| format!("{k}: {name} {f:?}, {what} {o:?}"))
             })
             .collect();
         assert!(differ.is_empty(), "features differ: {differ:#?}");
