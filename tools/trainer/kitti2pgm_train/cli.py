@@ -99,7 +99,10 @@ def parser() -> argparse.ArgumentParser:
                    help="predictions as <id>.npy maps, as one prediction shard <run>/predictions.mcap, or both")
     e.add_argument("--batch", type=int, help="frames per forward pass")
     e.add_argument("--device", help="auto, cpu or cuda")
-    e.add_argument("--timing-frames", type=int, help="frames timed for inference ms/frame")
+    e.add_argument("--timing-frames", type=int,
+                   help="forward passes (batch 1) timed for inference ms/frame, after two warm-ups; 0: none")
+    e.add_argument("--timing-seconds", type=float,
+                   help="stop timing once the timed passes took this long (at least 3 of them)")
     e.add_argument("--json", action="store_true", help="print the results as JSON")
     e.add_argument("--onnx", help="also time this exported model (onnxruntime, CPU) per frame")
     e.add_argument("--points", action="store_true",

@@ -107,6 +107,9 @@ class EvalConfig:
     batch: int = 8
     device: str = "auto"
     timing_frames: int = 10
+    # Timed passes stop once they have taken this long (at least 3 of them): a CPU's forward of
+    # hundreds of ms is timed in about a second, a GPU's still over every frame.
+    timing_seconds: float = 1.0
     json: bool = False
     onnx: Optional[str] = None
     # Per point (the native module carries each prediction back to its scan).
@@ -125,6 +128,10 @@ class EvalConfig:
             raise ValueError("--points needs --raw: the dataset root holding the scans")
         if self.batch < 1:
             raise ValueError(f"--batch must be at least 1, not {self.batch}")
+        if self.timing_frames < 0:
+            raise ValueError(f"--timing-frames must be 0 or more, not {self.timing_frames}")
+        if not self.timing_seconds >= 0:  # NaN too
+            raise ValueError(f"--timing-seconds must be 0 or more, not {self.timing_seconds}")
 
     @classmethod
     def each_from_args(cls, ns: argparse.Namespace) -> List["EvalConfig"]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from typing import Optional
+from typing import List, Optional
 
 import numpy as np
 import torch
@@ -100,9 +100,9 @@ def evaluate(args: EvalConfig) -> dict:
         for _ in predictions():
             pass
     progress.close()
-    timing = inference_time(model, data, device, args.timing_frames)
+    timing = inference_time(model, data, device, args.timing_frames, args.timing_seconds)
     if args.onnx:
-        timing["onnxruntime_cpu"] = onnx_time(args.onnx, data, args.timing_frames)
+        timing["onnxruntime_cpu"] = onnx_time(args.onnx, data, args.timing_frames, args.timing_seconds)
     result = {"frames": len(data), "class_map": config["class_map"], "predictions": out if write_npy else None,
               "prediction_shard": shard_out,
               **conf.as_dict(), "inference_ms_per_frame": timing}
@@ -115,32 +115,45 @@ def evaluate(args: EvalConfig) -> dict:
     return result
 
 
+def timed_passes(run, frames: int, seconds: float) -> Optional[float]:
+    """Median time of ``run()`` in ms: two warm-up calls, then ``frames`` timed ones, or fewer
+    (at least 3) once the timed ones took ``seconds``; None when ``frames`` is 0."""
+    times: List[float] = []
+    if frames <= 0:
+        return None
+    for _ in range(2):
+        run()
+    while len(times) < frames and (len(times) < 3 or sum(times) < seconds * 1e3):
+        t = time.perf_counter()
+        run()
+        times.append((time.perf_counter() - t) * 1e3)
+    return float(np.median(times))
+
+
 @torch.no_grad()
-def inference_time(model, data: FrameSet, device: torch.device, frames: int) -> dict:
+def inference_time(model, data: FrameSet, device: torch.device, frames: int, seconds: float) -> dict:
     """Median forward time of one frame (batch 1) on the CPU and, when present, the GPU."""
-    out = {}
     item = collate([data.item(0)])
     devices = [torch.device("cpu")] + ([torch.device("cuda")] if torch.cuda.is_available() else [])
-    for d in devices:
-        m = model.to(d)
-        xs = [x.to(d) for x in item["inputs"]]
-        mask, xyz = item["mask"].to(d), item["xyz"].to(d)
-        times = []
-        for k in range(frames + 2):
-            if d.type == "cuda":
-                torch.cuda.synchronize()
-            t = time.perf_counter()
-            m(xs, mask=mask, xyz=xyz)
-            if d.type == "cuda":
-                torch.cuda.synchronize()
-            if k >= 2:  # two warm-up passes
-                times.append((time.perf_counter() - t) * 1e3)
-        out[d.type] = float(np.median(times)) if times else None
+    out = {d.type: timed_passes(_forward(model.to(d), item, d), frames, seconds) for d in devices}
     model.to(device)
     return out
 
 
-def onnx_time(path: str, data: FrameSet, frames: int) -> Optional[float]:
+def _forward(model, item: dict, d: torch.device):
+    """One forward pass of a collated ``item`` on ``d``, finished when it returns."""
+    xs = [x.to(d) for x in item["inputs"]]
+    mask, xyz = item["mask"].to(d), item["xyz"].to(d)
+
+    def run():
+        model(xs, mask=mask, xyz=xyz)
+        if d.type == "cuda":
+            torch.cuda.synchronize()
+
+    return run
+
+
+def onnx_time(path: str, data: FrameSet, frames: int, seconds: float) -> Optional[float]:
     """Median onnxruntime (CPU) time of one frame of an exported model, ms."""
     import onnxruntime
 
@@ -148,10 +161,4 @@ def onnx_time(path: str, data: FrameSet, frames: int) -> Optional[float]:
     f = data.ds[0]
     x = np.ascontiguousarray(np.asarray(f["tensor"])[None], dtype=np.float32)
     name = session.get_inputs()[0].name
-    times = []
-    for k in range(frames + 2):
-        t = time.perf_counter()
-        session.run(None, {name: x})
-        if k >= 2:
-            times.append((time.perf_counter() - t) * 1e3)
-    return float(np.median(times)) if times else None
+    return timed_passes(lambda: session.run(None, {name: x}), frames, seconds)

@@ -413,6 +413,35 @@ def test_the_configuration_is_typed_and_has_one_set_of_defaults(tmp_path):
         EvalConfig.from_args(two)
     with pytest.raises(ValueError, match="--points needs --raw"):
         EvalConfig(run="r", shards="s", points=True)
+    for bad in ({"timing_frames": -1}, {"timing_seconds": -0.5}, {"timing_seconds": float("nan")}):
+        with pytest.raises(ValueError, match="must be 0 or more"):
+            EvalConfig(run="r", shards="s", **bad)
+
+
+def test_timed_passes_stop_at_the_count_or_the_time_budget(monkeypatch):
+    """The inference timing: two warm-ups, then every frame asked for while they are quick, at
+    least 3 once they took the budget (a slow CPU), none at all for 0 frames."""
+    from kitti2pgm_train import evaluate
+
+    clock = [0.0]
+    monkeypatch.setattr(evaluate.time, "perf_counter", lambda: clock[0])
+
+    def passes(ms, frames, seconds):
+        calls = []
+
+        def run():
+            calls.append(1)
+            clock[0] += ms / 1e3
+
+        median = evaluate.timed_passes(run, frames, seconds)
+        return len(calls), None if median is None else round(median, 6)
+
+    assert passes(5, 10, 1.0) == (12, 5.0)  # quick: all 10 timed, after 2 warm-ups
+    assert passes(200, 10, 1.0) == (7, 200.0)  # 5 x 200 ms reach the 1 s budget
+    assert passes(900, 10, 1.0) == (5, 900.0)  # at least 3 timed, however slow
+    assert passes(900, 2, 1.0) == (4, 900.0)  # never more than asked for
+    assert passes(900, 10, 0.0) == (5, 900.0)
+    assert passes(5, 0, 1.0) == (0, None)  # none asked for: nothing run
 
 
 def test_own_boxes_label_convert_train_unproject_and_score(tmp_path, kitti2pgm):
