@@ -319,7 +319,7 @@ def test_exported_models_label_like_pytorch(converted, tmp_path):
         x = np.ascontiguousarray(np.asarray(f["tensor"])[None], dtype=np.float32)
         labels = session.run(None, {session.get_inputs()[0].name: x})[0][0]
         assert np.array_equal(labels, want[f["id"]]), f["id"]
-        ts = scripted(torch.from_numpy(x))[0][0].numpy()
+        ts = scripted(torch.tensor(x))[0][0].numpy()
         assert np.array_equal(ts, want[f["id"]]), f["id"]
 
 
