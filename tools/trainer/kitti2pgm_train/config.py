@@ -6,7 +6,16 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import MISSING, asdict, dataclass, field, fields
-from typing import List, Optional
+from typing import List, Optional, Sequence
+
+
+def _check_bounds(cfg, at_least_1: Sequence[str] = (), at_least_0: Sequence[str] = ()) -> None:
+    """Refuses an option below its bound (NaN too), named as on the command line."""
+    for names, bound, words in ((at_least_1, 1, "at least 1"), (at_least_0, 0, "0 or more")):
+        for name in names:
+            value = getattr(cfg, name)
+            if not value >= bound:
+                raise ValueError(f"--{name.replace('_', '-')} must be {words}, not {value}")
 
 
 @dataclass
@@ -61,12 +70,8 @@ class TrainConfig:
         # SqueezeSeg's own weights are the class map's reference weights.
         if self.class_weights == "squeezeseg":
             self.class_weights = "reference"
-        for name in ("steps", "batch", "log_every", "checkpoint_every"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"--{name.replace('_', '-')} must be at least 1, not {getattr(self, name)}")
-        for name in ("workers", "val_every", "stop_after", "lr_halve_every"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"--{name.replace('_', '-')} must be 0 or more, not {getattr(self, name)}")
+        _check_bounds(self, at_least_1=("steps", "batch", "log_every", "checkpoint_every"),
+                      at_least_0=("workers", "val_every", "stop_after", "lr_halve_every"))
 
     @classmethod
     def from_args(cls, ns: argparse.Namespace) -> "TrainConfig":
@@ -126,12 +131,7 @@ class EvalConfig:
     def __post_init__(self):
         if self.points and not self.raw:
             raise ValueError("--points needs --raw: the dataset root holding the scans")
-        if self.batch < 1:
-            raise ValueError(f"--batch must be at least 1, not {self.batch}")
-        if self.timing_frames < 0:
-            raise ValueError(f"--timing-frames must be 0 or more, not {self.timing_frames}")
-        if not self.timing_seconds >= 0:  # NaN too
-            raise ValueError(f"--timing-seconds must be 0 or more, not {self.timing_seconds}")
+        _check_bounds(self, at_least_1=("batch",), at_least_0=("timing_frames", "timing_seconds"))
 
     @classmethod
     def each_from_args(cls, ns: argparse.Namespace) -> List["EvalConfig"]:

@@ -118,9 +118,9 @@ def evaluate(args: EvalConfig) -> dict:
 def timed_passes(run, frames: int, seconds: float) -> Optional[float]:
     """Median time of ``run()`` in ms: two warm-up calls, then ``frames`` timed ones, or fewer
     (at least 3) once the timed ones took ``seconds``; None when ``frames`` is 0."""
-    times: List[float] = []
     if frames <= 0:
         return None
+    times: List[float] = []
     for _ in range(2):
         run()
     while len(times) < frames and (len(times) < 3 or sum(times) < seconds * 1e3):
